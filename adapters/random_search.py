@@ -1,0 +1,17 @@
+"""Uniform random search: the baseline every comparison needs."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+class RandomSearch:
+    """Uniform samples inside the bounds, in batches, until the harness stops the run."""
+
+    name = "random-search"
+    min_budget = 1
+
+    def minimize(self, objective, bounds, budget, rng: np.random.Generator, batch_size: int = 100):
+        xl, xu = bounds
+        while True:
+            objective(rng.uniform(xl, xu, size=(batch_size, len(xl))))

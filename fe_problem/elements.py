@@ -1,0 +1,84 @@
+"""Element matrices of the 2-node planar frame element, vectorised over elements.
+
+Local DOFs per element: (u_i, v_i, theta_i, u_j, v_j, theta_j); axial bar plus bending.
+Bending is either Euler-Bernoulli (Hermite cubics, consistent mass) or Timoshenko
+(shear-deformable, Przemieniecki's consistent mass with rotary inertia: the formulation of
+OpenSees' ElasticTimoshenkoBeam2d). With phi = 0 and no rotary inertia the Timoshenko
+matrices reduce to the Euler-Bernoulli ones.
+
+Every function takes arrays of shape (n_el,) and returns (n_el, 6, 6).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def rotation(cos: np.ndarray, sin: np.ndarray) -> np.ndarray:
+    """Global-to-local transformation T, so that k_global = T^T k_local T."""
+    n = cos.shape[0]
+    t = np.zeros((n, 6, 6))
+    for o in (0, 3):
+        t[:, o, o] = t[:, o + 1, o + 1] = cos
+        t[:, o, o + 1] = sin
+        t[:, o + 1, o] = -sin
+        t[:, o + 2, o + 2] = 1.0
+    return t
+
+
+def local_stiffness(length: np.ndarray, ea: np.ndarray, ei: np.ndarray, phi: np.ndarray) -> np.ndarray:
+    """Local stiffness; ``phi = 12 EI / (kappa G A L^2)`` (0 for Euler-Bernoulli)."""
+    L = length
+    k = np.zeros((L.shape[0], 6, 6))
+    a = ea / L
+    k[:, 0, 0] = k[:, 3, 3] = a
+    k[:, 0, 3] = k[:, 3, 0] = -a
+    b = ei / (L**3 * (1.0 + phi))
+    k[:, 1, 1] = k[:, 4, 4] = 12.0 * b
+    k[:, 1, 4] = k[:, 4, 1] = -12.0 * b
+    k[:, 2, 2] = k[:, 5, 5] = b * L**2 * (4.0 + phi)
+    k[:, 2, 5] = k[:, 5, 2] = b * L**2 * (2.0 - phi)
+    k[:, 1, 2] = k[:, 2, 1] = k[:, 1, 5] = k[:, 5, 1] = 6.0 * b * L
+    k[:, 2, 4] = k[:, 4, 2] = k[:, 4, 5] = k[:, 5, 4] = -6.0 * b * L
+    return k
+
+
+def local_mass(length: np.ndarray, rho_a: np.ndarray, rho_i: np.ndarray, phi: np.ndarray) -> np.ndarray:
+    """Local consistent mass. ``rho_a`` mass per length (kg/m); ``rho_i`` rotary inertia per
+    length (kg m); use rho_i = 0 and phi = 0 for Euler-Bernoulli."""
+    L = length
+    m = np.zeros((L.shape[0], 6, 6))
+    c = rho_a * L / 210.0
+    m[:, 0, 0] = m[:, 3, 3] = 70.0 * c
+    m[:, 0, 3] = m[:, 3, 0] = 35.0 * c
+    cz = c / (1.0 + phi) ** 2
+    p2 = phi**2
+    m[:, 1, 1] = m[:, 4, 4] = cz * (70.0 * p2 + 147.0 * phi + 78.0)
+    m[:, 1, 4] = m[:, 4, 1] = cz * (35.0 * p2 + 63.0 * phi + 27.0)
+    m[:, 2, 2] = m[:, 5, 5] = cz * L**2 / 4.0 * (7.0 * p2 + 14.0 * phi + 8.0)
+    m[:, 2, 5] = m[:, 5, 2] = -cz * L**2 / 4.0 * (7.0 * p2 + 14.0 * phi + 6.0)
+    m[:, 1, 2] = m[:, 2, 1] = cz * L / 4.0 * (35.0 * p2 + 77.0 * phi + 44.0)
+    m[:, 4, 5] = m[:, 5, 4] = -m[:, 1, 2]
+    m[:, 1, 5] = m[:, 5, 1] = -cz * L / 4.0 * (35.0 * p2 + 63.0 * phi + 26.0)
+    m[:, 2, 4] = m[:, 4, 2] = -m[:, 1, 5]
+    # rotary inertia of the cross-section (Timoshenko only)
+    r = rho_i / (30.0 * L * (1.0 + phi) ** 2)
+    m[:, 1, 1] += 36.0 * r
+    m[:, 4, 4] += 36.0 * r
+    m[:, 1, 4] -= 36.0 * r
+    m[:, 4, 1] -= 36.0 * r
+    m[:, 2, 2] += r * L**2 * (10.0 * p2 + 5.0 * phi + 4.0)
+    m[:, 5, 5] += r * L**2 * (10.0 * p2 + 5.0 * phi + 4.0)
+    m[:, 2, 5] += r * L**2 * (5.0 * p2 - 5.0 * phi - 1.0)
+    m[:, 5, 2] += r * L**2 * (5.0 * p2 - 5.0 * phi - 1.0)
+    s = -r * L * (15.0 * phi - 3.0)
+    for i, j in ((1, 2), (2, 1), (1, 5), (5, 1)):
+        m[:, i, j] += s
+    for i, j in ((2, 4), (4, 2), (4, 5), (5, 4)):
+        m[:, i, j] -= s
+    return m
+
+
+def to_global(local: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """T^T a T for a stack of element matrices."""
+    return np.einsum("eki,ekl,elj->eij", t, local, t)

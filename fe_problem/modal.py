@@ -1,0 +1,64 @@
+"""Modal analysis: natural frequencies (Hz) and mass-normalised mode shapes.
+
+There is one modal solver in the project, `AffineModel.eigen` (batched, in
+parameters.py); `modal_analysis` is the friendly front door for a single model.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .model import FrameModel, load_model
+from .parameters import AffineModel, Parameter
+
+
+@dataclass(frozen=True)
+class ModalResult:
+    """Elastic modes of a model.
+
+    frequencies_hz: (n_modes,) ascending; shapes: (n_dof, n_modes) on the nodal DOFs, mass-
+    normalised (phi^T M phi = I over all DOFs), zero at supported DOFs; dofs: one
+    (node id, direction) per row of `shapes`; n_rigid: rigid-body modes that were dropped.
+    """
+
+    frequencies_hz: np.ndarray
+    shapes: np.ndarray
+    dofs: tuple[tuple[int, str], ...]
+    n_rigid: int
+
+    @property
+    def eigenvalues(self) -> np.ndarray:
+        """omega^2 in (rad/s)^2."""
+        return (2.0 * np.pi * self.frequencies_hz) ** 2
+
+    def at(self, dofs) -> np.ndarray:
+        """Shape rows at the listed (node, direction) DOFs, (len(dofs), n_modes)."""
+        index = {d: i for i, d in enumerate(self.dofs)}
+        missing = [d for d in dofs if tuple(d) not in index]
+        if missing:
+            raise KeyError(f"no such DOF(s) in this model: {missing}")
+        return self.shapes[[index[tuple(d)] for d in dofs]]
+
+
+def frequencies_hz(eigenvalues: np.ndarray) -> np.ndarray:
+    """omega^2 (rad/s)^2 to Hz; tiny negative round-off is clipped to zero."""
+    return np.sqrt(np.clip(eigenvalues, 0.0, None)) / (2.0 * np.pi)
+
+
+def modal_analysis(model: FrameModel | str, n_modes: int = 8, parameters: tuple[Parameter, ...] = (),
+                   theta=None) -> ModalResult:
+    """Elastic modes of `model` (a FrameModel, a shipped model name or a model file path).
+
+    With `parameters` and `theta`, the modes of the model updated to those values.
+    """
+    model = load_model(model)
+    if n_modes < 1:
+        raise ValueError(f"n_modes must be >= 1, got {n_modes}")
+    system = AffineModel(model, tuple(parameters))
+    theta = system.x0 if theta is None else np.asarray(theta, dtype=float)
+    if theta.shape != (system.n_params,):
+        raise ValueError(f"theta must have shape ({system.n_params},), got {theta.shape}")
+    lam, phi = system.eigen(theta[None, :], n_modes, vectors=True)
+    return ModalResult(frequencies_hz(lam[0]), system.expand(phi[0]), model.dofs, system.n_rigid)
