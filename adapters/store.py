@@ -1,0 +1,92 @@
+"""The result store of a study: a directory with one JSON file per finished run.
+
+    STORE/study.json             what the study was asked to run (written at start)
+    STORE/runs/<key>.json        one RunResult (format femu.run/1), written atomically
+
+A run's key is ``<variant>__<optimizer>__b<budget>__s<seed>``. Files are written to a
+temporary name in the same directory and renamed into place, so a killed study leaves only
+whole records; a study started again skips every key already present.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from pathlib import Path
+
+from .harness import RunResult
+
+
+class StoreError(ValueError):
+    """An unreadable store or record; the message names the file."""
+
+
+def run_key(variant: str, optimizer: str, budget: int, seed: int) -> str:
+    return f"{variant}__{optimizer}__b{int(budget)}__s{int(seed)}"
+
+
+def atomic_write_json(path: Path, obj) -> None:
+    """Write JSON so that `path` holds either the old content or the whole new one."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w") as fh:
+            json.dump(obj, fh, indent=1)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+class Store:
+    """A study's result directory."""
+
+    def __init__(self, path: str | Path):
+        self.path = Path(path)
+        if self.path.exists() and not self.path.is_dir():
+            raise StoreError(f"{self.path}: a store is a directory, this is a file")
+
+    @property
+    def runs_dir(self) -> Path:
+        return self.path / "runs"
+
+    def keys(self) -> set[str]:
+        """Keys of the finished runs."""
+        if not self.runs_dir.is_dir():
+            return set()
+        return {p.stem for p in self.runs_dir.glob("*.json")}
+
+    def write(self, result: RunResult) -> Path:
+        path = self.runs_dir / f"{run_key(result.variant, result.optimizer, result.budget, result.seed)}.json"
+        atomic_write_json(path, result.to_dict())
+        return path
+
+    def read(self, key: str) -> RunResult:
+        path = self.runs_dir / f"{key}.json"
+        try:
+            return RunResult.from_dict(json.loads(path.read_text()))
+        except (OSError, json.JSONDecodeError, TypeError) as exc:
+            raise StoreError(f"{path}: not a readable run record ({exc})") from None
+
+    def runs(self) -> list[RunResult]:
+        """Every finished run, sorted by variant, optimizer, budget, seed."""
+        if not self.path.is_dir():
+            raise StoreError(f"{self.path}: no such store (run `femu study ... --store {self.path}` first)")
+        out = [self.read(k) for k in self.keys()]
+        return sorted(out, key=lambda r: (r.variant, r.optimizer, r.budget, r.seed))
+
+    def write_manifest(self, manifest: dict) -> None:
+        atomic_write_json(self.path / "study.json", manifest)
+
+    def manifest(self) -> dict | None:
+        p = self.path / "study.json"
+        if not p.exists():
+            return None
+        try:
+            return json.loads(p.read_text())
+        except json.JSONDecodeError as exc:
+            raise StoreError(f"{p}: not valid JSON ({exc})") from None
