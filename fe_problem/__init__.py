@@ -5,14 +5,15 @@ from .correlation import comac, frequency_errors_pct, mac, pair_modes
 from .data import (DataFileError, ModalData, load_modal_data, paper_table, save_modal_data,
                    synthetic_measurement)
 from .modal import ModalResult, modal_analysis
-from .model import (FrameModel, ModelFileError, add_mass, load_model, release_element_end, save_model,
+from .model import (FrameModel, ModelFileError, add_mass, crack_element, load_model, release_element_end, save_model,
                     split_element, with_formulation)
 from .parameters import AffineModel, Parameter, element_moduli
 from .problem import CorrelationReport, UpdatingProblem
+from .diagnosis import Diagnosis, diagnose
 
 __all__ = [
-    "AffineModel", "CorrelationReport", "DataFileError", "FrameModel", "ModalData", "ModalResult",
-    "ModelFileError", "Parameter", "UpdatingProblem", "add_mass", "comac", "element_moduli",
+    "AffineModel", "CorrelationReport", "Diagnosis", "diagnose", "DataFileError", "FrameModel", "ModalData", "ModalResult",
+    "ModelFileError", "Parameter", "UpdatingProblem", "add_mass", "comac", "crack_element", "element_moduli",
     "frequency_errors_pct", "load_modal_data", "load_model", "mac", "modal_analysis", "pair_modes",
     "paper_table", "release_element_end", "save_modal_data", "save_model", "split_element",
     "synthetic_measurement", "with_formulation",

@@ -79,6 +79,37 @@ def local_mass(length: np.ndarray, rho_a: np.ndarray, rho_i: np.ndarray, phi: np
     return m
 
 
+def cracked_bending_stiffness(length: np.ndarray, ei: np.ndarray, position: np.ndarray,
+                              compliance: np.ndarray) -> np.ndarray:
+    """Local 6x6 stiffness of the bending part of Euler-Bernoulli elements with a crack: a
+    rotational compliance (rad / N m) at `position` (fraction of the length from node i).
+
+    Flexibility formulation: in the simply supported basic system with end moments
+    (M_i, M_j), the bending moment is m(xi) = -M_i (1 - xi) + M_j xi; the flexibility is the
+    beam's L/(6 EI) [[2, -1], [-1, 2]] plus the crack's c b b^T with b = (-(1 - xi), xi).
+    The stiffness is Gamma^T f^-1 Gamma, Gamma mapping (v_i, th_i, v_j, th_j) to the chord-
+    relative end rotations. With c = 0 it is the Hermite-cubic stiffness.
+    """
+    L = length
+    n = L.shape[0]
+    f = np.empty((n, 2, 2))
+    b = np.stack([-(1.0 - position), position], axis=1)
+    f[:] = np.array([[2.0, -1.0], [-1.0, 2.0]])
+    f *= (L / (6.0 * ei))[:, None, None]
+    f += compliance[:, None, None] * b[:, :, None] * b[:, None, :]
+    kb = np.linalg.inv(f)
+    gamma = np.zeros((n, 2, 4))
+    gamma[:, :, 0] = (1.0 / L)[:, None]
+    gamma[:, :, 2] = (-1.0 / L)[:, None]
+    gamma[:, 0, 1] = 1.0
+    gamma[:, 1, 3] = 1.0
+    k4 = np.swapaxes(gamma, 1, 2) @ kb @ gamma
+    k = np.zeros((n, 6, 6))
+    idx = np.array([1, 2, 4, 5])
+    k[:, idx[:, None], idx[None, :]] = k4
+    return k
+
+
 def to_global(local: np.ndarray, t: np.ndarray) -> np.ndarray:
     """T^T a T for a stack of element matrices."""
     return np.einsum("eki,ekl,elj->eij", t, local, t)

@@ -63,6 +63,10 @@ class Element:
     to its node; otherwise the element end gets a rotation of its own, tied to the node's
     rotation by a rotational spring of that stiffness (N m/rad; 0 is a pin).
     ``youngs_modulus_pa`` overrides the material's modulus for this element (an updated model).
+    ``crack_position`` / ``crack_stiffness``: a crack as a rotational spring (N m/rad) at that
+    fraction of the length from node_i, inside the element (flexibility formulation, no new
+    node; Euler-Bernoulli only). The crack's stiffness scales with the element's modulus
+    when that is updated, as a fracture-mechanics crack compliance (proportional to 1/E) does.
     """
 
     id: int
@@ -74,6 +78,8 @@ class Element:
     release_i: float | None = None
     release_j: float | None = None
     youngs_modulus_pa: float | None = None
+    crack_position: float | None = None
+    crack_stiffness: float | None = None
 
 
 @dataclass(frozen=True)
@@ -247,15 +253,32 @@ def split_element(model: FrameModel, element_id: int, fraction: float,
     return model.replace(nodes=model.nodes + (new_node,), elements=tuple(elements))
 
 
+def crack_element(model: FrameModel, element_id: int, position: float, stiffness: float) -> FrameModel:
+    """A copy with a crack (rotational spring of `stiffness` N m/rad at `position`, a fraction
+    of the length from node_i) inside element `element_id`, without remeshing."""
+    e = model.element(element_id)
+    new = dataclasses.replace(e, crack_position=float(position), crack_stiffness=float(stiffness))
+    return model.replace(elements=tuple(new if x.id == element_id else x for x in model.elements))
+
+
 def with_formulation(model: FrameModel, formulation: str) -> FrameModel:
-    """A copy with every element using `formulation` ('euler-bernoulli' or 'timoshenko')."""
-    return model.replace(elements=tuple(dataclasses.replace(e, formulation=formulation)
+    """A copy with every element using `formulation` ('euler-bernoulli' or 'timoshenko').
+    Cracked elements stay Euler-Bernoulli (a crack needs that formulation)."""
+    return model.replace(elements=tuple(e if e.crack_position is not None else dataclasses.replace(e, formulation=formulation)
                                         for e in model.elements))
 
 
 # ---------------------------------------------------------------------------------------
 # Validation
 # ---------------------------------------------------------------------------------------
+
+def _is_number(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def _duplicates(ids: list) -> list:
+    return sorted({i for i in ids if ids.count(i) > 1})
+
 
 def _positive(value: Any, where: str, allow_zero: bool = False) -> None:
     ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
@@ -271,7 +294,7 @@ def _validate(m: FrameModel) -> None:
     if not m.nodes:
         raise ModelFileError(f"{src}: 'nodes' is empty")
     if len(set(ids)) != len(ids):
-        raise ModelFileError(f"{src}: 'nodes' has duplicate ids")
+        raise ModelFileError(f"{src}: 'nodes' has duplicate ids {_duplicates(ids)}")
     for n in m.nodes:
         for v, name in ((n.x, "x"), (n.y, "y")):
             if not (isinstance(v, (int, float)) and math.isfinite(v)):
@@ -279,8 +302,9 @@ def _validate(m: FrameModel) -> None:
     for name, mat in m.materials.items():
         _positive(mat.youngs_modulus_pa, f"{src}: material {name!r} 'youngs_modulus_pa'")
         _positive(mat.density_kg_m3, f"{src}: material {name!r} 'density_kg_m3'")
-        if not (-1.0 < mat.poisson_ratio < 0.5):
-            raise ModelFileError(f"{src}: material {name!r} 'poisson_ratio' must be in (-1, 0.5)")
+        if not (_is_number(mat.poisson_ratio) and -1.0 < mat.poisson_ratio < 0.5):
+            raise ModelFileError(f"{src}: material {name!r} 'poisson_ratio' must be a number in (-1, 0.5), "
+                                 f"got {mat.poisson_ratio!r}")
     for name, sec in m.sections.items():
         _positive(sec.area_m2, f"{src}: section {name!r} 'area_m2'")
         _positive(sec.inertia_m4, f"{src}: section {name!r} 'inertia_m4'")
@@ -289,19 +313,21 @@ def _validate(m: FrameModel) -> None:
     if not m.elements:
         raise ModelFileError(f"{src}: 'elements' is empty")
     if len(set(eids)) != len(eids):
-        raise ModelFileError(f"{src}: 'elements' has duplicate ids")
+        raise ModelFileError(f"{src}: 'elements' has duplicate ids {_duplicates(eids)}")
     idset = set(ids)
     for e in m.elements:
         where = f"{src}: element {e.id}"
         for n in (e.node_i, e.node_j):
             if n not in idset:
-                raise ModelFileError(f"{where}: unknown node {n}")
+                raise ModelFileError(f"{where}: field 'nodes': unknown node {n}")
         if e.node_i == e.node_j:
             raise ModelFileError(f"{where}: both ends at node {e.node_i}")
         if e.section not in m.sections:
-            raise ModelFileError(f"{where}: unknown section {e.section!r}")
+            raise ModelFileError(f"{where}: field 'section': unknown section {e.section!r} "
+                                 f"(sections: {sorted(m.sections)})")
         if e.material not in m.materials:
-            raise ModelFileError(f"{where}: unknown material {e.material!r}")
+            raise ModelFileError(f"{where}: field 'material': unknown material {e.material!r} "
+                                 f"(materials: {sorted(m.materials)})")
         if e.formulation not in FORMULATIONS:
             raise ModelFileError(f"{where}: 'formulation' must be one of {FORMULATIONS}, got {e.formulation!r}")
         for r, name in ((e.release_i, "release_i"), (e.release_j, "release_j")):
@@ -309,10 +335,18 @@ def _validate(m: FrameModel) -> None:
                 _positive(r, f"{where} '{name}'", allow_zero=True)
         if e.youngs_modulus_pa is not None:
             _positive(e.youngs_modulus_pa, f"{where} 'youngs_modulus_pa'")
+        if (e.crack_position is None) != (e.crack_stiffness is None):
+            raise ModelFileError(f"{where}: 'crack_position' and 'crack_stiffness' go together")
+        if e.crack_position is not None:
+            if not (isinstance(e.crack_position, (int, float)) and 0.0 < e.crack_position < 1.0):
+                raise ModelFileError(f"{where} 'crack_position': must be inside (0, 1), got {e.crack_position!r}")
+            _positive(e.crack_stiffness, f"{where} 'crack_stiffness'")
+            if e.formulation != "euler-bernoulli":
+                raise ModelFileError(f"{where}: a crack needs formulation 'euler-bernoulli'")
         a = next(n for n in m.nodes if n.id == e.node_i)
         b = next(n for n in m.nodes if n.id == e.node_j)
         if math.hypot(b.x - a.x, b.y - a.y) <= 0:
-            raise ModelFileError(f"{where}: zero length")
+            raise ModelFileError(f"{where}: zero length (nodes {e.node_i} and {e.node_j} coincide)")
 
     def check_dof(dof: Any, where: str) -> None:
         if not (isinstance(dof, tuple) and len(dof) == 2):
@@ -357,6 +391,35 @@ def _dof(value: Any, where: str) -> tuple[int, str]:
     return (int(value[0]), str(value[1]))
 
 
+def _int(value: Any, where: str) -> int:
+    """An id read from a file: a JSON integer (not a bool, not 3.5)."""
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise ModelFileError(f"{where}: must be an integer id, got {value!r}")
+    return value
+
+
+def _number(value: Any, where: str) -> float:
+    if not _is_number(value):
+        raise ModelFileError(f"{where}: must be a finite number, got {value!r}")
+    return float(value)
+
+
+def _objects(d: dict, key: str, source: str, kind: type) -> dict:
+    """The 'materials' or 'sections' table: name -> object of the dataclass `kind`'s fields."""
+    table = _get(d, key, source)
+    if not isinstance(table, dict):
+        raise ModelFileError(f"{source}: field '{key}' must be an object of name -> properties")
+    out = {}
+    for name, v in table.items():
+        if not isinstance(v, dict):
+            raise ModelFileError(f"{source}: field '{key}' entry {name!r} must be an object")
+        try:
+            out[name] = kind(**v)
+        except TypeError as exc:
+            raise ModelFileError(f"{source}: field '{key}' entry {name!r}: {exc}") from None
+    return out
+
+
 def _get(obj: dict, key: str, where: str, default: Any = ...) -> Any:
     if not isinstance(obj, dict):
         raise ModelFileError(f"{where}: expected an object, got {type(obj).__name__}")
@@ -371,17 +434,17 @@ def model_from_dict(d: dict, source: str = "<memory>") -> FrameModel:
     """Build a model from the parsed JSON of a model file; errors name `source` and the field."""
     if _get(d, "format", source) != MODEL_FORMAT:
         raise ModelFileError(f"{source}: field 'format' must be {MODEL_FORMAT!r}, got {d.get('format')!r}")
-    try:
-        materials = {k: Material(**v) for k, v in _get(d, "materials", source).items()}
-    except TypeError as exc:
-        raise ModelFileError(f"{source}: field 'materials': {exc}") from None
-    try:
-        sections = {k: Section(**v) for k, v in _get(d, "sections", source).items()}
-    except TypeError as exc:
-        raise ModelFileError(f"{source}: field 'sections': {exc}") from None
-    nodes = tuple(Node(int(_get(n, "id", f"{source}: nodes[{i}]")), float(_get(n, "x", f"{source}: nodes[{i}]")),
-                       float(_get(n, "y", f"{source}: nodes[{i}]")))
-                  for i, n in enumerate(_get(d, "nodes", source)))
+    materials = _objects(d, "materials", source, Material)
+    sections = _objects(d, "sections", source, Section)
+    for key in ("nodes", "elements"):
+        if not isinstance(_get(d, key, source), list):
+            raise ModelFileError(f"{source}: field '{key}' must be a list")
+    nodes = []
+    for i, n in enumerate(d["nodes"]):
+        where = f"{source}: nodes[{i}]"
+        nodes.append(Node(_int(_get(n, "id", where), f"{where} field 'id'"),
+                          _number(_get(n, "x", where), f"{where} field 'x'"),
+                          _number(_get(n, "y", where), f"{where} field 'y'")))
     elements = []
     for i, e in enumerate(_get(d, "elements", source)):
         where = f"{source}: elements[{i}]"
@@ -389,30 +452,39 @@ def model_from_dict(d: dict, source: str = "<memory>") -> FrameModel:
         if not (isinstance(ends, list) and len(ends) == 2):
             raise ModelFileError(f"{where}: field 'nodes' must be [node_i, node_j]")
         elements.append(Element(
-            id=int(_get(e, "id", where)), node_i=int(ends[0]), node_j=int(ends[1]),
+            id=_int(_get(e, "id", where), f"{where} field 'id'"), node_i=_int(ends[0], f"{where} field 'nodes'"),
+            node_j=_int(ends[1], f"{where} field 'nodes'"),
             section=_get(e, "section", where), material=_get(e, "material", where),
             formulation=_get(e, "formulation", where, "euler-bernoulli"),
             release_i=_get(e, "release_i", where, None), release_j=_get(e, "release_j", where, None),
-            youngs_modulus_pa=_get(e, "youngs_modulus_pa", where, None)))
-    masses = tuple(LumpedMass(int(_get(m, "node", f"{source}: masses[{i}]")), _get(m, "mass_kg", f"{source}: masses[{i}]"),
-                              _get(m, "inertia_kg_m2", f"{source}: masses[{i}]", 0.0))
-                   for i, m in enumerate(d.get("masses", [])))
+            youngs_modulus_pa=_get(e, "youngs_modulus_pa", where, None),
+            crack_position=_get(e, "crack_position", where, None),
+            crack_stiffness=_get(e, "crack_stiffness", where, None)))
+    masses = []
+    for i, m in enumerate(d.get("masses", [])):
+        where = f"{source}: masses[{i}]"
+        masses.append(LumpedMass(_int(_get(m, "node", where), f"{where} field 'node'"), _get(m, "mass_kg", where),
+                                 _get(m, "inertia_kg_m2", where, 0.0)))
     springs = []
     for i, s in enumerate(d.get("springs", [])):
         where = f"{source}: springs[{i}]"
         dofs = _get(s, "dofs", where)
         if not (isinstance(dofs, list) and len(dofs) in (1, 2)):
             raise ModelFileError(f"{where}: field 'dofs' must list one DOF (to ground) or two")
-        springs.append(Spring(int(_get(s, "id", where, i + 1)), _dof(dofs[0], where),
+        springs.append(Spring(_int(_get(s, "id", where, i + 1), f"{where} field 'id'"), _dof(dofs[0], where),
                               _dof(dofs[1], where) if len(dofs) == 2 else None, _get(s, "stiffness", where)))
-    supports = tuple(Support(int(_get(s, "node", f"{source}: supports[{i}]")),
-                             tuple(_get(s, "directions", f"{source}: supports[{i}]")))
-                     for i, s in enumerate(d.get("supports", [])))
+    supports = []
+    for i, s in enumerate(d.get("supports", [])):
+        where = f"{source}: supports[{i}]"
+        directions = _get(s, "directions", where)
+        if not isinstance(directions, list):
+            raise ModelFileError(f"{where}: field 'directions' must be a list such as [\"x\", \"y\"], got {directions!r}")
+        supports.append(Support(_int(_get(s, "node", where), f"{where} field 'node'"), tuple(directions)))
     measured = tuple(_dof(x, f"{source}: measured_dofs[{i}]") for i, x in enumerate(d.get("measured_dofs", [])))
     exc = d.get("excitation")
     return FrameModel(
-        name=str(d.get("name", Path(source).stem)), nodes=nodes, materials=materials, sections=sections,
-        elements=tuple(elements), masses=masses, springs=tuple(springs), supports=supports,
+        name=str(d.get("name", Path(source).stem)), nodes=tuple(nodes), materials=materials, sections=sections,
+        elements=tuple(elements), masses=tuple(masses), springs=tuple(springs), supports=tuple(supports),
         measured_dofs=measured, excitation=_dof(exc, f"{source}: excitation") if exc is not None else None,
         description=str(d.get("description", "")), source=source)
 
@@ -422,7 +494,7 @@ def model_to_dict(model: FrameModel) -> dict:
     def element(e: Element) -> dict:
         out: dict[str, Any] = {"id": e.id, "nodes": [e.node_i, e.node_j], "section": e.section,
                                "material": e.material, "formulation": e.formulation}
-        for k in ("release_i", "release_j", "youngs_modulus_pa"):
+        for k in ("release_i", "release_j", "youngs_modulus_pa", "crack_position", "crack_stiffness"):
             if getattr(e, k) is not None:
                 out[k] = getattr(e, k)
         return out

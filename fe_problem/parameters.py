@@ -112,7 +112,16 @@ def element_matrices(model: FrameModel) -> tuple[np.ndarray, np.ndarray]:
     timo = np.array([e.formulation == "timoshenko" for e in els])
     phi = np.where(timo, 24.0 * (1.0 + nu) * inertia / (kappa * area * length**2), 0.0)
     t = el.rotation(d[:, 0] / length, d[:, 1] / length)
-    k = el.to_global(el.local_stiffness(length, area, inertia, phi), t)
+    k_local = el.local_stiffness(length, area, inertia, phi)
+    cracked = np.array([e.crack_position is not None for e in els])
+    if cracked.any():
+        # per unit modulus: the crack compliance is c * E (the crack scales with E, see Element)
+        c = np.array([model.element_modulus_pa(e.id) / e.crack_stiffness for e in els if e.crack_position is not None])
+        pos = np.array([e.crack_position for e in els if e.crack_position is not None])
+        bend = el.cracked_bending_stiffness(length[cracked], inertia[cracked], pos, c)
+        axial = el.local_stiffness(length[cracked], area[cracked], np.zeros(int(cracked.sum())), phi[cracked])
+        k_local[cracked] = bend + axial
+    k = el.to_global(k_local, t)
     m = el.to_global(el.local_mass(length, area, np.where(timo, inertia, 0.0), phi), t)
     return k, m
 

@@ -94,16 +94,19 @@ class UpdatingProblem:
             raise ValueError("UpdatingProblem needs at least one parameter")
         self.system = AffineModel(self.model, self.parameters)
         m = self.data.n_modes
+        if n_model_modes is not None and n_model_modes < m:
+            raise ValueError(f"n_model_modes={n_model_modes} is fewer than the {m} measured modes of "
+                             f"{self.data.source}")
         self.n_model_modes = min(n_model_modes or m + 4, self.system.n_elastic)
         if self.n_model_modes < m:
             raise ValueError(f"{self.data.source}: {m} measured modes but model {self.model.name!r} "
                              f"has only {self.system.n_elastic} elastic modes")
         self.rows = self.system.nodal_rows(self.data.dofs)
         self.has_shape = self.data.has_shape
+        if not shape_weight >= 0:
+            raise ValueError(f"shape_weight must be >= 0, got {shape_weight}")
         if shape_weight and not self.has_shape.any():
             raise ValueError(f"shape_weight={shape_weight} but {self.data.source} has no measured shapes")
-        if shape_weight < 0:
-            raise ValueError(f"shape_weight must be >= 0, got {shape_weight}")
         self.shape_weight = float(shape_weight)
 
         lam, phi = self.system.eigen(self.x0[None], self.n_model_modes, vectors=True)
@@ -161,11 +164,15 @@ class UpdatingProblem:
 
     def check_x(self, X, name: str = "X") -> np.ndarray:
         """X as a (n, n_var) float array, or a ValueError that says what is wrong."""
-        X = np.asarray(X, dtype=float)
+        try:
+            X = np.asarray(X, dtype=float)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"{name} must be an array of numbers ({exc})") from None
+        given = X.shape  # reported as passed, before a single point becomes a row
         if X.ndim == 1:
             X = X[None, :]
         if X.ndim != 2 or X.shape[1] != self.n_var:
-            raise ValueError(f"{name} must have shape ({self.n_var},) or (n, {self.n_var}), got {np.shape(X)}")
+            raise ValueError(f"{name} must have shape ({self.n_var},) or (n, {self.n_var}), got {given}")
         if not np.all(np.isfinite(X)):
             r, c = np.argwhere(~np.isfinite(X))[0]
             raise ValueError(f"{name}[{r}, {c}] is {X[r, c]}: every value must be finite")

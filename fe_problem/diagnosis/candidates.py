@@ -1,0 +1,202 @@
+"""Candidate extensions of a model: each a physical effect with a place and one magnitude.
+
+Every candidate maps an effect size ``a >= 0`` (0: the unextended model) to the modes of the
+extended model. The global stiffness-to-mass scale every model is allowed multiplies all
+eigenvalues and leaves shapes alone, so it is profiled out in closed form by the fit and is
+not part of a candidate.
+
+Kinds (the set is open: add a function to `CANDIDATE_KINDS` that yields Candidates):
+
+- ``stiffness_loss`` at an element: its modulus times (1 - a), a in [0, 0.9].
+- ``added_mass`` at a node: a lumped mass of a kg (x and y), a up to half the model's mass.
+- ``joint_flexibility`` at a node where members meet: one element end released and tied to
+  the node by a rotational spring k = (E I / L)_element / a (a: the joint's compliance
+  relative to the element's own bending compliance).
+- ``shear_deformation`` (no place): every element Timoshenko, with shear parameter
+  phi = a * phi_nominal (a = 1: the section's own shear coefficient).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Callable, Iterator
+
+import numpy as np
+
+from ..modal import frequencies_hz
+from ..model import FrameModel, add_mass, release_element_end, with_formulation
+from ..parameters import AffineModel, Parameter
+
+KINDS = ("stiffness_loss", "added_mass", "joint_flexibility", "shear_deformation")
+
+
+@dataclass(frozen=True)
+class Setting:
+    """What every candidate of one diagnosis shares: the model, the measured coordinates and
+    how many model modes to compute."""
+
+    model: FrameModel
+    coords: tuple[tuple[int, str], ...]
+    n_modes: int
+
+
+def solve(system: AffineModel, theta: np.ndarray, coords, n_modes: int):
+    """Frequencies (b, k) in Hz and shapes at `coords` (b, n_coord, k) for theta (b, p)."""
+    lam, phi = system.eigen(theta, min(n_modes, system.n_elastic), vectors=True)
+    rows = system.nodal_rows(coords)
+    shapes = phi[:, np.clip(rows, 0, None), :]
+    shapes[:, rows < 0, :] = 0.0
+    return frequencies_hz(lam), shapes
+
+
+@dataclass(eq=False)
+class Candidate:
+    """One extension. `forward(a)` gives the modes for effect sizes a (b,)."""
+
+    kind: str
+    location: dict | None
+    upper: float
+    grid: np.ndarray
+    forward: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
+    estimate: Callable[[float, float], dict]
+    extend: Callable[[float], FrameModel]
+    step: float                        # a small effect size for first-order sensitivities
+    meta: dict = field(default_factory=dict)
+
+    @property
+    def label(self) -> str:
+        if self.location is None:
+            return self.kind
+        return self.kind + "@" + ",".join(f"{k}={v}" for k, v in self.location.items())
+
+
+def scale_stiffness(model: FrameModel, s: float) -> FrameModel:
+    """A copy whose every stiffness (moduli, springs, releases) is multiplied by s."""
+    elements = tuple(dataclasses.replace(
+        e, youngs_modulus_pa=s * model.element_modulus_pa(e.id),
+        release_i=None if e.release_i is None else s * e.release_i,
+        release_j=None if e.release_j is None else s * e.release_j) for e in model.elements)
+    springs = tuple(dataclasses.replace(sp, stiffness=s * sp.stiffness) for sp in model.springs)
+    return model.replace(elements=elements, springs=springs)
+
+
+def _bending_compliance_ref(model: FrameModel, element_id: int) -> float:
+    """(E I / L) of an element, N m/rad: the scale of a joint spring at its end."""
+    e = model.element(element_id)
+    return model.element_modulus_pa(element_id) * model.sections[e.section].inertia_m4 / model.element_length_m(element_id)
+
+
+def stiffness_loss(st: Setting) -> Iterator[Candidate]:
+    for e in st.model.elements:
+        e0 = st.model.element_modulus_pa(e.id)
+        system = AffineModel(st.model, (Parameter("modulus", (e.id,), 1e-3 * e0, e0, e0),))
+
+        def forward(a, system=system, e0=e0):
+            return solve(system, (e0 * (1.0 - np.asarray(a)))[:, None], st.coords, st.n_modes)
+
+        def estimate(a, s, e=e, e0=e0):
+            return {"stiffness_loss_pct": 100.0 * a, "modulus_ratio": 1.0 - a,
+                    "modulus_pa": s * e0 * (1.0 - a)}
+
+        def extend(a, e=e, e0=e0):
+            return st.model.with_element_moduli({e.id: e0 * (1.0 - a)})
+
+        yield Candidate("stiffness_loss", {"element": e.id}, 0.9,
+                        np.array([0.0, 0.005, 0.01, 0.02, 0.04, 0.07, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9]),
+                        forward, estimate, extend, step=0.01)
+
+
+def added_mass(st: Setting) -> Iterator[Candidate]:
+    total = st.model.total_mass_kg()
+    for node in st.model.node_ids:
+        system = AffineModel(st.model, (Parameter("mass", (node,), 0.0, total, 0.0),))
+
+        def forward(a, system=system):
+            return solve(system, np.asarray(a, dtype=float)[:, None], st.coords, st.n_modes)
+
+        def estimate(a, s, node=node):
+            return {"mass_kg": a, "mass_ratio": a / total}
+
+        def extend(a, node=node):
+            return add_mass(st.model, node, a)
+
+        yield Candidate("added_mass", {"node": node}, 0.5 * total,
+                        np.concatenate([[0.0], total * np.geomspace(1e-3, 0.5, 15)]),
+                        forward, estimate, extend, step=0.005 * total)
+
+
+def joint_flexibility(st: Setting) -> Iterator[Candidate]:
+    baseline = AffineModel(st.model)
+    for node in st.model.joints():
+        for e in st.model.elements:
+            if node not in (e.node_i, e.node_j):
+                continue
+            if (node == e.node_i and e.release_i is not None) or (node == e.node_j and e.release_j is not None):
+                continue
+            ref = _bending_compliance_ref(st.model, e.id)
+            released = release_element_end(st.model, e.id, node, ref)
+            system = AffineModel(released, (Parameter("release", (e.id, node), 0.0, 1e12 * ref, ref),))
+
+            def forward(a, system=system, ref=ref):
+                a = np.asarray(a, dtype=float)
+                hz, shapes = solve(system, (ref / np.maximum(a, 1e-12))[:, None], st.coords, st.n_modes)
+                rigid = a <= 0.0
+                if rigid.any():  # a = 0 is the rigid joint: the unextended model itself
+                    hz0, sh0 = solve(baseline, np.zeros((1, 0)), st.coords, st.n_modes)
+                    hz[rigid], shapes[rigid] = hz0[0], sh0[0]
+                return hz, shapes
+
+            def estimate(a, s, ref=ref):
+                k = s * ref / a if a > 0 else float("inf")
+                return {"rotational_stiffness_nm_per_rad": k, "compliance_ratio": a}
+
+            def extend(a, e=e, node=node, ref=ref):
+                return release_element_end(st.model, e.id, node, ref / a) if a > 0 else st.model
+
+            yield Candidate("joint_flexibility", {"node": node, "element": e.id}, 50.0,
+                            np.concatenate([[0.0], np.geomspace(1e-3, 50.0, 18)]),
+                            forward, estimate, extend, step=0.01)
+
+
+def shear_deformation(st: Setting) -> Iterator[Candidate]:
+    if all(e.formulation == "timoshenko" for e in st.model.elements):
+        return
+    baseline = AffineModel(st.model)
+
+    def model_at(a: float) -> FrameModel:
+        sections = {k: dataclasses.replace(v, shear_coefficient=v.shear_coefficient / a)
+                    for k, v in st.model.sections.items()}
+        return with_formulation(st.model, "timoshenko").replace(sections=sections)
+
+    def forward(a):
+        a = np.atleast_1d(np.asarray(a, dtype=float))
+        out = [solve(AffineModel(model_at(v)) if v > 0 else baseline, np.zeros((1, 0)), st.coords, st.n_modes)
+               for v in a]
+        return np.concatenate([o[0] for o in out]), np.concatenate([o[1] for o in out])
+
+    def estimate(a, s):
+        kappa = {k: v.shear_coefficient / a if a > 0 else float("inf") for k, v in st.model.sections.items()}
+        return {"shear_factor": a, "effective_shear_coefficient": kappa}
+
+    yield Candidate("shear_deformation", None, 30.0, np.concatenate([[0.0], np.geomspace(0.02, 30.0, 14)]),
+                    forward, estimate, lambda a: model_at(a) if a > 0 else st.model, step=0.05)
+
+
+#: kind -> function(Setting) yielding Candidates. Extend this to add a kind.
+CANDIDATE_KINDS: dict[str, Callable[[Setting], Iterator[Candidate]]] = {
+    "stiffness_loss": stiffness_loss,
+    "added_mass": added_mass,
+    "joint_flexibility": joint_flexibility,
+    "shear_deformation": shear_deformation,
+}
+
+
+def all_candidates(st: Setting, kinds=None) -> list[Candidate]:
+    """Every candidate of the given kinds (default: all registered) for this setting."""
+    out: list[Candidate] = []
+    for kind in (kinds or CANDIDATE_KINDS):
+        if kind not in CANDIDATE_KINDS:
+            raise ValueError(f"unknown candidate kind {kind!r}; known: {', '.join(CANDIDATE_KINDS)}")
+        out.extend(CANDIDATE_KINDS[kind](st))
+    return out

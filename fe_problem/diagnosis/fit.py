@@ -1,0 +1,94 @@
+"""Fitting candidates to observations: the global scale profiled out, screening by first-order
+sensitivities, then a proper one-parameter nonlinear fit.
+
+chi^2 of a model = ||r||^2 of `Observations.residuals` with the global stiffness-to-mass
+scale s at its best value: s multiplies every eigenvalue, so for the frequency residuals
+the best sqrt(s) = sum(q) / sum(q^2) with q_i = f_model_i / f_meas_i, in closed form.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+
+from .candidates import Candidate
+from .residuals import Observations
+
+
+@dataclass(frozen=True)
+class Fit:
+    """The best effect size `a`, the global scale `s`, chi^2 and the pairing at that point."""
+
+    a: float
+    s: float
+    chi2: float
+    pairing: np.ndarray
+    residuals: np.ndarray
+
+
+def profiled(obs: Observations, hz: np.ndarray, shapes: np.ndarray, pairing: np.ndarray | None = None) -> Fit:
+    """chi^2 of one model (frequencies (k,), shapes (n_coord, k)) with s at its best value.
+
+    Pairs afresh (unless `pairing` is given), finds s, and pairs once more with the scaled
+    frequencies so that frequency-only modes pair with the calibrated model."""
+    idx = obs.pair(hz, shapes) if pairing is None else pairing
+    for _ in range(2):
+        ok = idx >= 0
+        if not ok.any():
+            s = 1.0
+        else:
+            q = hz[idx[ok]] / obs.frequencies_hz[ok]
+            s = float((q.sum() / (q * q).sum()) ** 2)
+        if pairing is not None:
+            break
+        new = obs.pair(hz * np.sqrt(s), shapes)
+        if np.array_equal(new, idx):
+            break
+        idx = new
+    r, idx = obs.residuals(hz * np.sqrt(s), shapes, idx)
+    return Fit(0.0, s, float(r @ r), idx, r)
+
+
+def chi2_batch(obs: Observations, cand: Candidate, a: np.ndarray, pairing=None) -> list[Fit]:
+    """Profiled fits for a batch of effect sizes, one batched eigen-solve."""
+    a = np.asarray(a, dtype=float)
+    hz, shapes = cand.forward(a)
+    out = []
+    for i in range(a.shape[0]):
+        f = profiled(obs, hz[i], shapes[i], pairing)
+        out.append(Fit(float(a[i]), f.s, f.chi2, f.pairing, f.residuals))
+    return out
+
+
+def screen(obs: Observations, cand: Candidate, base: Fit) -> tuple[float, float]:
+    """First-order screening: the chi^2 drop a linearised model promises, and its a.
+
+    The sensitivity of the (profiled) residuals to a is taken from one small step, with the
+    baseline pairing held fixed; the effect is one-sided (a >= 0)."""
+    step = chi2_batch(obs, cand, np.array([cand.step]), pairing=base.pairing)[0]
+    j = (step.residuals - base.residuals) / cand.step
+    jj = float(j @ j)
+    if jj <= 0.0:
+        return 0.0, 0.0
+    a = min(max(-float(base.residuals @ j) / jj, 0.0), cand.upper)
+    drop = base.chi2 - float(np.sum((base.residuals + a * j) ** 2))
+    return max(drop, 0.0), a
+
+
+def fit(obs: Observations, cand: Candidate, a_hint: float | None = None) -> Fit:
+    """The best a in [0, upper]: a batched grid (plus the screening hint), then a bounded
+    scalar refinement in the bracket around the best grid point."""
+    grid = np.unique(np.concatenate([cand.grid, [] if a_hint is None else [a_hint]]))
+    fits = chi2_batch(obs, cand, grid)
+    k = int(np.argmin([f.chi2 for f in fits]))
+    lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)]
+    best = fits[k]
+    if hi > lo:
+        res = minimize_scalar(lambda v: chi2_batch(obs, cand, np.array([v]))[0].chi2,
+                              bounds=(lo, hi), method="bounded", options={"xatol": 1e-4 * max(hi, 1e-9)})
+        cand_fit = chi2_batch(obs, cand, np.array([res.x]))[0]
+        if cand_fit.chi2 < best.chi2:
+            best = cand_fit
+    return best
