@@ -11,8 +11,10 @@ from __future__ import annotations
 
 import math
 import platform
+import random
 import time
 import traceback
+from contextlib import contextmanager
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
@@ -119,12 +121,16 @@ class BudgetedObjective:
     def _record(self, X: np.ndarray, f: np.ndarray) -> None:
         start = self.n_evals
         self.n_evals += len(f)
+        # every row that beats all before it, also inside a batch, so that best-so-far after
+        # any evaluation count is exact; NaN rows never improve (fmin skips them)
+        running = np.fmin.accumulate(np.concatenate(([self.best_f], f)))
+        new = np.flatnonzero(running[1:] < running[:-1])
+        self.trace.extend([start + int(i) + 1, float(f[i])] for i in new)
+        if len(new):
+            self.best_f, self.best_x = float(f[new[-1]]), X[new[-1]].copy()
         if np.isnan(f).any():
-            raise FloatingPointError("the objective returned NaN")
-        k = int(np.argmin(f)) if len(f) else 0
-        if len(f) and f[k] < self.best_f:
-            self.best_f, self.best_x = float(f[k]), X[k].copy()
-            self.trace.append([start + k + 1, self.best_f])
+            raise FloatingPointError(f"the objective returned NaN at evaluation "
+                                     f"{start + int(np.argmax(np.isnan(f))) + 1}")
 
     def __call__(self, X) -> np.ndarray:
         self._check_time()
@@ -151,8 +157,10 @@ class BudgetedObjective:
         t = time.perf_counter()
         out = self.problem.least_squares(X[0])
         self.fe_s += time.perf_counter() - t
-        self._record(X, np.array([out.f]))
+        # charge the extra cost first, so the trace dates the point at the evaluation count
+        # after which it is known
         self.n_evals += cost - 1
+        self._record(X, np.array([out.f]))
         if self.remaining <= 0:
             raise BudgetExhausted()
         return out
@@ -175,11 +183,13 @@ def run(name: str, problem, budget: int, seed: int, time_limit_s: float | None =
     from .registry import get
 
     cls = get(name)
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+    if not _is_int(seed) or seed < 0:
         raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
+    if not _is_int(budget) or budget < 1:
+        raise ValueError(f"budget must be an integer >= 1 (FE evaluations), got {budget!r}")
     optimizer = cls()
     min_budget = int(getattr(optimizer, "min_budget", 1))
-    if int(budget) < min_budget:
+    if budget < min_budget:
         raise ValueError(f"optimizer {name!r} needs a budget of at least {min_budget} evaluations, got {budget}")
     objective = BudgetedObjective(problem, budget, time_limit_s)
     rng = np.random.default_rng(int(seed))
@@ -187,12 +197,15 @@ def run(name: str, problem, budget: int, seed: int, time_limit_s: float | None =
     wall0, cpu0 = time.perf_counter(), time.process_time()
     try:
         optimizer.minimize(objective, objective.bounds, objective.budget, rng, **options)
-    except BudgetExhausted:
-        status = "ok"
-    except TimeLimitExceeded as exc:
-        status, error = "timeout", str(exc)
     except Exception as exc:  # a failing plugin must not end a study
-        status, error = "failed", f"{type(exc).__name__}: {exc}\n{traceback.format_exc(limit=6)}"
+        # a library may re-raise our stop signal wrapped in its own exception: look at the chain
+        stop = _stop_signal(exc)
+        if isinstance(stop, BudgetExhausted):
+            status = "ok"
+        elif isinstance(stop, TimeLimitExceeded):
+            status, error = "timeout", str(stop)
+        else:
+            status, error = "failed", f"{type(exc).__name__}: {exc}\n{traceback.format_exc(limit=6)}"
     wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
     if status == "stopped" and objective.n_evals >= objective.budget:
         status = "ok"
@@ -202,3 +215,58 @@ def run(name: str, problem, budget: int, seed: int, time_limit_s: float | None =
         best_x=[] if objective.best_x is None else objective.best_x.tolist(), trace=objective.finish_trace(),
         wall_s=wall, cpu_s=cpu, fe_s=objective.fe_s, status=status, error=error, variant=variant,
         host=platform.node())
+
+
+def _is_int(v) -> bool:
+    return isinstance(v, (int, np.integer)) and not isinstance(v, bool)
+
+
+def _stop_signal(exc: BaseException) -> BaseException | None:
+    """The BudgetExhausted or TimeLimitExceeded in `exc`'s cause/context chain, if any."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, (BudgetExhausted, TimeLimitExceeded)):
+            return exc
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return None
+
+
+@contextmanager
+def seeded_global_rngs(rng: np.random.Generator):
+    """Seed numpy's and Python's global generators from `rng` for the duration of a block,
+    then put back their previous states.
+
+    For libraries that draw from the global generators (PySwarms, pycma, DEAP): a run is then
+    fixed by its seed, and runs one after another in a process do not disturb each other or
+    the host's own random streams. Not thread-safe: the global state is the process's.
+    """
+    np_state, py_state = np.random.get_state(), random.getstate()
+    seed = int(rng.integers(2**32))
+    np.random.seed(seed)
+    random.seed(seed)
+    try:
+        yield seed
+    finally:
+        np.random.set_state(np_state)
+        random.setstate(py_state)
+
+
+def unit_scaled(objective, bounds):
+    """`objective` in coordinates scaled to the unit cube, and the map back to x.
+
+    u in [0, 1]^n_var stands for x = xl + u (xu - xl). For libraries whose steps, tolerances or
+    initial spreads are absolute: the moduli are ~1e10 Pa. u is clipped into the cube first,
+    so a library's round-off at a bound never reaches the problem as an out-of-bounds point.
+    Returns (f, to_x): f(U) takes a point (n_var,) or a batch (n, n_var) and returns (n,).
+    """
+    xl, xu = (np.asarray(b, dtype=float) for b in bounds)
+    span = xu - xl
+
+    def to_x(U) -> np.ndarray:
+        return xl + np.clip(np.atleast_2d(U), 0.0, 1.0) * span
+
+    def f(U) -> np.ndarray:
+        return objective(to_x(U))
+
+    return f, to_x

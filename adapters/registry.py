@@ -6,7 +6,13 @@ and returns n values, `bounds` is (xl, xu), `rng` a numpy Generator. The harness
 budget by raising from `objective`; the plugin's return value is ignored. An optional class
 attribute `min_budget` says how many evaluations the method needs to start.
 
-Third parties register under the entry-point group ``femu.optimizers`` (name -> class).
+Third parties register under the entry-point group ``femu.optimizers`` (name -> class), e.g.
+in their pyproject.toml::
+
+    [project.entry-points."femu.optimizers"]
+    my-method = "my_package.module:MyMethod"
+
+A built-in name cannot be taken over by a plugin.
 """
 
 from __future__ import annotations
@@ -39,11 +45,38 @@ def available() -> list[str]:
 
 
 def get(name: str) -> type:
-    """The optimizer class registered as `name`; ValueError naming the known ones."""
+    """The optimizer class registered as `name`, or named by its import path
+    ``package.module:Class``; ValueError naming the known ones."""
     if name in BUILTINS:
         module, cls = BUILTINS[name].split(":")
         return getattr(importlib.import_module(module), cls)
     plugins = _plugins()
     if name in plugins:
-        return plugins[name].load()
+        ep = plugins[name]
+        try:
+            cls = ep.load()
+        except Exception as exc:  # a broken third-party package: say which one
+            raise ValueError(f"optimizer {name!r}: entry point {ep.value!r} in group {ENTRY_POINT_GROUP!r} "
+                             f"could not be loaded: {type(exc).__name__}: {exc}") from exc
+        if not callable(getattr(cls, "minimize", None)):
+            raise ValueError(f"optimizer {name!r}: entry point {ep.value!r} is not an optimizer class "
+                             f"(it has no minimize(objective, bounds, budget, rng, **options) method)")
+        return cls
+    if ":" in name:
+        return _import_path(name)
     raise ValueError(f"unknown optimizer {name!r}; available: {', '.join(available())}")
+
+
+def _import_path(name: str) -> type:
+    """An optimizer named by its import path ``package.module:Class`` (not registered: for
+    trying out a class, e.g. in a test, in every worker process of a study)."""
+    module, _, attr = name.partition(":")
+    try:
+        cls = getattr(importlib.import_module(module), attr)
+    except (ImportError, AttributeError, ValueError) as exc:  # ValueError: an empty module name
+        raise ValueError(f"optimizer {name!r}: cannot import {attr!r} from module {module!r} "
+                         f"({type(exc).__name__}: {exc})") from None
+    if not callable(getattr(cls, "minimize", None)):
+        raise ValueError(f"optimizer {name!r} is not an optimizer class "
+                         f"(it has no minimize(objective, bounds, budget, rng, **options) method)")
+    return cls

@@ -1,6 +1,7 @@
 """femu-bench physics: planar frame FE models, modal analysis, correlation, measured data,
 and the FE model-updating problem. Knows nothing of optimizers."""
 
+from . import _threads  # noqa: F401  (one BLAS thread: before numpy loads)
 from .correlation import comac, frequency_errors_pct, mac, pair_modes
 from .data import (DataFileError, ModalData, load_modal_data, paper_table, save_modal_data,
                    synthetic_measurement)

@@ -478,7 +478,8 @@ def model_from_dict(d: dict, source: str = "<memory>") -> FrameModel:
         where = f"{source}: supports[{i}]"
         directions = _get(s, "directions", where)
         if not isinstance(directions, list):
-            raise ModelFileError(f"{where}: field 'directions' must be a list such as [\"x\", \"y\"], got {directions!r}")
+            raise ModelFileError(f"{where}: field 'directions' must be a list such as [\"x\", \"y\"], "
+                                 f"got {directions!r}")
         supports.append(Support(_int(_get(s, "node", where), f"{where} field 'node'"), tuple(directions)))
     measured = tuple(_dof(x, f"{source}: measured_dofs[{i}]") for i, x in enumerate(d.get("measured_dofs", [])))
     exc = d.get("excitation")

@@ -10,8 +10,8 @@ NOMINAL_HZ = [56.287, 127.217, 228.388, 263.523, 452.854, 658.509, 1043.033, 124
 
 def test_hframe_reproduces_reference_frequencies():
     res = fp.modal_analysis("hframe", n_modes=10)
-    # hframe.md lists three decimals: agreement to its rounding
-    np.testing.assert_allclose(res.frequencies_hz, NOMINAL_HZ, atol=1.5e-3)
+    # hframe.md lists three decimals: agreement to half of the last one
+    np.testing.assert_allclose(res.frequencies_hz, NOMINAL_HZ, atol=5e-4)
     assert res.n_rigid == 3
     assert res.shapes.shape == (39, 10)
     assert res.dofs[:4] == ((1, "x"), (1, "y"), (1, "rz"), (2, "x"))
