@@ -102,6 +102,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--variants", default="paper", help="problem variants, comma-separated (paper, synthetic)")
     s.add_argument("--time-limit", type=float, default=None, help="seconds per run before it is stopped")
     s.add_argument("--no-progress", action="store_true", help="no progress bar")
+    s.add_argument("--retry-failed", action="store_true",
+                   help="run again the runs stored as failed or timeout (they are kept otherwise)")
     s.set_defaults(func=_study)
 
     r = sub.add_parser("results", help="print the runs in a store")
@@ -128,6 +130,10 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--model", default=None, help="model name or file (default: the data's model)")
     d.add_argument("--out", default=None, help="directory for the extended model and a report")
     d.add_argument("--json", action="store_true")
+    d.add_argument("--freq-noise", type=float, default=0.002,
+                   help="std of a measured frequency, relative (default 0.002 = 0.2 %%)")
+    d.add_argument("--shape-noise", type=float, default=0.02,
+                   help="std of a measured shape entry, relative to the mode's RMS (default 0.02 = 2 %%)")
     d.set_defaults(func=_diagnose)
     return p
 

@@ -5,7 +5,8 @@
 
 A run's key is ``<variant>__<optimizer>__b<budget>__s<seed>``. Files are written to a
 temporary name in the same directory and renamed into place, so a killed study leaves only
-whole records; a study started again skips every key already present.
+whole records (and at most a hidden ``.<key>.json.*.tmp`` file, which is ignored); a study
+started again skips every key already present.
 """
 
 from __future__ import annotations
@@ -26,11 +27,18 @@ def run_key(variant: str, optimizer: str, budget: int, seed: int) -> str:
     return f"{variant}__{optimizer}__b{int(budget)}__s{int(seed)}"
 
 
+def _umask() -> int:
+    mask = os.umask(0o022)  # reading the umask means setting it: put it straight back
+    os.umask(mask)
+    return mask
+
+
 def atomic_write_json(path: Path, obj) -> None:
     """Write JSON so that `path` holds either the old content or the whole new one."""
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
+        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes the file private: give it the usual mode
         with os.fdopen(fd, "w") as fh:
             json.dump(obj, fh, indent=1)
             fh.flush()
@@ -68,8 +76,11 @@ class Store:
     def read(self, key: str) -> RunResult:
         path = self.runs_dir / f"{key}.json"
         try:
-            return RunResult.from_dict(json.loads(path.read_text()))
-        except (OSError, json.JSONDecodeError, TypeError) as exc:
+            data = json.loads(path.read_text())
+            if not isinstance(data, dict):
+                raise TypeError(f"a JSON {type(data).__name__}, not an object")
+            return RunResult.from_dict(data)
+        except (OSError, ValueError, TypeError) as exc:  # ValueError: bad JSON or field values
             raise StoreError(f"{path}: not a readable run record ({exc})") from None
 
     def runs(self) -> list[RunResult]:
@@ -87,6 +98,9 @@ class Store:
         if not p.exists():
             return None
         try:
-            return json.loads(p.read_text())
-        except json.JSONDecodeError as exc:
+            data = json.loads(p.read_text())
+        except (OSError, ValueError) as exc:
             raise StoreError(f"{p}: not valid JSON ({exc})") from None
+        if not isinstance(data, dict):
+            raise StoreError(f"{p}: not a study manifest (a JSON {type(data).__name__}, not an object)")
+        return data

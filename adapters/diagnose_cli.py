@@ -1,0 +1,183 @@
+"""`femu diagnose DATA [--model M] [--out DIR] [--json]`: run `fe_problem.diagnose` and show it.
+
+Default output is a terminal summary of the record; --json prints the record itself
+(`Diagnosis.to_dict()`) as the only thing on stdout; --out DIR writes extended.model.json
+(when there is an effect to add), diagnosis.json and report.md with its figures. Progress and
+warnings go to stderr. Bad input raises ValueError/FileNotFoundError with a message naming
+the file, which `adapters.cli.main` turns into one line on stderr and exit code 2.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from .diagnosis_report import (best_label, cause_text, coordinate_labels, estimate_text, fmt, hz, mode_ranges,
+                               pct, threshold_chi2_drop, write_json, write_report)
+
+#: How many alternatives and COMAC coordinates the terminal summary lists.
+N_ALTERNATIVES = 5
+COMAC_PER_LINE = 8
+
+
+def _stderr(msg: str) -> None:
+    print(f"femu diagnose: {msg}", file=sys.stderr)
+
+
+def _positive(value, option: str) -> float:
+    v = float(value)
+    if not (math.isfinite(v) and v > 0):
+        raise ValueError(f"{option} must be a number > 0 (a relative standard deviation, e.g. 0.002), got {value}")
+    return v
+
+
+def _plain(x):
+    """The record with numpy scalars/arrays as Python values and non-finite floats as None."""
+    if isinstance(x, dict):
+        return {k: _plain(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple, np.ndarray)):
+        return [_plain(v) for v in x]
+    if isinstance(x, (float, np.floating)):
+        return float(x) if math.isfinite(x) else None
+    if isinstance(x, np.integer):
+        return int(x)
+    if isinstance(x, np.bool_):
+        return bool(x)
+    return x
+
+
+def _check_out(out: str) -> Path:
+    path = Path(out)
+    if path.exists() and not path.is_dir():
+        raise ValueError(f"--out {out}: exists and is not a directory")
+    return path
+
+
+def _make_out(path: Path) -> Path:
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ValueError(f"--out {path}: cannot create the directory ({exc.strerror})") from None
+    return path
+
+
+def cli_diagnose(args) -> int:
+    """Entry point of `femu diagnose` (args: data, model, out, json, freq_noise, shape_noise)."""
+    from fe_problem import diagnose, load_modal_data, load_model, save_model
+
+    freq_noise = _positive(getattr(args, "freq_noise", 0.002), "--freq-noise")
+    shape_noise = _positive(getattr(args, "shape_noise", 0.02), "--shape-noise")
+    data = load_modal_data(args.data)
+    model = data.load_model() if args.model is None else load_model(args.model)
+    out = _check_out(args.out) if args.out else None  # before the work: a bad --out fails at once
+    if sys.stderr.isatty():  # progress for a person waiting; logs and pipes get results and errors only
+        _stderr(f"diagnosing {data.source} ({data.n_modes} modes) against model {model.name} ...")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        diag = diagnose(model, data, freq_noise=freq_noise, shape_noise=shape_noise)
+    for msg in dict.fromkeys(str(w.message) for w in caught):
+        _stderr(f"warning: {msg}")
+    record = _plain(diag.to_dict())
+
+    written = []
+    if out is not None:
+        _make_out(out)  # only now, so that bad data leave no empty directory behind
+        extended_file = None
+        if diag.extended_model is not None:
+            extended_file = "extended.model.json"
+            written.append(save_model(diag.extended_model, out / extended_file))
+        written.append(write_json(record, out / "diagnosis.json"))
+        written.append(write_report(record, model, diag.extended_model, data, out, extended_file))
+
+    if args.json:
+        json.dump(record, sys.stdout, indent=1, allow_nan=False)
+        sys.stdout.write("\n")
+        for w in record["warnings"]:
+            _stderr(f"warning: {w}")
+        for p in written:
+            _stderr(f"wrote {p}")
+        return 0
+    print(summary_text(record, data.source, model.name))
+    for p in written:
+        print(f"wrote {p}")
+    return 0
+
+
+# == the terminal summary =====================================================================
+def summary_text(record: dict, data_source: str, model_name: str) -> str:
+    """The human-readable summary of a diagnosis record (plain text, ~100 columns)."""
+    res, gain, sel, cause = record["residuals"], record["gain"], record["selection"], record["cause"]
+    n = len(res["measured_hz"])
+    lines = [f"Diagnosis of model {model_name} against {data_source}",
+             f"  {n} measured modes at {len(res['measured_dofs'])} coordinates; noise: frequencies "
+             f"{fmt(100 * sel['freq_noise'], 3)} %, shapes {fmt(100 * sel['shape_noise'], 3)} % of the mode RMS", ""]
+
+    lines += [f"CAUSE: {cause_text(cause)}",
+              f"  p = {fmt(cause.get('p_adjusted'), 3)} (adjusted over {sel['n_candidates']} candidates; "
+              f"significant below {fmt(sel['alpha'], 2)})"]
+    best = best_label(record)
+    needed = threshold_chi2_drop(sel)
+    if cause["kind"] == "none" and best is not None and needed is not None:
+        drop = next(c["chi2_drop"] for c in record["candidates"] if c["label"] == best)
+        lines.append(f"  best candidate {best}: chi^2 drop {fmt(drop)}, {fmt(needed, 3)} needed")
+    lines.append("")
+
+    lines += [f"Calibrated model: global stiffness scale {fmt(res['global_scale'], 6)}, chi^2 {fmt(res['chi2'])} "
+              f"over {res['n_residuals']} residuals",
+              "  mode  measured Hz   model Hz   error %     MAC  model mode"]
+    for k in range(n):
+        p = res["paired_model_mode"][k]
+        lines.append(f"  {k + 1:4d}  {hz(res['measured_hz'][k]):>11}  {hz(res['model_hz'][k]):>9}  "
+                     f"{pct(res['error_pct'][k]):>8}  {fmt(res['mac'][k], 4):>6}  {p if p > 0 else 'none':>10}")
+    summary = f"  mean |error| {fmt(res.get('mean_abs_error_pct'), 3)} %"
+    if res.get("mean_mac") is not None:
+        summary += f", mean MAC {fmt(res['mean_mac'], 4)}, mean COMAC {fmt(res['mean_comac'], 4)}"
+    lines.append(summary)
+    if res.get("comac") is not None:
+        cells = [f"{c:>4} {v:.3f}" for c, v in zip(coordinate_labels(record), res["comac"])]
+        lines.append("  COMAC:" + "".join(("\n        " if i and i % COMAC_PER_LINE == 0 else "  ") + c
+                                          for i, c in enumerate(cells)))
+    else:
+        lines.append("  COMAC: - (no measured shapes)")
+    pinned = res.get("pinned_parameters") or []
+    lines.append("  pinned at a bound by a +-1/7 modulus update: "
+                 + (", ".join(f"{p['parameter']} ({p['bound']})" for p in pinned) or "none"))
+    if res.get("unpaired_modes"):
+        lines.append(f"  measured modes paired with no model mode: {res['unpaired_modes']}")
+    lines.append("")
+
+    alts = record["alternatives"][:N_ALTERNATIVES]
+    if alts:
+        title = "Closest candidates, none significant" if cause["kind"] == "none" else "Alternatives"
+        lines.append(f"{title} (chi^2 drop against the calibrated model; distance to the best, below "
+                     f"{fmt(sel['ambiguity_chi2'], 2)}: cannot tell apart)")
+        width = max(len(a["label"]) for a in alts)
+        for a in alts:
+            lines.append(f"  {a['label']:<{width}}  drop {fmt(a['chi2_drop']):>6}  "
+                         f"distance {fmt(a['delta_to_best']):>6}   {estimate_text(a['estimate'])}")
+        lines.append("")
+
+    if gain.get("held_out_modes"):
+        b, a = gain["before"], gain.get("after")
+        lines.append(f"Held-out mode(s) {mode_ranges(gain['held_out_modes'])} (models refitted on modes "
+                     f"{mode_ranges(gain['fit_modes'])}): calibrated" + (" -> extended" if a else ""))
+        for q, key, d in (("mean |frequency error| %", "mean_abs_error_pct", 3), ("mean MAC", "mean_mac", 4),
+                          ("mean COMAC", "mean_comac", 4)):
+            if b.get(key) is not None:
+                lines.append(f"  {q:<25} {fmt(b[key], d)}" + (f" -> {fmt(a.get(key), d)}" if a else ""))
+        for k, m in enumerate(gain["held_out_modes"]):
+            lines.append(f"  mode {m}: error {pct(b['error_pct'][k])} %"
+                         + (f" -> {pct(a['error_pct'][k])} %" if a else ""))
+    else:
+        lines.append(f"Held-out gain: {gain.get('note', 'no modes held out')}")
+
+    if record["warnings"]:
+        lines += ["", "Warnings:"] + [f"  - {w}" for w in record["warnings"]]
+    return "\n".join(lines)
+
+

@@ -1,0 +1,124 @@
+"""Shared inputs of the benchmark suites, and the figures derived from one run of them.
+
+The speed goals are ratios between benchmarks (the batched objective against the per-sample
+loop and against a bare batched eigen-solve). The machine is shared and noisy, so a ratio
+means something only when both sides were timed in the same session: each benchmark files
+its per-item time here through the `record` fixture, and the session ends with a table of
+the ratios (printed in the terminal summary and added to the JSON that --benchmark-json /
+--benchmark-autosave write, under "femu_figures"). Nothing here asserts on a time.
+
+Times are per item (per sample, per evaluation) in seconds, from the minimum over rounds
+(the least disturbed round of a noisy machine) and, for reference, the median.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+
+from adapters.variants import make_problem
+
+#: The population every evaluation benchmark uses: this many points, uniform in the bounds.
+N_POINTS = 2000
+#: Fixes the population exactly (the same points in every run of the suite).
+POINTS_SEED = 20240611
+
+#: (label, slow key, fast key, goal): ratio = per-item time of `slow` / per-item time of
+#: `fast`, so a ratio above 1 means `fast` is faster; the goal is the least acceptable ratio.
+RATIOS = (
+    ("evaluate(paper) speed-up over the per-sample loop", "loop_paper", "evaluate_paper", 30.0),
+    ("evaluate(paper) speed / bare batched eigvalsh speed", "eigvalsh_bare", "evaluate_paper", 0.5),
+    ("evaluate(paper) speed / bare batched eigh speed", "eigh_bare", "evaluate_paper", 0.5),
+    ("evaluate(synthetic, shapes) speed / bare batched eigh speed", "eigh_bare", "evaluate_synthetic", 0.5),
+)
+
+_FIGURES: dict[str, dict] = {}
+
+
+@pytest.fixture(scope="session")
+def points() -> np.ndarray:
+    """N_POINTS parameter vectors (Pa), uniform inside the paper problem's bounds, fixed seed."""
+    p = make_problem("paper")
+    return np.random.default_rng(POINTS_SEED).uniform(p.xl, p.xu, size=(N_POINTS, p.n_var))
+
+
+@pytest.fixture(scope="session")
+def symmetric_stack() -> np.ndarray:
+    """N_POINTS random symmetric matrices (fixed seed) the size of the H-frame's eigenproblem
+    (39 x 39: 13 nodes x 3 DOF, free-free): the bare batched solver's input."""
+    n_dof = make_problem("paper").system.n_free
+    b = np.random.default_rng(0).standard_normal((N_POINTS, n_dof, n_dof))
+    return b + np.swapaxes(b, 1, 2)
+
+
+@pytest.fixture
+def record(benchmark):
+    """record(key, n_items, per_item_s=None, **info): file a per-item time under `key`.
+
+    Without `per_item_s`, call it after the benchmark ran: the benchmark's round times
+    divided by `n_items` are filed (under --benchmark-disable nothing was timed and nothing
+    is filed). With `per_item_s`, a list of per-item times (s) measured otherwise (e.g. from
+    run records) is filed. `info` goes to the benchmark's extra_info. Returns the filed
+    {"min_s", "median_s", ...} or None.
+    """
+
+    def _record(key: str, n_items: int, per_item_s=None, **info):
+        benchmark.extra_info.update(n_items=int(n_items), **info)
+        if per_item_s is None:
+            meta = benchmark.stats
+            if meta is None or not meta.stats.data:
+                return None
+            per_item_s = [t / n_items for t in meta.stats.data]
+        fig = {"min_s": float(np.min(per_item_s)), "median_s": float(np.median(per_item_s)),
+               "rounds": len(per_item_s), "n_items": int(n_items), **info}
+        benchmark.extra_info.update(per_item_min_s=fig["min_s"], per_item_median_s=fig["median_s"])
+        _FIGURES[key] = fig
+        return fig
+
+    return _record
+
+
+def _time(seconds: float) -> str:
+    for unit, scale in (("s", 1.0), ("ms", 1e-3), ("us", 1e-6)):
+        if seconds >= scale:
+            return f"{seconds / scale:.2f} {unit}"
+    return f"{seconds / 1e-9:.0f} ns"
+
+
+def _ratios() -> list[dict]:
+    out = []
+    for label, slow, fast, goal in RATIOS:
+        if slow in _FIGURES and fast in _FIGURES:
+            s, f = _FIGURES[slow], _FIGURES[fast]
+            ratio = s["min_s"] / f["min_s"]
+            out.append({"label": label, "slow": slow, "fast": fast, "ratio_min": ratio,
+                        "ratio_median": s["median_s"] / f["median_s"], "goal": goal, "met": ratio >= goal})
+    return out
+
+
+def pytest_terminal_summary(terminalreporter):
+    """Print the per-item figures and the ratios of this session."""
+    if not _FIGURES:
+        return
+    tr = terminalreporter
+    tr.section("femu-bench figures (this run)")
+    tr.write_line(f"OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS', '(unset)')}")
+    tr.write_line(f"{'figure':<34}{'per item, min':>16}{'per item, median':>19}{'items':>7}")
+    for key, fig in sorted(_FIGURES.items()):
+        tr.write_line(f"{key:<34}{_time(fig['min_s']):>16}{_time(fig['median_s']):>19}{fig['n_items']:>7}")
+    ratios = _ratios()
+    if ratios:
+        tr.write_line("")
+        tr.write_line(f"{'ratio (per-item time slow / fast)':<62}{'min':>8}{'median':>8}{'goal':>7}")
+        for r in ratios:
+            tr.write_line(f"{r['label']:<62}{r['ratio_min']:>8.2f}{r['ratio_median']:>8.2f}"
+                          f"{'>= ' + format(r['goal'], 'g'):>7}  {'met' if r['met'] else 'NOT MET'}")
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_benchmark_update_json(config, benchmarks, output_json):
+    """Add the figures and ratios to the JSON of --benchmark-json / --benchmark-autosave."""
+    output_json["femu_figures"] = {"per_item": dict(_FIGURES), "ratios": _ratios(),
+                                   "OPENBLAS_NUM_THREADS": os.environ.get("OPENBLAS_NUM_THREADS")}

@@ -1,0 +1,205 @@
+"""`femu diagnose` as a user runs it: the JSON answer, the terminal summary, the files that
+--out writes (an extended model that loads and fits better, a report with its figures), the
+paper's data, and bad input (exit 2 with a one-line message naming the file and the problem).
+
+The hidden-effect accuracy of the diagnosis itself is tests/test_diagnosis.py's; here each
+case only needs an answer the data leave no doubt about.
+"""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import fe_problem as fp
+from adapters.cli import main
+from adapters.diagnose_cli import summary_text
+from adapters.diagnosis_report import deformed_frame
+
+FEMU = Path(sys.executable).parent / "femu"
+HFRAME = fp.load_model("hframe")
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+
+
+def measure(truth, seed):
+    """What a modal test of `truth` would give, labelled as data for the nominal H-frame."""
+    return fp.synthetic_measurement(truth, 8, freq_noise=0.002, shape_noise=0.02, model_name="hframe", seed=seed)
+
+
+def femu(capsys, *argv):
+    code = main(list(map(str, argv)))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory):
+    d = tmp_path_factory.mktemp("diagnose")
+    mass = measure(fp.add_mass(HFRAME, 9, 0.04), seed=1)
+    crack = measure(fp.crack_element(HFRAME, 7, 0.3, 3e4), seed=3)
+    # mode 3 of the crack data replaced by noise: it must be left out, not break the answer
+    shapes = crack.shapes.copy()
+    shapes[:, 2] = np.random.default_rng(5).standard_normal(shapes.shape[0])
+    crack_bad_mode = fp.ModalData("hframe", crack.dofs, crack.frequencies_hz, shapes, crack.meta)
+    return {"dir": d, "mass": fp.save_modal_data(mass, d / "mass.json"),
+            "crack_bad_mode": fp.save_modal_data(crack_bad_mode, d / "crack_bad_mode.json")}
+
+
+def test_json_names_the_added_mass_and_out_writes_a_usable_extended_model(files, capsys, tmp_path):
+    out_dir = tmp_path / "report"
+    code, out, err = femu(capsys, "diagnose", files["mass"], "--json", "--out", out_dir)
+    assert code == 0, err
+    record = json.loads(out)  # stdout is exactly one JSON object
+    cause = record["cause"]
+    assert (cause["kind"], cause["location"], cause["identifiable"]) == ("added_mass", {"node": 9}, True)
+    assert 0.03 < cause["estimate"]["mass_kg"] < 0.05
+    assert record["alternatives"] and all(a["label"] != cause["label"] for a in record["alternatives"])
+    residuals = record["residuals"]
+    assert all(len(residuals[key]) == 8 for key in ("measured_hz", "model_hz", "error_pct", "mac", "paired_model_mode"))
+    assert len(residuals["comac"]) == len(residuals["measured_dofs"]) == 15
+    assert 0.9 < residuals["global_scale"] < 1.0  # the hidden mass lowers every frequency a little
+    gain = record["gain"]
+    assert gain["held_out_modes"] == [7, 8]
+    assert gain["after"]["mean_abs_error_pct"] < gain["before"]["mean_abs_error_pct"]
+    assert "wrote" in err and "Traceback" not in err
+
+    # the files: the same record, a model file, a report whose figures exist
+    assert json.loads((out_dir / "diagnosis.json").read_text()) == record
+    report = (out_dir / "report.md").read_text()
+    assert "added_mass at node 9" in report
+    figures = [line[line.index("](") + 2:-1] for line in report.splitlines() if line.startswith("![")]
+    assert sorted(figures) == ["candidates.png", "correlation.png", "frequency_errors.png", "shapes.png"]
+    for name in figures:
+        png = (out_dir / name).read_bytes()
+        assert png[:8] == PNG_MAGIC and len(png) > 20_000, name
+
+    # the extended model: loads, carries the mass, and fits the data better than the calibrated model
+    extended = fp.load_model(out_dir / "extended.model.json")
+    assert [(m.node, round(m.mass_kg, 3)) for m in extended.masses] == [(9, round(cause["estimate"]["mass_kg"], 3))]
+    problem = fp.UpdatingProblem(model=extended, data=files["mass"], weights="unit")
+    error_extended = problem.correlation().mean_abs_error_pct
+    error_nominal = fp.UpdatingProblem(model="hframe", data=files["mass"]).correlation().mean_abs_error_pct
+    assert error_extended < 0.5 * record["residuals"]["mean_abs_error_pct"]
+    assert error_extended < 0.5 * error_nominal
+    assert problem.evaluate(problem.x0).shape == (1,)
+
+
+def test_summary_shows_the_cause_and_leaves_out_a_mode_that_pairs_with_nothing(files, capsys, tmp_path):
+    code, out, err = femu(capsys, "diagnose", files["crack_bad_mode"], "--out", tmp_path)
+    assert code == 0, err
+    assert err == ""  # nothing on stderr when all is well and stderr is not a terminal
+    lines = out.splitlines()
+    assert "CAUSE: stiffness_loss at element 7: stiffness_loss_pct" in out
+    assert "global stiffness scale 0.9" in out
+    mode3 = next(line for line in lines if line.split()[:1] == ["3"])
+    assert mode3.split()[-1] == "none"  # the noise mode pairs with no model mode
+    assert "measured mode(s) [3] pair with no model mode" in out  # the diagnosis's warning
+    comac = [line for line in lines if line.strip().startswith("COMAC:")]
+    assert comac and "7x 0." in out and "10y 0." in out
+    held = next(line for line in lines if line.startswith("Held-out mode(s) 7-8"))
+    assert "calibrated -> extended" in held
+    before, after = [float(v) for v in next(l for l in lines if "mean |frequency error| %" in l).split()[-3::2]]
+    assert after < before
+    assert "Alternatives" in out
+    assert f"wrote {tmp_path / 'extended.model.json'}" in out
+    assert (tmp_path / "shapes.png").read_bytes()[:8] == PNG_MAGIC
+
+
+def test_paper_data_cannot_tell_the_candidates_apart(capsys):
+    code, out, err = femu(capsys, "diagnose", "paper", "--json")
+    assert code == 0, err
+    record = json.loads(out)
+    cause = record["cause"]
+    assert cause["identifiable"] is False
+    assert len(cause["indistinguishable"]) >= 2
+    assert cause["estimate"] == {}
+    assert record["residuals"]["mac_matrix"] is None  # the paper gives frequencies only
+    summary = summary_text(record, "paper", "hframe")
+    assert "CAUSE: cannot tell apart: " + ", ".join(cause["indistinguishable"]) in summary
+    assert "COMAC: - (no measured shapes)" in summary
+
+
+def test_no_effect_gives_cause_none_and_no_extended_model(capsys, tmp_path):
+    data = fp.save_modal_data(fp.synthetic_measurement("hframe", 8, freq_noise=0.002, shape_noise=0.02, seed=4),
+                              tmp_path / "nominal.json")
+    out_dir = tmp_path / "out"
+    code, out, err = femu(capsys, "diagnose", data, "--out", out_dir)
+    assert code == 0, err
+    assert "CAUSE: none: " in out
+    assert "Closest candidates, none significant" in out
+    assert sorted(p.name for p in out_dir.iterdir()) == ["candidates.png", "correlation.png", "diagnosis.json",
+                                                         "frequency_errors.png", "report.md", "shapes.png"]
+    record = json.loads((out_dir / "diagnosis.json").read_text())
+    assert record["cause"]["kind"] == "none" and record["extended_model"] is None
+    assert "after" not in record["gain"] and "-> " not in out.split("Held-out")[1]
+
+
+def test_deformed_frame_follows_the_nodes():
+    n = len(HFRAME.nodes)
+    rest = deformed_frame(HFRAME, np.zeros(3 * n), 1.0)
+    xy = {node.id: (node.x, node.y) for node in HFRAME.nodes}
+    for curve, e in zip(rest, HFRAME.elements):
+        np.testing.assert_allclose(curve[[0, -1]], [xy[e.node_i], xy[e.node_j]], atol=1e-12)
+    # a rigid translation moves every point of every element by the same amount
+    shift = np.tile([0.01, -0.02, 0.0], n)
+    np.testing.assert_allclose(deformed_frame(HFRAME, shift, 2.0) - rest, np.broadcast_to([0.02, -0.04], rest.shape),
+                               atol=1e-12)
+    # a mode shape: element ends land on the displaced nodes
+    phi = fp.modal_analysis(HFRAME, 2).shapes[:, 1]
+    moved = deformed_frame(HFRAME, phi, 0.5)
+    u = phi.reshape(n, 3)
+    index = {node.id: k for k, node in enumerate(HFRAME.nodes)}
+    for curve, e in zip(moved, HFRAME.elements):
+        for end, node in ((0, e.node_i), (-1, e.node_j)):
+            np.testing.assert_allclose(curve[end], np.add(xy[node], 0.5 * u[index[node], :2]), atol=1e-12)
+
+
+# == bad input ================================================================================
+def test_data_of_another_model(capsys, tmp_path):
+    other = HFRAME.with_element_moduli({3: 5.0e10}).replace(name="hframe_mod")
+    fp.save_model(other, tmp_path / "hframe_mod.model.json")
+    data = fp.synthetic_measurement(other, 8, model_name="hframe_mod.model.json")
+    path = fp.save_modal_data(data, tmp_path / "other.json")
+    code, out, err = femu(capsys, "diagnose", path, "--model", "hframe")
+    assert code == 2 and out == ""
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert str(path) in err and "for model 'hframe_mod.model.json', not 'hframe'" in err
+
+
+def test_too_few_modes(files, tmp_path):
+    path = fp.save_modal_data(fp.load_modal_data(files["mass"]).subset([0, 1]), tmp_path / "two.json")
+    run = subprocess.run([str(FEMU), "diagnose", str(path)], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 2 and run.stdout == ""
+    assert run.stderr.count("\n") == 1 and "Traceback" not in run.stderr
+    assert str(path) in run.stderr and "2 mode(s) are too few" in run.stderr
+
+
+def test_shapes_that_pair_with_no_model_mode(files, capsys, tmp_path):
+    data = fp.load_modal_data(files["mass"])
+    noise = np.random.default_rng(0).standard_normal(data.shapes.shape)
+    path = fp.save_modal_data(fp.ModalData("hframe", data.dofs, data.frequencies_hz, noise), tmp_path / "noise.json")
+    code, out, err = femu(capsys, "diagnose", path, "--json")
+    assert code == 2 and out == ""
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert str(path) in err and "only 0 measured mode(s) pair with a mode of model 'hframe'" in err
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["diagnose", "no_such.json"], "no data file 'no_such.json'"),
+    (["diagnose", "paper", "--freq-noise", "0"], "--freq-noise must be a number > 0"),
+    (["diagnose", "paper", "--shape-noise", "-0.1"], "--shape-noise must be a number > 0"),
+])
+def test_bad_arguments(capsys, argv, message):
+    code, out, err = femu(capsys, *argv)
+    assert code == 2 and out == "" and message in err and err.count("\n") == 1
+
+
+def test_out_that_is_a_file(files, capsys, tmp_path):
+    blocker = tmp_path / "taken"
+    blocker.write_text("")
+    code, out, err = femu(capsys, "diagnose", files["mass"], "--out", blocker)
+    assert code == 2 and out == ""
+    assert f"--out {blocker}: exists and is not a directory" in err
