@@ -5,6 +5,9 @@ The harness counts every row as one FE evaluation, stops the run by raising
 `BudgetExhausted` when the budget is spent (evaluating exactly the rows that fit), keeps the
 best point seen with its best-so-far trace, and times the run: wall, CPU and the time spent
 inside the FE evaluations. A plugin may therefore simply loop until it is stopped.
+
+Helpers for adapters: `unit_scaled` (work in the unit cube) and `seeded_global_rngs` (for
+libraries that draw from numpy's or Python's global generator).
 """
 
 from __future__ import annotations

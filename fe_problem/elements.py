@@ -110,6 +110,38 @@ def cracked_bending_stiffness(length: np.ndarray, ei: np.ndarray, position: np.n
     return k
 
 
+#: Modulus profiles along an element: w(xi) piecewise linear through these values at xi = 0, 1/2, 1.
+PROFILES = {"uniform": (1.0, 1.0, 1.0), "toward_i": (1.0, 0.5, 0.0), "toward_j": (0.0, 0.5, 1.0),
+            "middle": (0.0, 1.0, 0.0)}
+
+
+def weighted_stiffness(length: np.ndarray, area: np.ndarray, inertia: np.ndarray, w: tuple) -> np.ndarray:
+    """Local Euler-Bernoulli stiffness of elements whose modulus varies as E w(xi), w piecewise
+    linear through w = (w(0), w(1/2), w(1)) (per unit E).
+
+    Axial: EA/L times the mean of w. Bending: the integral of EI w B^T B, B the curvatures of
+    the Hermite cubics (linear in xi): on each half the integrand is cubic, so two Gauss
+    points per half are exact. w = (1, 1, 1) gives `local_stiffness` with phi = 0.
+    """
+    L = length
+    n = L.shape[0]
+    w0, wm, w1 = w
+    k = np.zeros((n, 6, 6))
+    a = area / L * 0.25 * (w0 + 2.0 * wm + w1)
+    k[:, 0, 0] = k[:, 3, 3] = a
+    k[:, 0, 3] = k[:, 3, 0] = -a
+    idx = np.array([1, 2, 4, 5])
+    g = 0.5 / np.sqrt(3.0)
+    for lo, wa, wb in ((0.0, w0, wm), (0.5, wm, w1)):
+        for t in (0.5 - g, 0.5 + g):
+            xi = lo + 0.5 * t
+            b = np.stack([(-6.0 + 12.0 * xi) / L**2, (-4.0 + 6.0 * xi) / L,
+                          (6.0 - 12.0 * xi) / L**2, (-2.0 + 6.0 * xi) / L], axis=1)
+            wt = wa * (1.0 - t) + wb * t
+            k[:, idx[:, None], idx[None, :]] += (0.25 * L * inertia * wt)[:, None, None] * b[:, :, None] * b[:, None, :]
+    return k
+
+
 def to_global(local: np.ndarray, t: np.ndarray) -> np.ndarray:
     """T^T a T for a stack of element matrices."""
     return np.einsum("eki,ekl,elj->eij", t, local, t)

@@ -35,6 +35,12 @@ class Parameter:
     stiffness of the model's spring with id in `targets`), ``release`` (N m/rad, the rotational
     spring at element end ``targets = (element id, node id)``, which must be released in the
     model).
+
+    ``profile`` (modulus of one Euler-Bernoulli element only): how a change of the modulus is
+    spread along the element. With value E' the element's modulus becomes
+    E(xi) = E - (E - E') w(xi), w from `elements.PROFILES`: ``uniform`` (w = 1, the whole
+    element), ``toward_i`` / ``toward_j`` (w linear, 1 at that end, 0 at the other),
+    ``middle`` (w a hat: 1 at mid-length, 0 at both ends).
     """
 
     kind: str
@@ -43,6 +49,7 @@ class Parameter:
     upper: float
     initial: float
     name: str = ""
+    profile: str = "uniform"
 
     def __post_init__(self) -> None:
         if self.kind not in PARAMETER_KINDS:
@@ -51,6 +58,10 @@ class Parameter:
             raise ValueError(f"parameter {self.label}: need finite lower < upper, got [{self.lower}, {self.upper}]")
         if not self.lower <= self.initial <= self.upper:
             raise ValueError(f"parameter {self.label}: initial {self.initial} outside [{self.lower}, {self.upper}]")
+        if self.profile not in el.PROFILES:
+            raise ValueError(f"parameter {self.label}: profile must be one of {list(el.PROFILES)}, got {self.profile!r}")
+        if self.profile != "uniform" and (self.kind != "modulus" or len(self.targets) != 1):
+            raise ValueError(f"parameter {self.label}: a profile applies to the modulus of one element")
 
     @property
     def label(self) -> str:
@@ -172,12 +183,18 @@ class AffineModel:
         taken_springs: set[int] = set()
         taken_releases: set[tuple[int, int]] = set()
         taken_masses: set[int] = set()
+        k_extra = np.zeros((n, n))
         for p, par in enumerate(self.parameters):
             if par.kind in ("modulus", "density"):
                 rows = [index[t] if t in index else _unknown(model, "element", t, par) for t in par.targets]
                 w = np.zeros(len(model.elements))
                 w[rows] = 1.0
-                if par.kind == "modulus":
+                if par.kind == "modulus" and par.profile != "uniform":
+                    k_w = _profile_stiffness(model, par)
+                    one = dm.element_dofs[rows]
+                    dk[p] = _scatter(n, one, k_w)
+                    k_extra -= modulus[rows[0]] * dk[p]
+                elif par.kind == "modulus":
                     k_weight[rows] = 0.0
                     dk[p] = _scatter(n, dm.element_dofs, k_el * w[:, None, None])
                 else:
@@ -203,7 +220,7 @@ class AffineModel:
                 dk[p] = _two_dof(n, model.dof_index(key[1], "rz"), dm.hinges[key], 1.0)
                 taken_releases.add(key)
 
-        k0 = _scatter(n, dm.element_dofs, k_el * k_weight[:, None, None])
+        k0 = _scatter(n, dm.element_dofs, k_el * k_weight[:, None, None]) + k_extra
         m0 = _scatter(n, dm.element_dofs, m_el * m_weight[:, None, None])
         for lm in model.masses:
             b = model.dof_index(lm.node, "x")
@@ -316,6 +333,19 @@ class AffineModel:
         A supported DOF has no row: -1 (its shape entry is zero)."""
         pos = {g: i for i, g in enumerate(self.dofmap.free)}
         return np.array([pos.get(self.model.dof_index(n, d), -1) for n, d in dofs], dtype=int)
+
+
+def _profile_stiffness(model: FrameModel, par: Parameter) -> np.ndarray:
+    """Global-axis stiffness per unit modulus of one element weighted by a profile, (1, 6, 6)."""
+    e = model.element(par.targets[0])
+    if e.formulation != "euler-bernoulli" or e.crack_position is not None:
+        raise ValueError(f"parameter {par.label}: a modulus profile needs an uncracked Euler-Bernoulli element")
+    a, b = model.node(e.node_i), model.node(e.node_j)
+    length = np.array([np.hypot(b.x - a.x, b.y - a.y)])
+    sec = model.sections[e.section]
+    k = el.weighted_stiffness(length, np.array([sec.area_m2]), np.array([sec.inertia_m4]), el.PROFILES[par.profile])
+    t = el.rotation(np.array([(b.x - a.x) / length[0]]), np.array([(b.y - a.y) / length[0]]))
+    return el.to_global(k, t)
 
 
 def _unknown(model: FrameModel, what: str, ident, par: Parameter):

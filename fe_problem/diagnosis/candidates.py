@@ -24,8 +24,9 @@ from typing import Callable, Iterator
 
 import numpy as np
 
+from ..elements import PROFILES
 from ..modal import frequencies_hz
-from ..model import FrameModel, add_mass, release_element_end, with_formulation
+from ..model import FrameModel, add_mass, release_element_end, split_element, with_formulation
 from ..parameters import AffineModel, Parameter
 
 KINDS = ("stiffness_loss", "added_mass", "joint_flexibility", "shear_deformation")
@@ -66,9 +67,9 @@ class Candidate:
 
     @property
     def label(self) -> str:
-        if self.location is None:
-            return self.kind
-        return self.kind + "@" + ",".join(f"{k}={v}" for k, v in self.location.items())
+        where = "" if self.location is None else "@" + ",".join(f"{k}={v}" for k, v in self.location.items())
+        profile = self.meta.get("profile", "uniform")
+        return self.kind + where + ("" if profile == "uniform" else f"({profile})")
 
 
 def scale_stiffness(model: FrameModel, s: float) -> FrameModel:
@@ -81,6 +82,25 @@ def scale_stiffness(model: FrameModel, s: float) -> FrameModel:
     return model.replace(elements=elements, springs=springs)
 
 
+def _profiled_model(model: FrameModel, element_id: int, e0: float, a: float, profile: str) -> FrameModel:
+    """The element split in four parts, each with the mean modulus of E0 (1 - a w(xi)) over it.
+
+    A model file has one modulus per element; four parts carry a linear profile closely
+    (the extension's exact affine form is what the diagnosis fitted)."""
+    w0, wm, w1 = PROFILES[profile]
+    out = model
+    ids = [element_id]
+    for k in range(3):  # split the last part at 1/(4-k) of its length: four equal parts
+        out = split_element(out, ids[-1], 1.0 / (4 - k))
+        ids.append(max(out.element_ids))
+    moduli = {}
+    for k, eid in enumerate(ids):
+        xi = (k + 0.5) / 4.0
+        w = np.interp(xi, [0.0, 0.5, 1.0], [w0, wm, w1])
+        moduli[eid] = e0 * (1.0 - a * w)
+    return out.with_element_moduli(moduli)
+
+
 def _bending_compliance_ref(model: FrameModel, element_id: int) -> float:
     """(E I / L) of an element, N m/rad: the scale of a joint spring at its end."""
     e = model.element(element_id)
@@ -88,23 +108,32 @@ def _bending_compliance_ref(model: FrameModel, element_id: int) -> float:
 
 
 def stiffness_loss(st: Setting) -> Iterator[Candidate]:
+    """A loss of modulus in one element, spread uniformly, decaying linearly from one end, or
+    peaking at mid-length (a crack softens the part of the element around it most); the
+    place is the element either way."""
     for e in st.model.elements:
-        e0 = st.model.element_modulus_pa(e.id)
-        system = AffineModel(st.model, (Parameter("modulus", (e.id,), 1e-3 * e0, e0, e0),))
+        profiles = ("uniform",) if e.formulation != "euler-bernoulli" or e.crack_position else PROFILES
+        for profile in profiles:
+            e0 = st.model.element_modulus_pa(e.id)
+            system = AffineModel(st.model, (Parameter("modulus", (e.id,), 1e-3 * e0, e0, e0, profile=profile),))
 
-        def forward(a, system=system, e0=e0):
-            return solve(system, (e0 * (1.0 - np.asarray(a)))[:, None], st.coords, st.n_modes)
+            def forward(a, system=system, e0=e0):
+                return solve(system, (e0 * (1.0 - np.asarray(a)))[:, None], st.coords, st.n_modes)
 
-        def estimate(a, s, e=e, e0=e0):
-            return {"stiffness_loss_pct": 100.0 * a, "modulus_ratio": 1.0 - a,
-                    "modulus_pa": s * e0 * (1.0 - a)}
+            def estimate(a, s, e0=e0, profile=profile):
+                return {"stiffness_loss_pct": 100.0 * a, "modulus_ratio": 1.0 - a, "profile": profile,
+                        "modulus_pa": s * e0 * (1.0 - a)}
 
-        def extend(a, e=e, e0=e0):
-            return st.model.with_element_moduli({e.id: e0 * (1.0 - a)})
+            def extend(a, e=e, e0=e0, profile=profile):
+                if profile == "uniform":
+                    return st.model.with_element_moduli({e.id: e0 * (1.0 - a)})
+                # a profiled loss is written as the element split in four, each part at its mean modulus
+                return _profiled_model(st.model, e.id, e0, a, profile)
 
-        yield Candidate("stiffness_loss", {"element": e.id}, 0.9,
-                        np.array([0.0, 0.005, 0.01, 0.02, 0.04, 0.07, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9]),
-                        forward, estimate, extend, step=0.01)
+            yield Candidate("stiffness_loss", {"element": e.id}, 0.9,
+                            np.array([0.0, 0.005, 0.01, 0.02, 0.04, 0.07, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7,
+                                      0.8, 0.9]),
+                            forward, estimate, extend, step=0.01, meta={"profile": profile})
 
 
 def added_mass(st: Setting) -> Iterator[Candidate]:

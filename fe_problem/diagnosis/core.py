@@ -226,7 +226,9 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
     tied = [i for i in fitted if (fitted[i].chi2 - best.chi2) / dispersion < AMBIGUITY_CHI2]
     tied.sort(key=lambda i: fitted[i].chi2)
     c_best = cands[best_i]
-    identifiable = len(tied) == 1
+    # candidates that differ only in how a loss is spread along one element are one answer
+    answers = {(cands[i].kind, str(cands[i].location)) for i in tied}
+    identifiable = len(answers) == 1
     kinds_tied = {cands[i].kind for i in tied}
     places_tied = {str(cands[i].location) for i in tied}
     cause = {"kind": c_best.kind if len(kinds_tied) == 1 else "undetermined",
@@ -235,11 +237,12 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
              "identifiable": identifiable, "p_adjusted": p_adj, "label": c_best.label if identifiable else None}
     if not identifiable:
         cause["indistinguishable"] = [cands[i].label for i in tied]
-        cause["explanation"] = (f"{len(tied)} candidates explain the data equally well (chi^2 within "
+        cause["explanation"] = (f"{len(answers)} candidates explain the data equally well (chi^2 within "
                                 f"{AMBIGUITY_CHI2:.1f} of the best): the data cannot tell them apart")
         warnings.append(cause["explanation"])
     alternatives = [_alt(cands[i], fitted[i], base, best, dispersion)
-                    for i in sorted(fitted, key=lambda i: fitted[i].chi2) if i != best_i]
+                    for i in sorted(fitted, key=lambda i: fitted[i].chi2)
+                    if (cands[i].kind, cands[i].location) != (c_best.kind, c_best.location)]
     extended = scale_stiffness(c_best.extend(best.a), best.s).replace(
         name=f"{model.name}+{c_best.label}", description=f"{model.name} extended by diagnosis: {c_best.label} "
         f"({_describe(c_best.estimate(best.a, best.s))}), stiffness scaled by {best.s:.5f}", source="<diagnosis>")

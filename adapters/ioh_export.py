@@ -1,0 +1,292 @@
+"""IOHprofiler files (for IOHanalyzer) written by the `ioh` package's own Analyzer logger.
+
+Two ways in, one file format:
+
+- `run_logged(...)` runs an optimizer on a problem wrapped as an ioh problem
+  (`IOHLoggedProblem`), so ioh's Analyzer logs every real evaluation as it happens.
+- `export_runs(runs, out_dir)` exports finished runs of a store after the fact. A RunResult
+  keeps its best-so-far trace, not every evaluation, so each run is replayed through the same
+  ioh problem, `n_evals` calls: the best-so-far value at each, NaN (never an improvement for
+  ioh) before the first recorded point. ioh logs the improvements and a run's last
+  evaluation; the replay gives that one the best value (its raw value is not stored), where
+  live logging writes its raw value. Within a batch of evaluations the harness keeps only the
+  batch's best, so an improvement is dated at that best's evaluation, never earlier.
+
+raw_y is the objective divided by its value at the initial parameters, J(x) / J(x0): ioh
+writes raw_y with 10 fixed decimals, which would keep only a few digits of J itself (about
+1e-5 on the paper's data). The scale is in each JSON's experiment attributes.
+
+Layout (ioh's): OUT/<algorithm>/IOHprofiler_f<id>_femu_<variant>.json and
+OUT/<algorithm>/data_f<id>_femu_<variant>/IOHprofiler_f<id>_DIM<n>.dat; one folder per
+optimizer (per optimizer and budget, named <optimizer>_b<budget>, when the runs have several
+budgets), one ioh function per problem variant, one ioh run per seed (a run attribute).
+`read_ioh` reads the files back, and the export checks what it wrote against the runs.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+
+from .harness import RunResult
+
+#: Prefix of the ioh function names: femu_paper, femu_synthetic, ...
+PREFIX = "femu_"
+MARKER = "femu-ioh.json"
+
+# ioh assigns function ids in registration order; registering every known variant first, in
+# one fixed order, gives each variant the same id in every process using one ioh version.
+_FEEDS: dict[str, object] = {}
+
+
+def _register(variant: str) -> None:
+    import ioh
+
+    from .variants import VARIANTS
+
+    for v in (*VARIANTS, variant):
+        if v not in _FEEDS:
+            _FEEDS[v] = None
+            ioh.wrap_problem(lambda x, v=v: _FEEDS[v](x), name=PREFIX + v, dimension=1)
+
+
+def ioh_problem(variant: str, n_var: int, feed):
+    """An ioh RealSingleObjective (minimisation) named femu_<variant> in `n_var` dimensions
+    whose value at each call is `feed(x)`; one feed per variant at a time."""
+    import ioh
+
+    _register(variant)
+    _FEEDS[variant] = feed
+    return ioh.get_problem(PREFIX + variant, 1, int(n_var), ioh.ProblemClass.REAL)
+
+
+@lru_cache(maxsize=None)
+def objective_scale(variant: str) -> float:
+    """J(x0) of a problem variant: raw_y = J / J(x0)."""
+    from .variants import make_problem
+
+    p = make_problem(variant)
+    return float(p.evaluate(p.x0)[0])
+
+
+def _analyzer(root: Path, algorithm: str, info: str, triggers: list):
+    import ioh
+
+    # the triggers list is held by the caller: ioh does not keep a trigger alive, and a freed
+    # one crashes the process at the next evaluation
+    lg = ioh.logger.Analyzer(triggers=triggers, root=str(root), folder_name=algorithm, algorithm_name=algorithm,
+                             algorithm_info=info, store_positions=False)
+    lg.add_run_attribute("seed", 0.0)
+    lg.add_experiment_attribute("raw_y", "J(x) / J(x0), J the objective (eq. 4)")
+    return lg
+
+
+class IOHLoggedProblem:
+    """A problem whose every evaluation is also passed through an ioh problem with an
+    Analyzer attached: live IOHprofiler logging. Evaluates vectorised with the wrapped
+    problem, then hands the values to ioh row by row (ioh's problems take points)."""
+
+    def __init__(self, problem, variant: str, logger):
+        self.problem = problem
+        self.scale = objective_scale(variant)
+        self._values: list[float] = []
+        self.ioh = ioh_problem(variant, problem.n_var, lambda x: self._values.pop())
+        self.ioh.attach_logger(logger)
+
+    def __getattr__(self, name):  # n_var, xl, xu, name, jacobian_cost_evals ... of the problem
+        return getattr(self.problem, name)
+
+    def _log(self, X: np.ndarray, f: np.ndarray) -> None:
+        self._values = list(np.asarray(f, float)[::-1] / self.scale)
+        self.ioh(np.atleast_2d(X))
+
+    def evaluate(self, X) -> np.ndarray:
+        """The problem's objective values (n,) for X (n, n_var), each logged by ioh."""
+        X = np.atleast_2d(np.asarray(X, dtype=float))
+        f = self.problem.evaluate(X)
+        self._log(X, f)
+        return f
+
+    def least_squares(self, x):
+        """The problem's least-squares form, logged as its `jacobian_cost_evals` evaluations
+        (the harness charges as many): the point once, then as often again without change."""
+        out = self.problem.least_squares(x)
+        cost = int(getattr(self.problem, "jacobian_cost_evals", 1))
+        self._log(np.repeat(np.atleast_2d(x), cost, axis=0), np.full(cost, out.f))
+        return out
+
+
+def run_logged(name: str, variant: str, budget: int, seed: int, out_dir, **options) -> RunResult:
+    """Run optimizer `name` on problem variant `variant` through the harness (budget in FE
+    evaluations), with ioh's Analyzer logging every evaluation live under OUT_DIR/<name>."""
+    import ioh
+
+    from .harness import run
+    from .variants import make_problem
+
+    triggers = [ioh.logger.trigger.ON_IMPROVEMENT]
+    logger = _analyzer(Path(out_dir), name, f"femu-bench {name}, variant {variant}", triggers)
+    logger.set_run_attribute("seed", float(seed))
+    wrapped = IOHLoggedProblem(make_problem(variant), variant, logger)
+    result = run(name, wrapped, budget, seed, variant=variant, **options)
+    wrapped.ioh.reset()
+    logger.close()
+    return result
+
+
+# == after the fact ===========================================================================
+def improvements(run: RunResult) -> list[tuple[int, float]]:
+    """The trace's strict improvements as (evaluation, best objective)."""
+    out, best = [], math.inf
+    for n, f in run.trace:
+        if f < best:
+            out.append((int(n), float(f)))
+            best = f
+    return out
+
+
+def _replay_values(run: RunResult, scale: float) -> np.ndarray:
+    """What the replay answers at evaluations 1..n_evals (scaled)."""
+    values = np.full(int(run.n_evals), np.nan)
+    for k, f in improvements(run):  # each improvement holds until the next
+        values[k - 1:] = f / scale
+    values[-1] = run.best_f / scale
+    return values
+
+
+def algorithm_names(runs) -> dict[str, list[RunResult]]:
+    """The ioh algorithm (folder) name of each run: the optimizer, with _b<budget> when the
+    runs hold several budgets of it."""
+    budgets: dict[str, set] = {}
+    for r in runs:
+        budgets.setdefault(r.optimizer, set()).add(r.budget)
+    out: dict[str, list[RunResult]] = {}
+    for r in sorted(runs, key=lambda r: (r.optimizer, r.budget, r.variant, r.seed)):
+        out.setdefault(r.optimizer if len(budgets[r.optimizer]) == 1 else f"{r.optimizer}_b{r.budget}", []).append(r)
+    return out
+
+
+def export_runs(runs, out_dir, validate: bool = True) -> Path:
+    """Write IOHprofiler files for `runs` (RunResults, a Store or a store path) under OUT_DIR,
+    replacing a previous export there; runs without any evaluation are left out and listed
+    in OUT_DIR/femu-ioh.json. With `validate`, read the files back and check every run's
+    evaluations, best and improvements (RuntimeError if they differ). Returns OUT_DIR."""
+    import ioh
+
+    from .store import Store
+
+    if isinstance(runs, (str, Path, Store)):
+        runs = (runs if isinstance(runs, Store) else Store(runs)).runs()
+    out = Path(out_dir)
+    if out.exists():
+        if (out / MARKER).exists():
+            shutil.rmtree(out)
+        elif not out.is_dir() or any(out.iterdir()):
+            raise ValueError(f"{out}: exists and is not a femu IOH export; choose an empty or new directory")
+    out.mkdir(parents=True, exist_ok=True)
+    usable = [r for r in runs if r.n_evals > 0 and r.trace and len(r.best_x)]
+    skipped = [r for r in runs if r.n_evals <= 0 or not r.trace or not len(r.best_x)]
+    by_alg = algorithm_names(usable)
+    triggers = [ioh.logger.trigger.ON_IMPROVEMENT]
+    for alg, rs in by_alg.items():
+        logger = _analyzer(out, alg, f"femu-bench {rs[0].optimizer}, budget {rs[0].budget}", triggers)
+        for r in rs:
+            values = iter(_replay_values(r, objective_scale(r.variant)).tolist())
+            problem = ioh_problem(r.variant, len(r.best_x), lambda x: next(values))
+            problem.attach_logger(logger)
+            logger.set_run_attribute("seed", float(r.seed))
+            problem(np.tile(np.asarray(r.best_x, float), (r.n_evals, 1)))
+            problem.reset()
+            problem.detach_logger()
+        logger.close()
+    (out / MARKER).write_text(json.dumps({
+        "format": "femu.ioh-export/1",
+        "raw_y_scale": {v: objective_scale(v) for v in sorted({r.variant for r in usable})},
+        "algorithms": {a: len(rs) for a, rs in by_alg.items()},
+        "skipped": [{"optimizer": r.optimizer, "variant": r.variant, "seed": r.seed, "status": r.status}
+                    for r in skipped]}, indent=1))
+    if validate:
+        check_export(out, by_alg)
+    return out
+
+
+# == reading back =============================================================================
+@dataclass(frozen=True, eq=False)
+class IOHRun:
+    """One run read from IOHprofiler files: `points` (k, 2) as (evaluations, raw_y)."""
+
+    algorithm: str
+    function_id: int
+    function_name: str
+    dimension: int
+    instance: int
+    evals: int
+    best_y: float
+    attributes: dict
+    points: np.ndarray
+
+
+def read_ioh(root) -> list[IOHRun]:
+    """Every run under ROOT's IOHprofiler .json files, with its .dat block, in file order.
+    ValueError naming the file when a .dat does not hold one block per listed run."""
+    runs = []
+    for js in sorted(Path(root).rglob("IOHprofiler_*.json")):
+        meta = json.loads(js.read_text())
+        for sc in meta["scenarios"]:
+            dat = js.parent / sc["path"]
+            blocks = _dat_blocks(dat)
+            if len(blocks) != len(sc["runs"]):
+                raise ValueError(f"{dat}: {len(blocks)} runs of data but {js} lists {len(sc['runs'])}")
+            for r, pts in zip(sc["runs"], blocks):
+                extra = {k: v for k, v in r.items() if k not in ("instance", "evals", "best")}
+                runs.append(IOHRun(meta["algorithm"]["name"], int(meta["function_id"]), meta["function_name"],
+                                   int(sc["dimension"]), int(r["instance"]), int(r["evals"]),
+                                   float(r["best"]["y"]), extra, pts))
+    return runs
+
+
+def _dat_blocks(path: Path) -> list[np.ndarray]:
+    blocks: list[list] = []
+    for i, line in enumerate(path.read_text().splitlines(), 1):
+        if line.startswith("evaluations"):
+            blocks.append([])
+        elif line.strip():
+            if not blocks:
+                raise ValueError(f"{path}:{i}: data before the first header line")
+            e, y = line.split()[:2]
+            blocks[-1].append((float(e), float("nan") if y == "None" else float(y)))
+    return [np.array(b, float).reshape(-1, 2) for b in blocks]
+
+
+def check_export(root, by_algorithm: dict[str, list[RunResult]]) -> None:
+    """RuntimeError unless the files under ROOT hold exactly the runs of `by_algorithm`
+    (as from `algorithm_names`): for each, the same evaluations, best value and improvements
+    plus ioh's last-evaluation line, all in units of J(x0)."""
+    got = {(r.algorithm, r.function_name[len(PREFIX):], int(r.attributes.get("seed", -1))): r
+           for r in read_ioh(root)}
+    n = sum(len(rs) for rs in by_algorithm.values())
+    if len(got) != n:
+        raise RuntimeError(f"{root}: {len(got)} runs in the IOHprofiler files, {n} exported")
+    for alg, runs in by_algorithm.items():
+        for run in runs:
+            key = (alg, run.variant, run.seed)
+            r = got.get(key)
+            if r is None:
+                raise RuntimeError(f"{root}: run {key} is missing from the IOHprofiler files")
+            scale = objective_scale(run.variant)
+            expect = [(k, f / scale) for k, f in improvements(run)]
+            if expect[-1][0] != run.n_evals:
+                expect.append((run.n_evals, run.best_f / scale))
+            # ioh writes raw_y with 10 fixed decimals
+            if (r.evals != run.n_evals or r.points.shape != (len(expect), 2)
+                    or not np.allclose(r.points, expect, rtol=0, atol=1e-10)):
+                raise RuntimeError(f"{root}: run {key} reads back as {r.evals} evaluations, {r.points.tolist()}; "
+                                   f"expected {run.n_evals}, {expect}")
+            if not math.isclose(r.best_y, run.best_f / scale, rel_tol=1e-9):
+                raise RuntimeError(f"{root}: run {key} best {r.best_y} != {run.best_f / scale}")

@@ -1,0 +1,99 @@
+"""The library optimizers (pymoo GA, PySwarms PSO, scipy dual annealing, pycma CMA-ES) under
+the harness on the paper's H-frame problem: exact budgets, seeds that fix a run exactly in any
+process, silence, and real progress."""
+
+import logging
+import multiprocessing
+import random
+from concurrent.futures import ProcessPoolExecutor
+
+import numpy as np
+import pytest
+
+import adapters
+from adapters.variants import make_problem
+
+LIBRARY = ["pymoo-ga", "pyswarms-pso", "scipy-sa", "cma-es"]
+
+
+def record(name, seed, budget, **options):
+    """What fixes a run: status, evaluations, best point, best value, trace."""
+    r = adapters.run(name, make_problem("paper"), budget, seed, **options)
+    return r.status, r.n_evals, r.best_x, r.best_f, r.trace
+
+
+def record_in_worker(name, seed, budget):
+    """`record` in a fresh process, with the root logger's handlers it ended with."""
+    return record(name, seed, budget), len(logging.getLogger().handlers)
+
+
+@pytest.fixture(scope="module")
+def spawned():
+    """One fresh interpreter ('spawn'), its global generators seeded from OS entropy."""
+    with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as pool:
+        yield pool
+
+
+@pytest.mark.parametrize("name", LIBRARY)
+def test_spends_exactly_the_budget_inside_the_bounds(name):
+    p = make_problem("paper")
+    r = adapters.run(name, p, 250, seed=1)  # 250: not a whole number of populations
+    assert (r.status, r.error, r.n_evals, p.n_evals) == ("ok", None, 250, 250)
+    assert r.trace[-1] == [250, r.best_f]
+    x = np.array(r.best_x)
+    assert np.all(x >= p.xl) and np.all(x <= p.xu)
+    assert 0 < r.fe_s <= r.wall_s
+
+
+@pytest.mark.parametrize("name", LIBRARY)
+def test_seed_fixes_the_run_in_process_and_in_a_spawned_worker(name, spawned):
+    worker = spawned.submit(record_in_worker, name, 7, 250)
+    np.random.seed(1)
+    random.seed(1)
+    first = record(name, 7, 250)
+    # the global generators are left as they were ...
+    np.random.seed(2)
+    random.seed(2)
+    state, py_state = np.random.get_state()[1].copy(), random.getstate()
+    second = record(name, 7, 250)
+    assert np.array_equal(np.random.get_state()[1], state) and random.getstate() == py_state
+    # ... and their state does not change the run
+    assert second == first
+    in_worker, root_handlers = worker.result(timeout=120)
+    assert in_worker == first
+    # importing and running the library configured no logging in the fresh process
+    assert root_handlers == 0
+    other = record(name, 8, 250)
+    assert other[2] != first[2] and other[4] != first[4]
+
+
+@pytest.mark.parametrize("name", LIBRARY)
+def test_runs_silently_and_leave_logging_and_cwd_alone(name, capfd, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    handlers = list(logging.getLogger().handlers)
+    adapters.run(name, make_problem("paper"), 120, seed=0)
+    assert capfd.readouterr() == ("", "")
+    assert logging.getLogger().handlers == handlers
+    assert list(tmp_path.iterdir()) == []  # no report.log, no outcmaes/
+
+
+@pytest.mark.parametrize("name", LIBRARY)
+def test_improves_on_the_initial_model_and_on_random_search(name):
+    p = make_problem("paper")
+    r = adapters.run(name, p, 1000, seed=0)
+    assert r.best_f < p.evaluate(p.x0)[0]
+    assert r.best_f < adapters.run("random-search", make_problem("paper"), 1000, seed=0).best_f
+
+
+@pytest.mark.parametrize("name, options, longest_run", [
+    # one annealing run without local search: the start and 2 iterations of 2 x 12 visits
+    ("scipy-sa", {"maxiter": 2, "no_local_search": True}, 1 + 2 * 24),
+    # one CMA-ES run of 3 generations of 11, then 22, 44, ... (IPOP)
+    ("cma-es", {"cma_options": {"maxiter": 3}}, 3 * 11),
+])
+def test_restarts_spend_the_budget_when_the_library_stops(name, options, longest_run):
+    budget = 300
+    assert budget > longest_run  # so the first run alone cannot have spent it
+    first = record(name, 3, budget, **options)
+    assert first[:2] == ("ok", budget)
+    assert record(name, 3, budget, **options) == first

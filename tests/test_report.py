@@ -1,0 +1,262 @@
+"""Reports and IOHprofiler export, on a small real study of the paper's problem."""
+
+import json
+import math
+import re
+import struct
+
+import numpy as np
+import pytest
+
+from adapters import cli
+from adapters.ioh_export import (PREFIX, check_export, export_runs, improvements, objective_scale, read_ioh,
+                                 run_logged)
+from adapters.report import summarize, write_report
+from adapters.store import Store
+from adapters.study import run_study
+from adapters.variants import make_problem
+
+SEEDS = [0, 1, 2]
+BUDGET = 300
+
+
+class TinyES:
+    """A cheap second optimizer class: (1+4)-ES with step-size adaptation."""
+
+    name = "tiny-es"
+
+    def minimize(self, objective, bounds, budget, rng, sigma=0.2):
+        xl, xu = bounds
+        x = rng.uniform(xl, xu)
+        fx = objective(x[None])[0]
+        while True:
+            y = np.clip(x + sigma * (xu - xl) * rng.standard_normal((4, len(x))), xl, xu)
+            fy = objective(y)
+            k = int(np.argmin(fy))
+            if fy[k] < fx:
+                x, fx, sigma = y[k], fy[k], sigma * 1.5
+            else:
+                sigma *= 0.8
+
+
+class Broken:
+    """Fails after its first batch: the report must list it as failed."""
+
+    name = "broken"
+
+    def minimize(self, objective, bounds, budget, rng):
+        objective(rng.uniform(*bounds, size=(20, len(bounds[0]))))
+        raise RuntimeError("boom after 20 evaluations")
+
+
+TINY = f"{__name__}:TinyES"
+BROKEN = f"{__name__}:Broken"
+
+
+@pytest.fixture(scope="module")
+def study(tmp_path_factory):
+    store = tmp_path_factory.mktemp("study") / "store"
+    run_study(["random-search", TINY, BROKEN], SEEDS, BUDGET, store, workers=0, progress=False)
+    return Store(store)
+
+
+@pytest.fixture(scope="module")
+def report(study, tmp_path_factory):
+    out = tmp_path_factory.mktemp("report")
+    path = write_report(study, out)
+    return path, path.read_text()
+
+
+def _table_rows(md: str, first_header: str) -> dict:
+    """{first cell: [cells]} of the Markdown table whose header starts with `first_header`."""
+    lines = md.splitlines()
+    start = next(i for i, ln in enumerate(lines) if ln.startswith(f"| {first_header} |"))
+    header = [c.strip() for c in lines[start].strip("|").split("|")]
+    rows = {}
+    for ln in lines[start + 2:]:
+        if not ln.startswith("|"):
+            break
+        cells = [c.strip() for c in ln.strip("|").split("|")]
+        rows[cells[0]] = dict(zip(header, cells))
+    return rows
+
+
+def _median_iqr(cell: str) -> tuple[float, float]:
+    m = re.fullmatch(r"\**([-+0-9.e]+) \(([-+0-9.e]+)\)\**", cell)
+    assert m, f"not a 'median (IQR)' cell: {cell!r}"
+    return float(m[1]), float(m[2])
+
+
+def test_report_has_table1_the_papers_numbers_and_caveats(report):
+    _, md = report
+    assert "Table 1 rebuilt" in md
+    rows = _table_rows(md, "mode")
+    # the paper's Table 1, column by column (modes 1 and 5)
+    assert rows["1"]["measured"] == "53.9" and rows["5"]["measured"] == "445.1"
+    assert rows["1"]["initial (paper)"] == "56.2" and rows["3"]["initial (paper)"] == "228.4"
+    assert [rows[str(i)]["PSO (paper)"] for i in range(1, 6)] == ["53.9", "117.8", "208.5", "253.8", "438.5"]
+    assert rows["2"]["GA (paper)"] == "122.0" and rows["5"]["SA (paper)"] == "437.0"
+    # the paper's mean errors recomputed from its table: PSO 0.41, SA 0.74, GA 1.80, initial 5.51
+    mean = rows["**mean abs err %**"]
+    assert [mean[k] for k in ("initial (paper)", "PSO (paper)", "SA (paper)", "GA (paper)")] == \
+        ["**5.51**", "**0.41**", "**0.74**", "**1.80**"]
+    # and beside them what its text says
+    paper = _table_rows(md, "method")
+    assert paper["PSO"]["mean err % (paper's text)"] == "1.95"
+    assert paper["GA"]["mean abs err % (from Table 1)"] == "1.80"
+    assert "do not all agree with its own table" in md
+    assert "geometry is a reconstruction" in md
+    for name in ("random-search", TINY, BROKEN):
+        assert name in rows["1"], f"no column for {name}"
+
+
+def test_report_numbers_equal_the_runs(study, report):
+    path, md = report
+    runs = [r for r in study.runs() if r.optimizer == "random-search"]
+    assert [r.seed for r in runs] == SEEDS
+    solvers = _table_rows(md, "optimizer")
+    med, iqr = _median_iqr(solvers["random-search"]["best_f median (IQR)"])
+    best = np.array([r.best_f for r in runs])
+    q1, q2, q3 = np.quantile(best, [0.25, 0.5, 0.75])
+    assert med == pytest.approx(q2, rel=5e-4) and iqr == pytest.approx(q3 - q1, rel=5e-3)
+    # updated frequencies and errors from the model at each run's best point
+    problem = make_problem("paper")
+    corr = [problem.correlation(r.best_x) for r in runs]
+    mean_err = np.median([np.mean(np.abs(c.error_pct)) for c in corr])
+    cell = _median_iqr(solvers["random-search"]["mean abs err % median (IQR)"])[0]
+    assert cell == pytest.approx(mean_err, abs=0.005)
+    table = _table_rows(md, "mode")
+    f2 = np.median([c.model_hz[1] for c in corr])
+    assert _median_iqr(table["2"]["random-search"])[0] == pytest.approx(f2, abs=0.005)
+    # summary.json carries the same numbers unrounded
+    summary = json.loads((path.parent / "summary.json").read_text())[0]["solvers"]["random-search"]
+    assert summary["best_f"]["median"] == q2
+    assert summary["mean_abs_error_pct"]["median"] == pytest.approx(mean_err, rel=1e-12)
+    assert summary["n_evals"]["median"] == BUDGET
+
+
+def test_failed_runs_are_counted_and_listed(report):
+    _, md = report
+    solvers = _table_rows(md, "optimizer")
+    assert solvers[BROKEN]["failed"] == str(len(SEEDS))
+    assert solvers["random-search"]["failed"] == "0"
+    assert "### Failed runs" in md and "RuntimeError: boom after 20 evaluations" in md
+
+
+def _png_size(path) -> tuple[int, int]:
+    data = path.read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n", f"{path} is not a PNG"
+    assert data[12:16] == b"IHDR"
+    return struct.unpack(">II", data[16:24])
+
+
+def test_figures_exist_and_are_real_pngs(report):
+    path, md = report
+    names = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", md)
+    assert {n.split("_")[0] for n in names} == {"convergence", "ecdf", "errors", "overhead"}
+    for name in names:
+        fig = path.parent / name
+        w, h = _png_size(fig)
+        assert 600 <= w <= 2000 and 350 <= h <= 1500, (name, w, h)
+        assert fig.stat().st_size > 15_000, f"{name} is suspiciously small"
+
+
+def test_curves_and_ecdf_agree_with_the_runs(study):
+    runs = study.runs()
+    (g,) = summarize(runs)
+    rs = [r for r in runs if r.optimizer == TINY]
+    s = g.solver(TINY)
+    # the median curve ends on the median best value
+    assert s.curve.median[-1] == pytest.approx(np.median([r.best_f for r in rs]), rel=1e-12)
+    # ... and at every sampled evaluation count on the median of each run's best so far
+    for i in range(0, len(g.grid), 17):
+        n = int(g.grid[i])
+        assert s.curve.median[i] == pytest.approx(np.median([r.best_at(n) for r in rs]), rel=1e-12), n
+    # ECDF at the end: the fraction of (run, target) pairs with best_f <= target
+    reached = np.mean([[r.best_f <= t for t in g.targets] for r in rs])
+    assert s.ecdf[-1] == pytest.approx(reached, abs=1e-12)
+    assert np.all(np.diff(s.ecdf) >= 0)
+    # targets run from the worst first value to the best found, log-spaced
+    assert g.targets[0] == pytest.approx(max(r.trace[0][1] for r in runs if r.trace))
+    assert g.targets[-1] == pytest.approx(min(r.best_f for r in runs if r.trace))
+
+
+def test_cli_report_with_ioh_and_a_clear_error_for_a_missing_store(study, tmp_path, capsys):
+    out = tmp_path / "rep"
+    assert cli.main(["report", str(study.path), "--out", str(out), "--ioh"]) == 0
+    assert "report written to" in capsys.readouterr().out
+    assert (out / "report.md").exists() and (out / "ioh" / "femu-ioh.json").exists()
+    assert cli.main(["report", str(tmp_path / "nowhere"), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "nowhere" in err and "no such store" in err
+
+
+# -- IOHprofiler --------------------------------------------------------------------------
+def test_ioh_export_round_trips(study, tmp_path):
+    runs = study.runs()
+    out = export_runs(study, tmp_path / "ioh")
+    back = read_ioh(out)
+    assert len(back) == len(runs)
+    scale = objective_scale("paper")
+    by_key = {(r.algorithm, r.attributes["seed"]): r for r in back}
+    for run in runs:
+        r = by_key[(run.optimizer, run.seed)]
+        assert r.function_name == PREFIX + "paper" and r.dimension == 12
+        assert r.evals == run.n_evals
+        assert r.best_y * scale == pytest.approx(run.best_f, rel=1e-9)
+        # the logged points are the trace's improvements, then ioh's last-evaluation line
+        imp = improvements(run)
+        np.testing.assert_array_equal(r.points[: len(imp), 0], [k for k, _ in imp])
+        np.testing.assert_allclose(r.points[: len(imp), 1] * scale, [f for _, f in imp], rtol=1e-6)
+        assert r.points[-1, 0] == run.n_evals
+    meta = json.loads(next((out / "random-search").glob("IOHprofiler_*.json")).read_text())
+    assert meta["maximization"] is False and meta["algorithm"]["name"] == "random-search"
+    assert [run["seed"] for run in meta["scenarios"][0]["runs"]] == SEEDS
+
+
+def test_ioh_check_catches_a_changed_file(study, tmp_path):
+    out = export_runs(study, tmp_path / "ioh")
+    dat = next((out / "random-search").rglob("*.dat"))
+    lines = dat.read_text().splitlines()
+    e, y = lines[1].split()
+    lines[1] = f"{e} {float(y) * 0.5:.10f}"
+    dat.write_text("\n".join(lines) + "\n")
+    from adapters.ioh_export import algorithm_names
+    with pytest.raises(RuntimeError, match="reads back as"):
+        check_export(out, algorithm_names(study.runs()))
+
+
+def test_ioh_export_skips_runs_without_evaluations_and_refuses_foreign_dirs(study, tmp_path):
+    from adapters.harness import RunResult
+
+    empty = RunResult(optimizer="random-search", problem="hframe:paper", seed=9, budget=BUDGET, status="failed",
+                      error="died before its first evaluation")
+    out = export_runs(study.runs()[:2] + [empty], tmp_path / "ioh")
+    marker = json.loads((out / "femu-ioh.json").read_text())
+    assert marker["skipped"] == [{"optimizer": "random-search", "variant": "paper", "seed": 9, "status": "failed"}]
+    assert len(read_ioh(out)) == 2
+    export_runs(study.runs()[:1], out)  # a previous export is replaced
+    assert len(read_ioh(out)) == 1
+    foreign = tmp_path / "mine"
+    foreign.mkdir()
+    (foreign / "notes.txt").write_text("keep me")
+    with pytest.raises(ValueError, match="not a femu IOH export"):
+        export_runs(study.runs(), foreign)
+    assert (foreign / "notes.txt").read_text() == "keep me"
+
+
+def test_live_ioh_logging_matches_the_replayed_export(tmp_path):
+    result = run_logged("random-search", "paper", 250, 3, tmp_path / "live")
+    export_runs([result], tmp_path / "replay")
+    (live,) = read_ioh(tmp_path / "live")
+    (replay,) = read_ioh(tmp_path / "replay")
+    assert (live.function_id, live.function_name, live.evals) == (replay.function_id, replay.function_name, 250)
+    assert live.best_y == pytest.approx(replay.best_y, rel=1e-12)
+    assert live.best_y * objective_scale("paper") == pytest.approx(result.best_f, rel=1e-12)
+    # every improvement the harness recorded is what ioh saw live; only the last line differs:
+    # live logging writes that evaluation's raw value, the replay its best-so-far
+    np.testing.assert_array_equal(live.points[:-1], replay.points[:-1])
+    assert live.points[-1, 0] == replay.points[-1, 0] == 250
+    assert replay.points[-1, 1] == pytest.approx(replay.best_y, abs=1e-10)
+    assert live.points[-1, 1] >= replay.points[-1, 1] - 1e-10
+    assert math.isclose(live.attributes["seed"], 3)
