@@ -65,3 +65,26 @@ def test_least_squares_jacobian_matches_finite_differences():
         xm = x.copy(); xm[k] -= h
         fd = (p.residuals(xp)[0] - p.residuals(xm)[0]) / (2 * h)
         np.testing.assert_allclose(ls.jacobian[:, k], fd, rtol=1e-4, atol=1e-5 * np.abs(fd).max())
+
+
+def test_value_of_a_point_does_not_depend_on_its_batch():
+    """f(x) is a function of x alone: bit-identical alone, first, last or mid-batch."""
+    p = fp.UpdatingProblem()
+    X = np.random.default_rng(7).uniform(p.xl, p.xu, (257, p.n_var))
+    full = p.evaluate(X)
+    for i in (0, 1, 100, 256):
+        assert p.evaluate(X[i])[0] == full[i]
+    np.testing.assert_array_equal(p.evaluate(X[3:40]), full[3:40])
+
+
+def test_rigid_modes_are_projected_out_exactly():
+    model = fp.load_model("hframe")
+    system = fp.AffineModel(model, fp.element_moduli(model))
+    assert system.n_rigid == 3 and system.n_elastic == 36
+    # the reduced solve gives the same modes as a plain generalised eigen-solve
+    import scipy.linalg
+    theta = system.x0 * np.linspace(0.88, 1.12, 12)
+    k, m = system.stiffness(theta[None])[0], system.mass(theta[None])[0]
+    lam_ref = scipy.linalg.eigh(k, m, eigvals_only=True)[3:11]
+    lam, _ = system.eigen(theta[None], 8)
+    np.testing.assert_allclose(lam[0], lam_ref, rtol=1e-10)
