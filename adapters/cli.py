@@ -81,19 +81,31 @@ def _diagnose(args) -> int:
     return cli_diagnose(args)
 
 
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
 def build_parser() -> argparse.ArgumentParser:
+    from .registry import available
+
     p = argparse.ArgumentParser(prog="femu", description="FE model updating of planar frames: models, "
                                 "optimizer benchmarks, studies, reports and diagnosis.")
     sub = p.add_subparsers(dest="command", required=True)
 
     m = sub.add_parser("model", help="summary and first frequencies of a model")
     m.add_argument("model", help="a shipped model name (hframe) or a model file")
-    m.add_argument("--modes", type=int, default=10, help="how many elastic modes (default 10)")
+    m.add_argument("--modes", type=_positive_int, default=10, help="how many elastic modes (default 10)")
     m.add_argument("--json", action="store_true", help="machine-readable output")
     m.set_defaults(func=cmd_model)
 
     s = sub.add_parser("study", help="run a grid of optimizers x seeds into a store (resumable)")
-    s.add_argument("--optimizers", required=True, help="comma-separated names (see `femu study --list`)")
+    s.add_argument("--optimizers", required=True, help="comma-separated names: " + ", ".join(available()))
     s.add_argument("--seeds", required=True, help="e.g. 0-29 or 0,1,5")
     s.add_argument("--budget", type=int, required=True, help="FE evaluations per run")
     s.add_argument("--store", required=True, help="directory of the result store")

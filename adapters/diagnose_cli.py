@@ -15,8 +15,6 @@ import sys
 import warnings
 from pathlib import Path
 
-import numpy as np
-
 from .diagnosis_report import (best_label, cause_text, coordinate_labels, estimate_text, fmt, hz, mode_ranges,
                                pct, threshold_chi2_drop, write_json, write_report)
 
@@ -35,20 +33,6 @@ def _positive(value, option: str) -> float:
         raise ValueError(f"{option} must be a number > 0 (a relative standard deviation, e.g. 0.002), got {value}")
     return v
 
-
-def _plain(x):
-    """The record with numpy scalars/arrays as Python values and non-finite floats as None."""
-    if isinstance(x, dict):
-        return {k: _plain(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple, np.ndarray)):
-        return [_plain(v) for v in x]
-    if isinstance(x, (float, np.floating)):
-        return float(x) if math.isfinite(x) else None
-    if isinstance(x, np.integer):
-        return int(x)
-    if isinstance(x, np.bool_):
-        return bool(x)
-    return x
 
 
 def _check_out(out: str) -> Path:
@@ -82,7 +66,7 @@ def cli_diagnose(args) -> int:
         diag = diagnose(model, data, freq_noise=freq_noise, shape_noise=shape_noise)
     for msg in dict.fromkeys(str(w.message) for w in caught):
         _stderr(f"warning: {msg}")
-    record = _plain(diag.to_dict())
+    record = diag.to_dict()
 
     written = []
     if out is not None:

@@ -15,7 +15,6 @@ import math
 from pathlib import Path
 
 import numpy as np
-from scipy.stats import chi2 as chi2_dist
 
 from fe_problem import AffineModel, FrameModel, ModalData, mac, modal_analysis
 
@@ -91,15 +90,9 @@ def cause_text(cause: dict) -> str:
 
 
 def threshold_chi2_drop(selection: dict) -> float | None:
-    """The chi^2 drop the best candidate needs to be significant under the record's test.
-
-    The test (fe_problem.diagnosis.core) is p_adjusted = n_candidates * 0.5 * P(chi^2_1 >
-    drop / dispersion) < alpha; solved for the drop. None if the record lacks a field."""
-    try:
-        a, n, disp = selection["alpha"], selection["n_candidates"], selection["dispersion"]
-        return float(disp * chi2_dist.isf(2.0 * a / n, 1))
-    except (KeyError, TypeError):
-        return None
+    """The chi^2 drop the best candidate needs to be significant, as the record states it."""
+    value = selection.get("threshold_chi2_drop")
+    return None if value is None else float(value)
 
 
 def best_label(record: dict) -> str | None:

@@ -58,10 +58,7 @@ def get(name: str) -> type:
         except Exception as exc:  # a broken third-party package: say which one
             raise ValueError(f"optimizer {name!r}: entry point {ep.value!r} in group {ENTRY_POINT_GROUP!r} "
                              f"could not be loaded: {type(exc).__name__}: {exc}") from exc
-        if not callable(getattr(cls, "minimize", None)):
-            raise ValueError(f"optimizer {name!r}: entry point {ep.value!r} is not an optimizer class "
-                             f"(it has no minimize(objective, bounds, budget, rng, **options) method)")
-        return cls
+        return _checked(cls, f"optimizer {name!r}: entry point {ep.value!r}")
     if ":" in name:
         return _import_path(name)
     raise ValueError(f"unknown optimizer {name!r}; available: {', '.join(available())}")
@@ -76,7 +73,12 @@ def _import_path(name: str) -> type:
     except (ImportError, AttributeError, ValueError) as exc:  # ValueError: an empty module name
         raise ValueError(f"optimizer {name!r}: cannot import {attr!r} from module {module!r} "
                          f"({type(exc).__name__}: {exc})") from None
+    return _checked(cls, f"optimizer {name!r}")
+
+
+def _checked(cls, what: str) -> type:
+    """`cls` if it looks like an optimizer class, else a ValueError starting with `what`."""
     if not callable(getattr(cls, "minimize", None)):
-        raise ValueError(f"optimizer {name!r} is not an optimizer class "
+        raise ValueError(f"{what} is not an optimizer class "
                          f"(it has no minimize(objective, bounds, budget, rng, **options) method)")
     return cls

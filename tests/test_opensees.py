@@ -18,7 +18,6 @@ How OpenSees is driven, and why:
   not work with '-fullGenLapack': they leave massless DOFs (infinite eigenvalues).
 """
 
-import dataclasses
 
 import numpy as np
 import openseespy.opensees as ops

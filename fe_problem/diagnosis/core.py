@@ -59,10 +59,11 @@ class Diagnosis:
     warnings: list = field(default_factory=list)
 
     def to_dict(self) -> dict:
-        return {"cause": self.cause, "alternatives": self.alternatives, "residuals": self.residuals,
-                "gain": self.gain, "selection": self.selection, "candidates": self.candidates,
-                "warnings": self.warnings,
-                "extended_model": None if self.extended_model is None else model_to_dict(self.extended_model)}
+        """Plain JSON values only: numbers, strings, lists, dicts; NaN and inf as None."""
+        return _num({"cause": self.cause, "alternatives": self.alternatives, "residuals": self.residuals,
+                     "gain": self.gain, "selection": self.selection, "candidates": self.candidates,
+                     "warnings": self.warnings,
+                     "extended_model": None if self.extended_model is None else model_to_dict(self.extended_model)})
 
 
 def _num(x):
@@ -75,6 +76,8 @@ def _num(x):
         return float(x) if np.isfinite(x) else None
     if isinstance(x, np.integer):
         return int(x)
+    if isinstance(x, np.bool_):
+        return bool(x)
     return x
 
 
@@ -207,8 +210,11 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
                         "estimate": c.estimate(f.a, f.s), "global_scale": f.s})
         table.append(_num(row))
 
+    # the chi^2 drop the best candidate must exceed to be significant (the test, inverted)
+    threshold = dispersion * chi2_dist.isf(min(1.0, 2.0 * alpha / len(cands)), 1)
     selection = _num({"method": "likelihood ratio vs the calibrated model, Bonferroni over candidates, "
                                 "quasi-likelihood dispersion", "alpha": alpha, "n_candidates": len(cands),
+                      "threshold_chi2_drop": threshold,
                       "n_fitted": len(fitted), "statistic": lr, "p_value": p_single, "p_adjusted": p_adj,
                       "dispersion": dispersion, "ambiguity_chi2": AMBIGUITY_CHI2,
                       "freq_noise": freq_noise, "shape_noise": shape_noise})
