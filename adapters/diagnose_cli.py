@@ -50,6 +50,11 @@ def _make_out(path: Path) -> Path:
     return path
 
 
+def _p_text(p) -> str:
+    """A p-value; one that underflowed to 0 is shown as the bound it is."""
+    return "< 1e-300" if p == 0 else f"= {fmt(p, 3)}"
+
+
 def cli_diagnose(args) -> int:
     """Entry point of `femu diagnose` (args: data, model, out, json, freq_noise, shape_noise)."""
     from fe_problem import diagnose, load_modal_data, load_model, save_model
@@ -102,7 +107,7 @@ def summary_text(record: dict, data_source: str, model_name: str) -> str:
              f"{fmt(100 * sel['freq_noise'], 3)} %, shapes {fmt(100 * sel['shape_noise'], 3)} % of the mode RMS", ""]
 
     lines += [f"CAUSE: {cause_text(cause)}",
-              f"  p = {fmt(cause.get('p_adjusted'), 3)} (adjusted over {sel['n_candidates']} candidates; "
+              f"  p {_p_text(cause.get('p_adjusted'))} (adjusted over {sel['n_candidates']} candidates; "
               f"significant below {fmt(sel['alpha'], 2)})"]
     best = best_label(record)
     needed = threshold_chi2_drop(sel)

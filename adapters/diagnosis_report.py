@@ -366,7 +366,7 @@ def plot_candidates(record: dict, path: Path) -> Path:
     ax.set_xscale("log")
     ax.set_xlim(left=floor)
     ax.set_xlabel("chi^2 drop against the calibrated model (log scale)"
-                  + (f"; {hidden} candidates with smaller screened drops not shown" if hidden else ""))
+                  + (f"\n({hidden} candidates with smaller screened drops not shown)" if hidden else ""))
     ax.set_ylim(-0.7, len(rows) - 0.3)
     verdict = ("none" if cause["kind"] == "none" else cause["label"] if cause.get("identifiable", True)
                else f"cannot tell {len(chosen)} apart")
