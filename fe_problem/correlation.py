@@ -8,6 +8,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import linear_sum_assignment
 
 
 def mac(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -60,41 +61,43 @@ class Pairing:
         return self.model_index >= 0
 
 
+#: A measured mode with a shape pairs only with a model mode of at least this MAC.
+MIN_PAIR_MAC = 0.5
+#: A measured mode without a shape pairs only with a model mode within this relative distance.
+MAX_PAIR_FREQ = 0.3
+
+
 def pair_modes(measured_hz: np.ndarray, model_hz: np.ndarray, measured_shapes: np.ndarray | None = None,
                model_shapes: np.ndarray | None = None, has_shape: np.ndarray | None = None,
-               min_mac: float = 0.5, max_freq_ratio: float = 0.3) -> Pairing:
+               min_mac: float = MIN_PAIR_MAC, max_freq_ratio: float = MAX_PAIR_FREQ) -> Pairing:
     """Pair measured modes with model modes, each model mode used at most once.
 
-    Modes with a measured shape pair by MAC, greedily from the highest MAC down, only if the
-    MAC is at least `min_mac`. Modes without a shape then pair with the nearest free model
-    frequency, only if it lies within `max_freq_ratio` relative distance. Unpaired: -1.
+    One optimal assignment (Hungarian) over all measured modes: the cost of a pair is
+    1 - MAC (plus 0.01 x the relative frequency distance, to break near-ties) for a mode with
+    a measured shape, and the relative frequency distance for one without. Pairs with a MAC
+    below `min_mac`, or (frequency only) further than `max_freq_ratio`, are refused: -1.
     """
     measured_hz = np.asarray(measured_hz, dtype=float)
     model_hz = np.asarray(model_hz, dtype=float)
     m = measured_hz.shape[0]
     has_shape = np.zeros(m, bool) if has_shape is None or measured_shapes is None else np.asarray(has_shape, bool)
-    index = np.full(m, -1)
-    by = ["none"] * m
-    macs = np.full(m, np.nan)
-    used: set[int] = set()
+    dist = np.abs(model_hz[None, :] - measured_hz[:, None]) / measured_hz[:, None]
+    cost = dist.copy()
+    allowed = dist <= max_freq_ratio
+    mm = np.full(dist.shape, np.nan)
     if has_shape.any():
-        mm = mac(measured_shapes, model_shapes)
-        order = np.dstack(np.unravel_index(np.argsort(-mm, axis=None), mm.shape))[0]
-        for i, j in order:
-            if not has_shape[i] or index[i] >= 0 or j in used or mm[i, j] < min_mac:
-                continue
-            index[i], by[i], macs[i] = j, "mac", mm[i, j]
-            used.add(int(j))
-        for i in np.flatnonzero(has_shape):
-            macs[i] = mm[i, index[i]] if index[i] >= 0 else mm[i].max()
-    for i in np.flatnonzero(~has_shape):
-        rel = np.abs(model_hz - measured_hz[i]) / measured_hz[i]
-        rel[list(used)] = np.inf
-        j = int(np.argmin(rel))
-        if rel[j] <= max_freq_ratio:
-            index[i], by[i] = j, "frequency"
-            used.add(j)
-    return Pairing(index, tuple(by), macs)
+        mm[has_shape] = mac(np.nan_to_num(np.asarray(measured_shapes, dtype=float)[:, has_shape]), model_shapes)
+        cost[has_shape] = 1.0 - mm[has_shape] + 0.01 * dist[has_shape]
+        allowed[has_shape] = mm[has_shape] >= min_mac
+    rows, cols = linear_sum_assignment(np.where(allowed, cost, 1e6))
+    index = np.full(m, -1)
+    ok = allowed[rows, cols]
+    index[rows[ok]] = cols[ok]
+    by = tuple("none" if index[i] < 0 else ("mac" if has_shape[i] else "frequency") for i in range(m))
+    macs = np.full(m, np.nan)
+    for i in np.flatnonzero(has_shape):
+        macs[i] = mm[i, index[i]] if index[i] >= 0 else np.nanmax(mm[i])
+    return Pairing(index, by, macs)
 
 
 def frequency_errors_pct(measured_hz: np.ndarray, model_hz: np.ndarray) -> np.ndarray:

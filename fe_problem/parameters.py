@@ -357,6 +357,14 @@ class AffineModel:
         pos = {g: i for i, g in enumerate(self.dofmap.free)}
         return np.array([pos.get(self.model.dof_index(n, d), -1) for n, d in dofs], dtype=int)
 
+    @staticmethod
+    def at_rows(phi_free: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        """Shapes (b, n_free, k) at the rows `nodal_rows` gave: (b, len(rows), k), zero where
+        a DOF is supported (row -1)."""
+        out = phi_free[:, np.clip(rows, 0, None), :]
+        out[:, rows < 0, :] = 0.0
+        return out
+
 
 def _profile_stiffness(model: FrameModel, par: Parameter) -> np.ndarray:
     """Global-axis stiffness per unit modulus of one element weighted by a profile, (1, 6, 6)."""

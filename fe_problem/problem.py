@@ -186,9 +186,7 @@ class UpdatingProblem:
 
     def _at_measured(self, phi: np.ndarray) -> np.ndarray:
         """Free-DOF shapes (b, n_free, k) at the measured DOFs (b, n_meas, k)."""
-        out = phi[:, np.clip(self.rows, 0, None), :]
-        out[:, self.rows < 0, :] = 0.0
-        return out
+        return self.system.at_rows(phi, self.rows)
 
     def _solve(self, X: np.ndarray, shapes: bool):
         lam, phi = self.system.eigen(X, self.n_model_modes, vectors=shapes)

@@ -45,10 +45,7 @@ class Setting:
 def solve(system: AffineModel, theta: np.ndarray, coords, n_modes: int):
     """Frequencies (b, k) in Hz and shapes at `coords` (b, n_coord, k) for theta (b, p)."""
     lam, phi = system.eigen(theta, min(n_modes, system.n_elastic), vectors=True)
-    rows = system.nodal_rows(coords)
-    shapes = phi[:, np.clip(rows, 0, None), :]
-    shapes[:, rows < 0, :] = 0.0
-    return frequencies_hz(lam), shapes
+    return frequencies_hz(lam), system.at_rows(phi, system.nodal_rows(coords))
 
 
 @dataclass(eq=False)

@@ -16,15 +16,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
-from ..correlation import mac
+from ..correlation import MAX_PAIR_FREQ, pair_modes
 from ..data import ModalData
-
-#: A measured mode with a shape pairs only with a model mode of at least this MAC.
-MIN_PAIR_MAC = 0.5
-#: A measured mode without a shape pairs only with a model mode within this relative distance.
-MAX_PAIR_FREQ = 0.3
 
 
 @dataclass(frozen=True, eq=False)
@@ -55,24 +49,8 @@ class Observations:
         return self.n_modes + int(self.has_shape.sum()) * self.shapes.shape[0]
 
     def pair(self, model_hz: np.ndarray, model_shapes: np.ndarray) -> np.ndarray:
-        """Model mode index for each measured mode (-1: none), one model mode at most once.
-
-        An optimal assignment (Hungarian) on a cost of 1 - MAC for modes with shapes and the
-        relative frequency distance otherwise; pairs beyond MIN_PAIR_MAC / MAX_PAIR_FREQ are
-        refused."""
-        dist = np.abs(model_hz[None, :] - self.frequencies_hz[:, None]) / self.frequencies_hz[:, None]
-        cost = dist.copy()
-        allowed = dist <= MAX_PAIR_FREQ
-        if self.has_shape.any():
-            mm = mac(np.nan_to_num(self.shapes[:, self.has_shape]), model_shapes)
-            cost[self.has_shape] = 1.0 - mm + 0.01 * dist[self.has_shape]
-            allowed[self.has_shape] = mm >= MIN_PAIR_MAC
-        cost = np.where(allowed, cost, 1e6)
-        rows, cols = linear_sum_assignment(cost)
-        out = np.full(self.n_modes, -1)
-        ok = allowed[rows, cols]
-        out[rows[ok]] = cols[ok]
-        return out
+        """Model mode index for each measured mode (-1: none): `correlation.pair_modes`."""
+        return pair_modes(self.frequencies_hz, model_hz, self.shapes, model_shapes, self.has_shape).model_index
 
     def residuals(self, model_hz: np.ndarray, model_shapes: np.ndarray, pairing: np.ndarray | None = None):
         """Weighted residual vector for one model (its frequencies (k,) and shapes at the
