@@ -1,6 +1,6 @@
 """A small study end to end: the cost of the study machinery around the runs.
 
-adapters.study.run_study(['random-search'], seeds 0-3, budget 500, a fresh store,
+femu.studies.study.run_study(['random-search'], seeds 0-3, budget 500, a fresh store,
 workers=2): process-pool start-up, four runs of 500 evaluations, four records written to
 the store. Compare its time with 4 x the per-run time of test_bench_harness.py's
 random-search benchmark to see what the pool and the store add. The figure filed is the
@@ -13,8 +13,8 @@ import itertools
 
 import pytest
 
-from adapters.store import Store, run_key
-from adapters.study import run_study
+from femu.studies.store import Store, run_key
+from femu.studies.study import run_study
 
 OPTIMIZERS = ["random-search"]
 SEEDS = [0, 1, 2, 3]

@@ -166,7 +166,7 @@ def diagnose_through_cli(case: Case, directory) -> dict:
     import json
     from pathlib import Path
 
-    from adapters.cli import main
+    from femu.cli import main
 
     path = Path(directory) / f"case-{case.kind}-{case.seed}.json"
     fp.save_modal_data(case.data(), path)

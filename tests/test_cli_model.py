@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import fe_problem as fp
-from adapters.cli import main
+from femu.cli import main
 
 FEMU = Path(sys.executable).with_name("femu")
 # shared/reference/hframe.md, nominal elastic frequencies, modes 1-10

@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 
 import fe_problem as fp
-from adapters.cli import main
-from adapters.diagnose_cli import summary_text
-from adapters.diagnosis_report import deformed_frame
+from femu.cli import main
+from femu.cli.diagnose import summary_text
+from femu.reports.diagnosis import deformed_frame
 
 FEMU = Path(sys.executable).parent / "femu"
 HFRAME = fp.load_model("hframe")

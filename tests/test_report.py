@@ -8,12 +8,12 @@ import struct
 import numpy as np
 import pytest
 
-from adapters import cli
-from adapters.ioh_export import (PREFIX, check_export, export_runs, improvements, objective_scale, read_ioh,
+from femu import cli
+from femu.reports.ioh import (PREFIX, check_export, export_runs, improvements, objective_scale, read_ioh,
                                  run_logged)
-from adapters.report import summarize, write_report
-from adapters.store import Store
-from adapters.study import run_study
+from femu.reports.study import summarize, write_report
+from femu.studies.store import Store
+from femu.studies.study import run_study
 from adapters.variants import make_problem
 
 SEEDS = [0, 1, 2]
@@ -221,7 +221,7 @@ def test_ioh_check_catches_a_changed_file(study, tmp_path):
     e, y = lines[1].split()
     lines[1] = f"{e} {float(y) * 0.5:.10f}"
     dat.write_text("\n".join(lines) + "\n")
-    from adapters.ioh_export import algorithm_names
+    from femu.reports.ioh import algorithm_names
     with pytest.raises(RuntimeError, match="reads back as"):
         check_export(out, algorithm_names(study.runs()))
 

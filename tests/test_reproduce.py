@@ -8,10 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from adapters import cli
+from femu import cli
 from adapters.registry import BUILTINS, available
-from adapters.reproduce import solvers
-from adapters.store import Store
+from femu.reproduce import solvers
+from femu.studies.store import Store
 from adapters.variants import make_problem
 
 FEMU = str(Path(sys.executable).with_name("femu"))

@@ -20,9 +20,9 @@ import numpy as np
 import pytest
 
 from adapters import run
-from adapters.cli import main
-from adapters.store import Store
-from adapters.study import parse_seeds, run_study
+from femu.cli import main
+from femu.studies.store import Store
+from femu.studies.study import parse_seeds, run_study
 from adapters.variants import make_problem
 
 FEMU = [str(Path(sys.executable).parent / "femu")]

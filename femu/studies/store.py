@@ -16,7 +16,7 @@ import os
 import tempfile
 from pathlib import Path
 
-from .harness import RunResult
+from adapters.harness import RunResult
 
 
 class StoreError(ValueError):

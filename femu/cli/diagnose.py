@@ -1,10 +1,12 @@
-"""`femu diagnose DATA [--model M] [--out DIR] [--json]`: run `fe_problem.diagnose` and show it.
+"""find the physics the model is missing from measured data
+
+`femu diagnose DATA [--model M] [--out DIR] [--json]` runs `fe_problem.diagnose` and shows it.
 
 Default output is a terminal summary of the record; --json prints the record itself
 (`Diagnosis.to_dict()`) as the only thing on stdout; --out DIR writes extended.model.json
 (when there is an effect to add), diagnosis.json and report.md with its figures. Progress and
 warnings go to stderr. Bad input raises ValueError/FileNotFoundError with a message naming
-the file, which `adapters.cli.main` turns into one line on stderr and exit code 2.
+the file, which `femu.cli.main` turns into one line on stderr and exit code 2.
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ import sys
 import warnings
 from pathlib import Path
 
-from .diagnosis_report import (best_label, cause_text, coordinate_labels, estimate_text, fmt, hz, mode_ranges,
+from femu.reports.diagnosis import (best_label, cause_text, coordinate_labels, estimate_text, fmt, hz, mode_ranges,
                                pct, threshold_chi2_drop, write_json, write_report)
 
 #: How many alternatives and COMAC coordinates the terminal summary lists.
@@ -55,7 +57,18 @@ def _p_text(p) -> str:
     return "< 1e-300" if p == 0 else f"= {fmt(p, 3)}"
 
 
-def cli_diagnose(args) -> int:
+def add_arguments(d) -> None:
+    d.add_argument("data", help="a modal-data file (JSON or UFF 55) or a shipped dataset (paper)")
+    d.add_argument("--model", default=None, help="model name or file (default: the data's model)")
+    d.add_argument("--out", default=None, help="directory for the extended model and a report")
+    d.add_argument("--json", action="store_true")
+    d.add_argument("--freq-noise", type=float, default=0.002,
+                   help="std of a measured frequency, relative (default 0.002 = 0.2 %%)")
+    d.add_argument("--shape-noise", type=float, default=0.02,
+                   help="std of a measured shape entry, relative to the mode's RMS (default 0.02 = 2 %%)")
+
+
+def run(args) -> int:
     """Entry point of `femu diagnose` (args: data, model, out, json, freq_noise, shape_noise)."""
     from fe_problem import diagnose, load_modal_data, load_model, save_model
 

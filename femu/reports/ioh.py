@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .harness import RunResult
+from adapters.harness import RunResult
 
 #: Prefix of the ioh function names: femu_paper, femu_synthetic, ...
 PREFIX = "femu_"
@@ -48,7 +48,7 @@ _FEEDS: dict[str, object] = {}
 def _register(variant: str) -> None:
     import ioh
 
-    from .variants import VARIANTS
+    from adapters.variants import VARIANTS
 
     for v in (*VARIANTS, variant):
         if v not in _FEEDS:
@@ -69,7 +69,7 @@ def ioh_problem(variant: str, n_var: int, feed):
 @lru_cache(maxsize=None)
 def objective_scale(variant: str) -> float:
     """J(x0) of a problem variant: raw_y = J / J(x0)."""
-    from .variants import make_problem
+    from adapters.variants import make_problem
 
     p = make_problem(variant)
     return float(p.evaluate(p.x0)[0])
@@ -127,8 +127,8 @@ def run_logged(name: str, variant: str, budget: int, seed: int, out_dir, **optio
     evaluations), with ioh's Analyzer logging every evaluation live under OUT_DIR/<name>."""
     import ioh
 
-    from .harness import run
-    from .variants import make_problem
+    from adapters.harness import run
+    from adapters.variants import make_problem
 
     triggers = [ioh.logger.trigger.ON_IMPROVEMENT]
     logger = _analyzer(Path(out_dir), name, f"femu-bench {name}, variant {variant}", triggers)
@@ -179,7 +179,7 @@ def export_runs(runs, out_dir, validate: bool = True) -> Path:
     evaluations, best and improvements (RuntimeError if they differ). Returns OUT_DIR."""
     import ioh
 
-    from .store import Store
+    from femu.studies.store import Store
 
     if isinstance(runs, (str, Path, Store)):
         runs = (runs if isinstance(runs, Store) else Store(runs)).runs()

@@ -23,9 +23,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .harness import RunResult
-from .registry import BUILTINS
-from .store import Store
+from adapters.harness import RunResult
+from adapters.registry import BUILTINS
+from femu.studies.store import Store
 
 #: Statuses that count as a failed run (no usable result or cut short by an error).
 FAILED = ("failed", "timeout")
@@ -317,7 +317,7 @@ def _ecdf(runs_by_opt, grid) -> tuple[np.ndarray, dict]:
 
 def summarize(runs: list[RunResult]) -> list[GroupSummary]:
     """Summary records of the runs, one GroupSummary per (variant, budget), sorted."""
-    from .variants import make_problem
+    from adapters.variants import make_problem
 
     groups: dict[tuple[str, int], list[RunResult]] = {}
     for r in runs:
@@ -634,7 +634,7 @@ def write_report(store_or_runs, out_dir, ioh: bool = False, source: str | None =
         raise ValueError(f"{source}: no finished runs to report on")
     path = render_files(summarize(runs), out_dir, source)
     if ioh:
-        from .ioh_export import export_runs
+        from .ioh import export_runs
         export_runs(runs, Path(out_dir) / "ioh")
     return path
 
@@ -656,12 +656,3 @@ def render_files(groups: list[GroupSummary], out_dir, source: str) -> Path:
     path = out / "report.md"
     path.write_text(render_markdown(groups, figures, source))
     return path
-
-
-def cli_report(args) -> int:
-    """`femu report STORE --out DIR [--ioh]`."""
-    path = write_report(Store(args.store), args.out, ioh=args.ioh)
-    print(f"report written to {path}")
-    if args.ioh:
-        print(f"IOHprofiler files in {path.parent / 'ioh'}")
-    return 0

@@ -65,10 +65,10 @@ from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Callable, Iterable, Iterator
 
-from .harness import RunResult, run
-from .registry import BUILTINS, ENTRY_POINT_GROUP, get
+from adapters.harness import RunResult, run
+from adapters.registry import BUILTINS, ENTRY_POINT_GROUP, get
 from .store import Store, run_key
-from .variants import VARIANTS, make_problem
+from adapters.variants import VARIANTS, make_problem
 
 STUDY_FORMAT = "femu.study/1"
 
@@ -211,7 +211,7 @@ class LocalPool:
         # spec). Only effective before the server starts (the first pool of this process).
         spec = getattr(sys.modules.get("__main__"), "__spec__", None)
         main = [spec.name] if spec is not None and spec.name else []
-        self.ctx.set_forkserver_preload(["__main__", *main, "adapters.study", *preload])
+        self.ctx.set_forkserver_preload(["__main__", *main, "femu.studies.study", *preload])
 
     def run(self, tasks: list[Task], running: Callable[[int], None]) -> Iterator[tuple[Task, dict]]:
         queue = deque(tasks)
@@ -288,13 +288,13 @@ def dask_task(task: Task) -> dict:
 
 
 def run_task_in_child(task: Task) -> dict:
-    """Run a task in a fresh interpreter (``python -m adapters.study --run-task``), killed at
+    """Run a task in a fresh interpreter (``python -m femu.studies.study --run-task``), killed at
     the hard deadline: a ``timeout`` record then, a ``failed`` one if it dies."""
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
     with tempfile.TemporaryDirectory(prefix="femu-run-") as tmp:
         out, started, log = Path(tmp) / "record.json", Path(tmp) / "started", Path(tmp) / "stderr.txt"
         with open(log, "w") as err:
-            proc = subprocess.Popen([sys.executable, "-m", "adapters.study", "--run-task",
+            proc = subprocess.Popen([sys.executable, "-m", "femu.studies.study", "--run-task",
                                      json.dumps(asdict(task)), str(out), str(started)],
                                     env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=err)
         launched, t_start, record = time.perf_counter(), None, None
@@ -609,45 +609,8 @@ class _Progress:
             self.bar.update(self.task, advance=1, failed=self.failed)
 
 
-# -- the commands --------------------------------------------------------------------------
-def cli_study(args) -> int:
-    """`femu study`: run the grid into the store, print a one-line summary."""
-    try:
-        result = run_study(args.optimizers, args.seeds, args.budget, args.store, variants=args.variants,
-                           workers=args.workers, scheduler=args.scheduler, time_limit_s=args.time_limit,
-                           progress=not args.no_progress, retry_failed=getattr(args, "retry_failed", False))
-    except KeyboardInterrupt:
-        print(f"femu study: interrupted; the finished runs are in {args.store}: the same command resumes the study",
-              file=sys.stderr)
-        return 130
-    print(result.summary())
-    return 0
-
-
-def cli_results(args) -> int:
-    """`femu results STORE [--json]`: the stored runs, as a table or a JSON list."""
-    runs = Store(args.store).runs()
-    if args.json:
-        json.dump([r.to_dict() for r in runs], sys.stdout, indent=1)
-        sys.stdout.write("\n")
-        return 0
-    if not runs:
-        print(f"no runs in {args.store}")
-        return 0
-    wv, wo = (max(len(h), *(len(getattr(r, h)) for r in runs)) for h in ("variant", "optimizer"))
-    head = f"{'variant':<{wv}} {'optimizer':<{wo}} {'budget':>7} {'seed':>5} {'status':<8} {'n_evals':>8} " \
-           f"{'best_f':>12} {'wall_s':>8}"
-    print(head)
-    print("-" * len(head))
-    for r in runs:
-        print(f"{r.variant:<{wv}} {r.optimizer:<{wo}} {r.budget:>7} {r.seed:>5} {r.status:<8} {r.n_evals:>8} "
-              f"{r.best_f:>12.6g} {r.wall_s:>8.2f}")
-    print(f"{len(runs)} runs in {args.store}")
-    return 0
-
-
 def _run_task_main(argv: list[str]) -> int:
-    """``python -m adapters.study --run-task TASK_JSON OUT STARTED``: one run, its record to
+    """``python -m femu.studies.study --run-task TASK_JSON OUT STARTED``: one run, its record to
     the file OUT; the file STARTED is created when the run starts."""
     task = Task(**json.loads(argv[1]))
     record = run_task(task, on_start=Path(argv[3]).touch)
@@ -658,4 +621,4 @@ def _run_task_main(argv: list[str]) -> int:
 if __name__ == "__main__":
     if len(sys.argv) == 5 and sys.argv[1] == "--run-task":
         sys.exit(_run_task_main(sys.argv[1:]))
-    sys.exit("usage: python -m adapters.study --run-task TASK_JSON OUT STARTED (used on Dask workers)")
+    sys.exit("usage: python -m femu.studies.study --run-task TASK_JSON OUT STARTED (used on Dask workers)")

@@ -33,8 +33,8 @@ import sys
 import time
 from pathlib import Path
 
-from .registry import available, get
-from .report import render_files, summarize
+from adapters.registry import available, get
+from femu.reports.study import render_files, summarize
 
 #: Seeds 0..DEFAULT_SEEDS-1 and FE evaluations per run when not given (see the module doc).
 DEFAULT_SEEDS = 5
@@ -108,7 +108,7 @@ def reproduce(seeds: int = DEFAULT_SEEDS, budget: int = DEFAULT_BUDGET, out="fem
         raise ValueError(f"--seeds: must be a number of seeds >= 1, got {seeds!r}")
     if isinstance(budget, bool) or not isinstance(budget, int) or budget < 1:
         raise ValueError(f"--budget: must be an integer >= 1 (FE evaluations per run), got {budget!r}")
-    from .study import run_study
+    from femu.studies.study import run_study
 
     names, left_out = solvers(budget)
     for name, why in left_out.items():
@@ -173,16 +173,3 @@ def render_text(res: dict) -> str:
               + " (not all consistent with the table). The H-frame geometry is a reconstruction.",
               f"Report: {res['report']}   store: {res['store']}   ({res['wall_s']:.1f} s)"]
     return "\n".join(lines)
-
-
-def cli_reproduce(args) -> int:
-    """`femu reproduce [--seeds N] [--budget B] [--out DIR] [--workers K] [--json]`."""
-    res = reproduce(seeds=DEFAULT_SEEDS if args.seeds is None else args.seeds,
-                    budget=DEFAULT_BUDGET if args.budget is None else args.budget,
-                    out=args.out, workers=args.workers)
-    if args.json:
-        json.dump(res, sys.stdout, indent=1)
-        sys.stdout.write("\n")
-    else:
-        print(render_text(res))
-    return 0

@@ -1,0 +1,55 @@
+"""The `femu` command.
+
+One pattern for every command: a module in this package named after it, with a docstring whose
+first line is the command's help, ``add_arguments(parser)`` and ``run(args) -> int``. A module
+is imported only when its command runs, except for its arguments (so `femu model` stays fast).
+Errors the user can fix (ValueError, FileNotFoundError, KeyError with a message that names the
+file and the field) become one line on stderr and exit code 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import os
+import sys
+
+#: The commands, in the order `femu --help` lists them: each is the module femu.cli.<name>.
+COMMANDS = ("model", "study", "results", "report", "reproduce", "diagnose")
+
+
+def _module(name: str):
+    return importlib.import_module(f"femu.cli.{name}")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of `femu` with every command's sub-parser."""
+    p = argparse.ArgumentParser(prog="femu", description="FE model updating of planar frames: models, "
+                                "optimizer benchmarks, studies, reports and diagnosis.")
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for name in COMMANDS:
+        module = _module(name)
+        doc = (module.__doc__ or "").strip()
+        sp = sub.add_parser(name, help=doc.splitlines()[0] if doc else None, description=doc or None,
+                            formatter_class=argparse.RawDescriptionHelpFormatter)
+        module.add_arguments(sp)
+        sp.set_defaults(func=module.run)
+    return p
+
+
+def main(argv=None) -> int:
+    """Run `femu` with ``argv`` (default: the command line); returns the exit code."""
+    args = build_parser().parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except BrokenPipeError:  # `femu results ... | head`: the reader left; not an error of ours
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
+    except (ValueError, FileNotFoundError, KeyError) as exc:
+        msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
+        print(f"femu {args.command}: error: {msg}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

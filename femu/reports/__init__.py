@@ -1,0 +1,1 @@
+"""Reports: the study report, the diagnosis report, IOHprofiler export."""

@@ -1,0 +1,1 @@
+"""Studies: tasks, executors and the result store."""
