@@ -18,6 +18,8 @@ import numpy as np
 
 from fe_problem import AffineModel, FrameModel, ModalData, mac, modal_analysis
 
+from .render import figure, markdown_table, save_figure
+
 #: How many measured modes the shape figure draws.
 N_SHAPE_MODES = 4
 #: How many candidates the candidate chart shows (the rest screened lower and were not fitted).
@@ -102,14 +104,6 @@ def best_label(record: dict) -> str | None:
 
 
 # == figures ===================================================================================
-def _figure(width: float, height: float, nrows: int = 1, ncols: int = 1, **kw):
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(width, height), dpi=110, layout="constrained")
-    axes = fig.subplots(nrows, ncols, squeeze=False, **kw)
-    return fig, axes
-
-
 def deformed_frame(model: FrameModel, u: np.ndarray, scale: float, n_points: int = 25) -> np.ndarray:
     """Element curves (n_elements, n_points, 2) in metres of the frame displaced by scale * u.
 
@@ -174,7 +168,7 @@ def plot_shapes(model: FrameModel, extended: FrameModel | None, data: ModalData,
     ncols = len(chosen) if aspect < 0.8 else min(2, len(chosen))
     nrows = math.ceil(len(chosen) / ncols)
     panel_h = 4.6
-    fig, axes = _figure(ncols * max(2.6, panel_h * aspect + 0.3), nrows * panel_h + 0.7, nrows, ncols, sharey=True)
+    fig, axes = figure(ncols * max(2.6, panel_h * aspect + 0.3), nrows * panel_h + 0.7, nrows, ncols, sharey=True)
     for ax in axes.ravel()[len(chosen):]:
         ax.set_visible(False)
     undeformed = deformed_frame(model, np.zeros(3 * len(model.nodes)), 0.0, 2)
@@ -230,7 +224,7 @@ def plot_shapes(model: FrameModel, extended: FrameModel | None, data: ModalData,
     fig.legend(handles, labels, loc="outside lower center", ncols=len(labels), fontsize=8.5, frameon=False)
     fig.suptitle(f"Mode shapes of {model.name} (amplitude arbitrary; measured shapes scaled onto the "
                  "calibrated model by least squares)", fontsize=9)
-    fig.savefig(path)
+    save_figure(fig, path)
     return path
 
 
@@ -241,7 +235,7 @@ def plot_frequency_errors(record: dict, path: Path) -> Path:
     err = np.array([np.nan if v is None else v for v in res["error_pct"]], dtype=float)
     modes = np.arange(1, len(err) + 1)
     held = set(gain.get("held_out_modes", []))
-    fig, axes = _figure(10.0, 3.9, 1, 2, width_ratios=[max(len(err), 3), max(len(held), 1) + 1.5])
+    fig, axes = figure(10.0, 3.9, 1, 2, width_ratios=[max(len(err), 3), max(len(held), 1) + 1.5])
     ax = axes[0, 0]
     colors = ["#8aa9cc" if m in held else CALIBRATED_COLOR for m in modes]
     ax.bar(modes, np.nan_to_num(err), color=colors, edgecolor="k", lw=0.4)
@@ -278,7 +272,7 @@ def plot_frequency_errors(record: dict, path: Path) -> Path:
                 transform=ax.transAxes, wrap=True)
         ax.set_xticks([])
     ax.grid(True, axis="y", alpha=0.3)
-    fig.savefig(path)
+    save_figure(fig, path)
     return path
 
 
@@ -291,7 +285,7 @@ def plot_correlation(record: dict, path: Path) -> Path | None:
     cm = np.array(res["comac"], dtype=float)
     labels = coordinate_labels(record)
     mm = np.array(res["mac_matrix"], dtype=float)
-    fig, axes = _figure(11.0, 4.2, 1, 2, width_ratios=[max(len(cm), 4), mm.shape[1] * 0.9])
+    fig, axes = figure(11.0, 4.2, 1, 2, width_ratios=[max(len(cm), 4), mm.shape[1] * 0.9])
     ax = axes[0, 0]
     order_low = np.argsort(cm)[:3]
     colors = [MEASURED_COLOR if k in order_low else CALIBRATED_COLOR for k in range(len(cm))]
@@ -316,7 +310,7 @@ def plot_correlation(record: dict, path: Path) -> Path | None:
     ax.set_ylabel("measured mode")
     ax.set_title("MAC matrix (boxes: the pairing)", fontsize=9)
     fig.colorbar(im, ax=ax, shrink=0.85)
-    fig.savefig(path)
+    save_figure(fig, path)
     return path
 
 
@@ -338,7 +332,7 @@ def plot_candidates(record: dict, path: Path) -> Path:
     threshold = threshold_chi2_drop(record["selection"])
     floor = 0.1  # log axis: a drop below this (0 when the effect can only worsen the fit) gets no bar
     y = np.arange(len(rows))[::-1]
-    fig, axes = _figure(8.4, 1.4 + 0.2 * len(rows))
+    fig, axes = figure(8.4, 1.4 + 0.2 * len(rows))
     ax = axes[0, 0]
     for yy, r in zip(y, rows):
         drop = r["screen_chi2_drop"] or 0.0
@@ -374,7 +368,7 @@ def plot_candidates(record: dict, path: Path) -> Path:
                  f"{record['selection'].get('n_fitted')} fitted; cause: {verdict}", fontsize=9)
     ax.grid(True, axis="x", which="both", alpha=0.25)
     ax.legend(handles=handles, fontsize=7.5, loc="lower right")
-    fig.savefig(path)
+    save_figure(fig, path)
     return path
 
 
@@ -393,9 +387,8 @@ def mode_ranges(modes) -> str:
 
 # == Markdown ==================================================================================
 def _table(header: list[str], rows: list[list]) -> list[str]:
-    out = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    out += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
-    return out + [""]
+    """A Markdown table followed by a blank line (sections are joined line by line)."""
+    return markdown_table(header, rows) + [""]
 
 
 def render_markdown(record: dict, figures: dict, data_source: str, model_name: str,

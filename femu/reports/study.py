@@ -27,6 +27,8 @@ from adapters.harness import RunResult
 from adapters.registry import BUILTINS
 from femu.studies.store import Store
 
+from .render import figure, markdown_table, save_figure
+
 #: Statuses that count as a failed run (no usable result or cut short by an error).
 FAILED = ("failed", "timeout")
 #: The paper's method names and the optimizers here that play their part.
@@ -357,11 +359,9 @@ def _colors(names) -> dict:
     return {n: palette[i % len(palette)] for i, n in enumerate(names)}
 
 
-def _figure(width=7.5, height=4.6):
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(width, height), dpi=110, layout="constrained")
-    return fig, fig.add_subplot()
+def _figure():
+    fig, axes = figure()
+    return fig, axes[0, 0]
 
 
 def plot_convergence(g: GroupSummary, path: Path) -> Path:
@@ -383,7 +383,7 @@ def plot_convergence(g: GroupSummary, path: Path) -> Path:
     ax.set_title(f"Convergence: {g.variant}, budget {g.budget} (median, band = quartiles over seeds)", fontsize=10)
     ax.grid(True, which="both", alpha=0.25)
     ax.legend(fontsize=8, ncols=2)
-    fig.savefig(path)
+    save_figure(fig, path)
     return path
 
 
@@ -403,7 +403,7 @@ def plot_ecdf(g: GroupSummary, path: Path) -> Path:
                      f"{g.targets[0]:.3g} .. {g.targets[-1]:.3g}", fontsize=10)
     ax.grid(True, which="both", alpha=0.25)
     ax.legend(fontsize=8, ncols=2, loc="upper left")
-    fig.savefig(path)
+    save_figure(fig, path)
     return path
 
 
@@ -427,7 +427,7 @@ def plot_overhead(g: GroupSummary, path: Path) -> Path:
     ax.set_title(f"Solver overhead (wall - FE) / evaluations: {g.variant}, budget {g.budget}", fontsize=10)
     ax.grid(True, axis="y", which="both", alpha=0.25)
     ax.legend(fontsize=8)
-    fig.savefig(path)
+    save_figure(fig, path)
     return path
 
 
@@ -467,7 +467,7 @@ def plot_errors(g: GroupSummary, path: Path) -> Path:
                  + ("\n(light grey: the paper's Table 1, recomputed; hatched: initial models)"
                     if g.paper is not None else ""), fontsize=10)
     ax.grid(True, axis="y", alpha=0.25)
-    fig.savefig(path)
+    save_figure(fig, path)
     return path
 
 
@@ -481,11 +481,6 @@ def _cell(median, q1, q3, fmt=".2f") -> str:
     if not math.isfinite(median):
         return "n/a"
     return f"{format(median, fmt)} ({format(q3 - q1, fmt)})"
-
-
-def _table(header: list[str], rows: list[list[str]]) -> list[str]:
-    out = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
-    return out + ["| " + " | ".join(r) + " |" for r in rows]
 
 
 def _table1(g: GroupSummary) -> list[str]:
@@ -544,7 +539,7 @@ def _table1(g: GroupSummary) -> list[str]:
         r += [_f(p.mean_comac_text.get(k), ".4g") for k in p.updated_hz]
         r += ["n/a"] * len(g.solvers)
         rows.append(r)
-    return _table(head, rows)
+    return markdown_table(head, rows)
 
 
 def _solver_table(g: GroupSummary) -> list[str]:
@@ -558,7 +553,7 @@ def _solver_table(g: GroupSummary) -> list[str]:
                      _f(s.n_evals.median, ".0f"), _f(s.wall_s.median, ".3g"), _f(s.cpu_s.median, ".3g"),
                      _f(s.fe_s.median, ".3g"), _f(s.overhead_s.median, ".3g"),
                      _f(s.overhead_ms_per_eval.median, ".3g")])
-    return _table(head, rows)
+    return markdown_table(head, rows)
 
 
 def _paper_section(p: PaperComparison) -> list[str]:
@@ -571,7 +566,7 @@ def _paper_section(p: PaperComparison) -> list[str]:
     lines = ["### The paper's own numbers", "",
              "Mean absolute frequency error recomputed from the frequencies of the paper's Table 1, "
              "beside the percentages its text states:", ""]
-    lines += _table(["method", "mean abs err % (from Table 1)", "mean err % (paper's text)", "mean COMAC (text)",
+    lines += markdown_table(["method", "mean abs err % (from Table 1)", "mean err % (paper's text)", "mean COMAC (text)",
                      "CPU minutes (text)", "counterpart here"], rows)
     bad = ", ".join(p.disagreements) or "none"
     lines += ["", f"The paper's text percentages do not all agree with its own table: they differ from what "
@@ -613,7 +608,7 @@ def render_markdown(groups: list[GroupSummary], figures: dict, source: str) -> s
         failures = [(s.optimizer, *f) for s in g.solvers for f in s.failures]
         if failures:
             lines += ["### Failed runs", ""]
-            lines += _table(["optimizer", "seed", "status", "error"],
+            lines += markdown_table(["optimizer", "seed", "status", "error"],
                             [[o, str(seed), st, e.replace("|", "\\|")] for o, seed, st, e in failures])
             lines.append("")
     return "\n".join(lines) + "\n"

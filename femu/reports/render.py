@@ -1,0 +1,34 @@
+"""The one rendering module: Markdown tables and figure files, shared by every report.
+
+Reports render records: they compute nothing that is not already in them. Figures are drawn on
+a matplotlib ``Figure`` (no pyplot state, safe in any thread or process) and saved here.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+#: Resolution of every saved figure (dots per inch).
+DPI = 110
+
+
+def markdown_table(header: list[str], rows: list[list]) -> list[str]:
+    """A Markdown table as lines: a header row, the separator, one line per row (cells str())."""
+    out = ["| " + " | ".join(str(h) for h in header) + " |", "|" + "|".join("---" for _ in header) + "|"]
+    return out + ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
+
+
+def figure(width: float = 7.5, height: float = 4.6, nrows: int = 1, ncols: int = 1, **subplots):
+    """A new figure of ``width`` x ``height`` inches and its axes as a (nrows, ncols) array."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(width, height), dpi=DPI, layout="constrained")
+    axes = fig.subplots(nrows, ncols, squeeze=False, **subplots)
+    return fig, axes
+
+
+def save_figure(fig, path) -> Path:
+    """Write ``fig`` to ``path`` (PNG by its suffix) and return the path."""
+    path = Path(path)
+    fig.savefig(path)
+    return path
