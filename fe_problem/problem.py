@@ -16,10 +16,11 @@ from pathlib import Path
 import numpy as np
 
 from .correlation import Pairing, comac, frequency_errors_pct, mac, pair_modes
-from .data import ModalData, load_modal_data
+from .modal_data import ModalData, load_modal_data
 from .modal import ModalResult, frequencies_hz
 from .model import FrameModel, load_model
-from .parameters import AffineModel, Parameter, element_moduli
+from .assembly import AffineModel
+from .parameters import Parameter, element_moduli
 
 WEIGHTS = ("gamma", "unit")
 

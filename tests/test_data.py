@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import fe_problem as fp
-from fe_problem.uff import read_uff55, write_uff55
+from fe_problem.modal_data.uff import read_uff55, write_uff55
 
 VALID = {
     "format": "femu.modal-data/1",

@@ -33,9 +33,10 @@ from scipy.optimize import least_squares
 from scipy.stats import chi2 as chi2_dist
 
 from ..correlation import comac, mac
-from ..data import DataFileError, ModalData, load_modal_data
+from ..modal_data import DataFileError, ModalData, load_modal_data
 from ..model import FrameModel, load_model, model_to_dict
-from ..parameters import AffineModel, element_moduli
+from ..assembly import AffineModel
+from ..parameters import element_moduli
 from .candidates import Candidate, Setting, all_candidates, scale_stiffness, solve
 from .fit import Fit, fit, profiled, screen
 from .residuals import Observations

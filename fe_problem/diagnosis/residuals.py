@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..correlation import MAX_PAIR_FREQ, pair_modes
-from ..data import ModalData
+from ..modal_data import ModalData
 
 
 @dataclass(frozen=True, eq=False)

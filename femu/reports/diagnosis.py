@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fe_problem import AffineModel, FrameModel, ModalData, mac, modal_analysis
+from fe_problem import AffineModel, FrameModel, ModalData, elements, mac, modal_analysis
 
 from .render import figure, markdown_table, save_figure
 
@@ -105,36 +105,9 @@ def best_label(record: dict) -> str | None:
 
 # == figures ===================================================================================
 def deformed_frame(model: FrameModel, u: np.ndarray, scale: float, n_points: int = 25) -> np.ndarray:
-    """Element curves (n_elements, n_points, 2) in metres of the frame displaced by scale * u.
-
-    u: one value per nodal DOF in `model.dofs` order (x, y, rz per node). Along an element
-    the axial displacement is linear and the transverse one the Hermite cubic of the end
-    displacements and rotations, as in the element itself; an element with a released end
-    or a crack is drawn straight between its displaced nodes, since its ends' own rotations
-    are not nodal DOFs."""
-    index = {n.id: k for k, n in enumerate(model.nodes)}
-    xy = np.array([[n.x, n.y] for n in model.nodes])
-    U = np.asarray(u, dtype=float).reshape(len(model.nodes), 3)
-    i = np.array([index[e.node_i] for e in model.elements])
-    j = np.array([index[e.node_j] for e in model.elements])
-    d = xy[j] - xy[i]
-    length = np.linalg.norm(d, axis=1)
-    c, s = d[:, 0] / length, d[:, 1] / length
-    axial_i, axial_j = c * U[i, 0] + s * U[i, 1], c * U[j, 0] + s * U[j, 1]
-    trans_i, trans_j = -s * U[i, 0] + c * U[i, 1], -s * U[j, 0] + c * U[j, 1]
-    xi = np.linspace(0.0, 1.0, n_points)[None, :]
-    L = length[:, None]
-    hermite = ((1 - 3 * xi**2 + 2 * xi**3) * trans_i[:, None] + L * (xi - 2 * xi**2 + xi**3) * U[i, 2][:, None]
-               + (3 * xi**2 - 2 * xi**3) * trans_j[:, None] + L * (xi**3 - xi**2) * U[j, 2][:, None])
-    linear = (1 - xi) * trans_i[:, None] + xi * trans_j[:, None]
-    smooth = np.array([e.release_i is None and e.release_j is None and e.crack_position is None
-                       for e in model.elements])
-    trans = np.where(smooth[:, None], hermite, linear)
-    axial = (1 - xi) * axial_i[:, None] + xi * axial_j[:, None]
-    base = xy[i][:, None, :] + xi[..., None] * d[:, None, :]
-    disp = (axial[..., None] * np.stack([c, s], 1)[:, None, :]
-            + trans[..., None] * np.stack([-s, c], 1)[:, None, :])
-    return base + scale * disp
+    """Element curves (n_elements, n_points, 2) in metres of the frame displaced by scale * u
+    (u: one value per nodal DOF in `model.dofs` order); see `fe_problem.elements.deformed_frame`."""
+    return elements.deformed_frame(model, u, scale, n_points)
 
 
 def _translation_dofs(model: FrameModel) -> list[tuple[int, str]]:

@@ -8,15 +8,16 @@ What a file holds, as written here and as read:
   a model file path relative to the data file; a bare ID line 1 is read as the name, as the
   UFF dataloader convention puts the model identification there). ID line 2 holds
   ``meta["source"]`` (80 characters at most). Other ``meta`` entries are not stored.
-- A planar frame moves in x, y and rz only: z, rx and ry are written as 0, and a file with a
-  non-zero value there is refused. Data characteristic 2 (3 translations) is read too.
+- A node moves only in its model's DOFs (the `DofLayout`, dofs.py; the planar frame: x, y,
+  rz): the other values are written as 0, and on reading a file with a non-zero value there
+  is refused. Data characteristic 2 (3 translations) is read too.
 
 Limits of the format, and the choices made:
 - Values are written with 6 significant figures (format 6E13.5, fixed by the standard), so
   frequencies and shape entries round-trip to 5e-6 relative.
 - A node's unmeasured directions are written as 0 (the standard's rule for reduced DOF
   sets). On reading, the measured DOFs are the (node, direction) entries that are non-zero
-  in at least one mode, in file order: node by node, then x, y, rz. The DOF order of a JSON
+  in at least one mode, in file order: node by node, then in the layout's DOF order. The DOF order of a JSON
   file is therefore not kept (nothing depends on it), and a DOF measured as exactly 0 in
   every mode cannot be told from an unmeasured one.
 - A mode with no measured shape cannot be written: a dataset 55 *is* a shape, and an all-zero
@@ -31,11 +32,10 @@ from pathlib import Path
 import numpy as np
 import pyuff
 
-from .data import DATA_FORMAT, DataFileError, ModalData, modal_data_from_dict
+from ..dofs import DEFAULT_LAYOUT, SPATIAL, DofLayout
+from .json_format import modal_data_from_dict
+from .types import DATA_FORMAT, DataFileError, ModalData
 
-#: column of each in-plane direction among the 6 values per node (x, y, z, rx, ry, rz)
-_COLUMN = {"x": 0, "y": 1, "rz": 5}
-_OUT_OF_PLANE = {2: "z", 3: "rx", 4: "ry"}
 _MODEL_TAG = "model:"
 _ID_WIDTH = 80
 
@@ -44,7 +44,7 @@ def write_uff55(data: ModalData, path: str | Path) -> Path:
     """Write `data` as UFF dataset 55, one normal-mode dataset per mode; returns the path.
 
     Frequencies in Hz; shapes as given (sign and scale carry no meaning). Raises
-    DataFileError naming the file if a mode has no shape, a DOF direction is not x, y or rz,
+    DataFileError naming the file if a mode has no shape, a DOF direction is not a spatial one,
     or the model name does not fit in ID line 1.
     """
     path = Path(path)
@@ -55,9 +55,9 @@ def write_uff55(data: ModalData, path: str | Path) -> Path:
             f"{path}: mode(s) {listed} have no measured shape, and UFF dataset 55 holds one shape per "
             "mode: write JSON instead, or only the modes with shapes "
             "(data.subset(np.flatnonzero(data.has_shape)))")
-    bad = [d for d in data.dofs if d[1] not in _COLUMN]
+    bad = [d for d in data.dofs if d[1] not in SPATIAL]
     if bad:
-        raise DataFileError(f"{path}: DOF(s) {bad} have a direction other than x, y, rz")
+        raise DataFileError(f"{path}: DOF(s) {bad} have a direction other than {', '.join(SPATIAL)}")
     id1 = f"{_MODEL_TAG} {data.model}"
     if len(id1) > _ID_WIDTH:
         raise DataFileError(f"{path}: the model name {data.model!r} is longer than the "
@@ -68,7 +68,7 @@ def write_uff55(data: ModalData, path: str | Path) -> Path:
     row = {n: i for i, n in enumerate(nodes)}
     values = np.zeros((data.n_modes, len(nodes), 6))
     for i, (node, direction) in enumerate(data.dofs):
-        values[:, row[node], _COLUMN[direction]] = data.shapes[i]
+        values[:, row[node], SPATIAL.index(direction)] = data.shapes[i]
 
     datasets = []
     for k in range(data.n_modes):
@@ -86,10 +86,11 @@ def write_uff55(data: ModalData, path: str | Path) -> Path:
     return path
 
 
-def read_uff55(path: str | Path, model: str | None = None) -> ModalData:
+def read_uff55(path: str | Path, model: str | None = None, layout: DofLayout = DEFAULT_LAYOUT) -> ModalData:
     """Read the normal modes of the datasets 55 in a UFF file (other dataset types are ignored).
 
-    `model`: the model the data belongs to, if ID line 1 does not name it. The result obeys
+    `model`: the model the data belongs to, if ID line 1 does not name it; `layout`: the DOFs
+    its nodes have (values in other directions are refused). The result obeys
     the rules of the JSON format (shared/formats/modal-data.md); every error is a
     DataFileError that names the file, the dataset and what is wrong.
     """
@@ -116,40 +117,12 @@ def read_uff55(path: str | Path, model: str | None = None) -> ModalData:
             ds = uff.read_sets(block)
         except Exception as exc:
             raise DataFileError(f"{where}: cannot be read ({exc})") from None
-        if ds.get("analysis_type") != 2:
-            raise DataFileError(f"{where}: analysis type {ds.get('analysis_type')} is not 2 (normal mode); "
-                                "only real normal modes are read")
-        if ds.get("data_type") != 2:
-            raise DataFileError(f"{where}: data type {ds.get('data_type')} is not 2 (real); "
-                                "complex shapes are not read")
-        if ds.get("data_ch") not in (2, 3):
-            raise DataFileError(f"{where}: data characteristic {ds.get('data_ch')} is not 2 (3 translations) "
-                                "or 3 (3 translations and 3 rotations): the directions are unknown")
-        node_nums = [int(n) for n in ds["node_nums"]]
+        node_nums, v, f = _normal_mode(ds, where, layout)
         if nodes is None:
             nodes = node_nums
         elif node_nums != nodes:
             raise DataFileError(f"{where}: inconsistent nodes across modes: dataset #1 lists nodes {nodes}, "
                                 f"this one {node_nums}")
-        if len(set(node_nums)) != len(node_nums):
-            raise DataFileError(f"{where}: a node is listed twice in {node_nums}")
-        n_values = 6 if ds["data_ch"] == 3 else 3
-        v = np.column_stack([ds[f"r{c}"] for c in range(1, n_values + 1)])
-        if not np.all(np.isfinite(v)):
-            raise DataFileError(f"{where}: a shape value is not a finite number")
-        for col, name in _OUT_OF_PLANE.items():
-            if col < n_values and np.any(v[:, col] != 0.0):
-                node = node_nums[int(np.flatnonzero(v[:, col])[0])]
-                raise DataFileError(f"{where}: node {node} has a non-zero {name} value; a planar frame has only "
-                                    "x, y and rz")
-        if not np.any(v):
-            raise DataFileError(f"{where} (mode {ds.get('mode_n')}): every value is zero; a dataset 55 must hold "
-                                "the mode's shape")
-        f = float(ds["freq"])
-        if not (np.isfinite(f) and f > 0):
-            raise DataFileError(f"{where}: frequency {f} Hz must be a finite number > 0")
-        if n_values == 3:
-            v = np.column_stack([v, np.zeros((v.shape[0], 3))])
         freqs.append(f)
         shapes.append(v)
         if k == 1:
@@ -157,9 +130,9 @@ def read_uff55(path: str | Path, model: str | None = None) -> ModalData:
 
     values = np.stack(shapes)  # (mode, node, 6 values)
     measured = np.any(values != 0.0, axis=0)  # (node, 6): non-zero in some mode
-    entries = [(i, d) for i in range(len(nodes)) for d, col in _COLUMN.items() if measured[i, col]]
+    entries = [(i, d) for i in range(len(nodes)) for d in layout.names if measured[i, layout.spatial_column(d)]]
     dofs = [(nodes[i], d) for i, d in entries]
-    rows = values[:, [i for i, _ in entries], [_COLUMN[d] for _, d in entries]]  # (mode, dof)
+    rows = values[:, [i for i, _ in entries], [layout.spatial_column(d) for _, d in entries]]  # (mode, dof)
 
     if model is None:
         model = model_id[len(_MODEL_TAG):].strip() if model_id.lower().startswith(_MODEL_TAG) else model_id
@@ -170,3 +143,38 @@ def read_uff55(path: str | Path, model: str | None = None) -> ModalData:
     raw = {"format": DATA_FORMAT, "model": model, "dofs": [list(d) for d in dofs],
            "modes": [{"frequency_hz": f, "shape": rows[m].tolist()} for m, f in enumerate(freqs)], "meta": meta}
     return modal_data_from_dict(raw, source=str(path))
+
+
+def _normal_mode(ds: dict, where: str, layout: DofLayout) -> tuple[list[int], np.ndarray, float]:
+    """Node numbers, values (n_node, 6: x, y, z, rx, ry, rz) and frequency (Hz) of one
+    dataset 55, checked to be a real normal mode with values only in `layout`'s DOFs."""
+    if ds.get("analysis_type") != 2:
+        raise DataFileError(f"{where}: analysis type {ds.get('analysis_type')} is not 2 (normal mode); "
+                            "only real normal modes are read")
+    if ds.get("data_type") != 2:
+        raise DataFileError(f"{where}: data type {ds.get('data_type')} is not 2 (real); "
+                            "complex shapes are not read")
+    if ds.get("data_ch") not in (2, 3):
+        raise DataFileError(f"{where}: data characteristic {ds.get('data_ch')} is not 2 (3 translations) "
+                            "or 3 (3 translations and 3 rotations): the directions are unknown")
+    node_nums = [int(n) for n in ds["node_nums"]]
+    if len(set(node_nums)) != len(node_nums):
+        raise DataFileError(f"{where}: a node is listed twice in {node_nums}")
+    n_values = 6 if ds["data_ch"] == 3 else 3
+    v = np.column_stack([ds[f"r{c}"] for c in range(1, n_values + 1)])
+    if not np.all(np.isfinite(v)):
+        raise DataFileError(f"{where}: a shape value is not a finite number")
+    for col, name in enumerate(SPATIAL[:n_values]):
+        if name not in layout.names and np.any(v[:, col] != 0.0):
+            node = node_nums[int(np.flatnonzero(v[:, col])[0])]
+            raise DataFileError(f"{where}: node {node} has a non-zero {name} value; the model's nodes have only "
+                                f"{', '.join(layout.names)}")
+    if not np.any(v):
+        raise DataFileError(f"{where} (mode {ds.get('mode_n')}): every value is zero; a dataset 55 must hold "
+                            "the mode's shape")
+    f = float(ds["freq"])
+    if not (np.isfinite(f) and f > 0):
+        raise DataFileError(f"{where}: frequency {f} Hz must be a finite number > 0")
+    if n_values == 3:
+        v = np.column_stack([v, np.zeros((v.shape[0], 3))])
+    return node_nums, v, f

@@ -1,0 +1,140 @@
+"""Validation of a model: every rule a model file must obey, with messages that name the
+file, the item and the field."""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any
+
+from ..elements import formulation, formulations
+
+if TYPE_CHECKING:
+    from .types import FrameModel
+
+
+class ModelFileError(ValueError):
+    """A model file or model definition that breaks the format; the message names where."""
+
+
+def is_number(value: Any) -> bool:
+    """A finite int or float that is not a bool."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def _duplicates(ids: list) -> list:
+    return sorted({i for i in ids if ids.count(i) > 1})
+
+
+def _positive(value: Any, where: str, allow_zero: bool = False) -> None:
+    ok = is_number(value) and (value >= 0 if allow_zero else value > 0)
+    if not ok:
+        need = "a finite number >= 0" if allow_zero else "a finite number > 0"
+        raise ModelFileError(f"{where}: must be {need}, got {value!r}")
+
+
+def validate(m: FrameModel) -> None:
+    """Raise ModelFileError (naming `m.source`, the item and the field) if `m` breaks a rule."""
+    src = m.source
+    ids = [n.id for n in m.nodes]
+    if not m.nodes:
+        raise ModelFileError(f"{src}: 'nodes' is empty")
+    if len(set(ids)) != len(ids):
+        raise ModelFileError(f"{src}: 'nodes' has duplicate ids {_duplicates(ids)}")
+    for n in m.nodes:
+        for v, name in ((n.x, "x"), (n.y, "y")):
+            if not (isinstance(v, (int, float)) and math.isfinite(v)):
+                raise ModelFileError(f"{src}: node {n.id} field '{name}' must be a finite number, got {v!r}")
+    _validate_tables(m)
+    eids = [e.id for e in m.elements]
+    if not m.elements:
+        raise ModelFileError(f"{src}: 'elements' is empty")
+    if len(set(eids)) != len(eids):
+        raise ModelFileError(f"{src}: 'elements' has duplicate ids {_duplicates(eids)}")
+    for e in m.elements:
+        _validate_element(m, e)
+    _validate_nodal(m)
+
+
+def _validate_tables(m: FrameModel) -> None:
+    src = m.source
+    for name, mat in m.materials.items():
+        _positive(mat.youngs_modulus_pa, f"{src}: material {name!r} 'youngs_modulus_pa'")
+        _positive(mat.density_kg_m3, f"{src}: material {name!r} 'density_kg_m3'")
+        if not (is_number(mat.poisson_ratio) and -1.0 < mat.poisson_ratio < 0.5):
+            raise ModelFileError(f"{src}: material {name!r} 'poisson_ratio' must be a number in (-1, 0.5), "
+                                 f"got {mat.poisson_ratio!r}")
+    for name, sec in m.sections.items():
+        _positive(sec.area_m2, f"{src}: section {name!r} 'area_m2'")
+        _positive(sec.inertia_m4, f"{src}: section {name!r} 'inertia_m4'")
+        _positive(sec.shear_coefficient, f"{src}: section {name!r} 'shear_coefficient'")
+
+
+def _validate_element(m: FrameModel, e) -> None:
+    where = f"{m.source}: element {e.id}"
+    idset = set(m.node_ids)
+    for n in (e.node_i, e.node_j):
+        if n not in idset:
+            raise ModelFileError(f"{where}: field 'nodes': unknown node {n}")
+    if e.node_i == e.node_j:
+        raise ModelFileError(f"{where}: both ends at node {e.node_i}")
+    if e.section not in m.sections:
+        raise ModelFileError(f"{where}: field 'section': unknown section {e.section!r} "
+                             f"(sections: {sorted(m.sections)})")
+    if e.material not in m.materials:
+        raise ModelFileError(f"{where}: field 'material': unknown material {e.material!r} "
+                             f"(materials: {sorted(m.materials)})")
+    if e.formulation not in formulations():
+        raise ModelFileError(f"{where}: 'formulation' must be one of {formulations()}, got {e.formulation!r}")
+    for r, name in ((e.release_i, "release_i"), (e.release_j, "release_j")):
+        if r is not None:
+            _positive(r, f"{where} '{name}'", allow_zero=True)
+    if e.youngs_modulus_pa is not None:
+        _positive(e.youngs_modulus_pa, f"{where} 'youngs_modulus_pa'")
+    if (e.crack_position is None) != (e.crack_stiffness is None):
+        raise ModelFileError(f"{where}: 'crack_position' and 'crack_stiffness' go together")
+    if e.crack_position is not None:
+        if not (isinstance(e.crack_position, (int, float)) and 0.0 < e.crack_position < 1.0):
+            raise ModelFileError(f"{where} 'crack_position': must be inside (0, 1), got {e.crack_position!r}")
+        _positive(e.crack_stiffness, f"{where} 'crack_stiffness'")
+        if not formulation(e.formulation).supports_crack:
+            cracked = [f for f in formulations() if formulation(f).supports_crack]
+            raise ModelFileError(f"{where}: a crack needs formulation {' or '.join(map(repr, cracked))}")
+    a, b = m.node(e.node_i), m.node(e.node_j)
+    if math.hypot(b.x - a.x, b.y - a.y) <= 0:
+        raise ModelFileError(f"{where}: zero length (nodes {e.node_i} and {e.node_j} coincide)")
+
+
+def _check_dof(m: FrameModel, dof: Any, where: str) -> None:
+    if not (isinstance(dof, tuple) and len(dof) == 2):
+        raise ModelFileError(f"{where}: a DOF is [node id, direction], got {dof!r}")
+    if dof[0] not in m.node_ids:
+        raise ModelFileError(f"{where}: unknown node {dof[0]!r}")
+    if dof[1] not in m.layout.names:
+        raise ModelFileError(f"{where}: unknown direction {dof[1]!r}; use one of {m.layout.names}")
+
+
+def _validate_nodal(m: FrameModel) -> None:
+    """Masses, springs, supports, measured DOFs and the excitation."""
+    src, idset = m.source, set(m.node_ids)
+    for lm in m.masses:
+        if lm.node not in idset:
+            raise ModelFileError(f"{src}: mass at unknown node {lm.node}")
+        _positive(lm.mass_kg, f"{src}: mass at node {lm.node} 'mass_kg'", allow_zero=True)
+        _positive(lm.inertia_kg_m2, f"{src}: mass at node {lm.node} 'inertia_kg_m2'", allow_zero=True)
+    for s in m.springs:
+        _check_dof(m, s.dof_a, f"{src}: spring {s.id}")
+        if s.dof_b is not None:
+            _check_dof(m, s.dof_b, f"{src}: spring {s.id}")
+        _positive(s.stiffness, f"{src}: spring {s.id} 'stiffness'", allow_zero=True)
+    for sup in m.supports:
+        if sup.node not in idset:
+            raise ModelFileError(f"{src}: support at unknown node {sup.node}")
+        for d in sup.directions:
+            if d not in m.layout.names:
+                raise ModelFileError(f"{src}: support at node {sup.node}: unknown direction {d!r}")
+    for i, dof in enumerate(m.measured_dofs):
+        _check_dof(m, dof, f"{src}: measured_dofs[{i}]")
+    if len(set(m.measured_dofs)) != len(m.measured_dofs):
+        raise ModelFileError(f"{src}: 'measured_dofs' lists a DOF twice")
+    if m.excitation is not None:
+        _check_dof(m, m.excitation, f"{src}: excitation")
