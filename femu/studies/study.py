@@ -36,13 +36,13 @@ from adapters.registry import get, module_of
 from adapters.variants import VARIANTS, make_problem
 from fe_problem.jsonutil import dumps
 
-from .child import DaskCluster, dask_task, run_task_in_child  # noqa: F401  (public names of the study engine)
+from .child import DaskCluster
 from .executors import InProcess, LocalPool
-from .manifest import STUDY_FORMAT, write_manifest  # noqa: F401
+from .manifest import write_manifest
 from .progress import Progress
 from .seeds import parse_names, parse_seeds
 from .store import Store
-from .tasks import STARTUP_LIMIT_S, Task, hard_deadline_s, run_task  # noqa: F401
+from .tasks import Task, run_task
 
 #: Statuses that --retry-failed runs again.
 RETRY_STATUSES = ("failed", "timeout")
