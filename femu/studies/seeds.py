@@ -1,8 +1,14 @@
-"""Parsing of a study's lists: seeds (``0-29``, ``0,3,7``) and names (``a,b``)."""
+"""Parsing of a study's lists: seeds (``0-29``, ``0,3,7``) and names (``a,b``).
+
+One seed syntax for every command: a list of seeds and ranges (``0-29``, ``0,3,7``,
+``0-4,10``). `femu reproduce` also takes a bare count N, meaning the N seeds 0..N-1
+(`parse_seed_count`); `femu study` does not (there ``5`` is the seed 5).
+"""
 
 from __future__ import annotations
 
 import re
+
 
 def parse_seeds(spec) -> list[int]:
     """Seeds from ``"0-29"``, ``"0,3,7"`` or a mix (``"0-4,10"``), or from a list of ints.
@@ -48,3 +54,16 @@ def parse_names(spec, what: str) -> list[str]:
         raise ValueError(f"--{what}: {dup[0]!r} is given twice")
     return names
 
+
+
+def parse_seed_count(spec) -> list[int]:
+    """Seeds for `femu reproduce`: a bare whole number N (an int or a string of digits) is a
+    count, the N seeds 0..N-1 (N >= 1); anything else is a list as for `parse_seeds`."""
+    text = str(spec).strip() if isinstance(spec, (str, int)) and not isinstance(spec, bool) else None
+    if text is not None and text.isdigit():
+        n = int(text)
+        if n < 1:
+            raise ValueError(f"--seeds {spec!r}: a count of seeds must be >= 1 (N means the seeds 0..N-1; "
+                             f"a single seed s is written s-s)")
+        return list(range(n))
+    return parse_seeds(spec)
