@@ -1,4 +1,4 @@
-"""Measured modal data: the JSON file of shared/formats/modal-data.md, the paper's dataset,
+"""Measured modal data: the JSON file of docs/modal-data-format.md, the paper's dataset,
 and synthetic measurements.
 
 `ModalData` holds frequencies (Hz), shapes at the measured DOFs (NaN columns where only the
