@@ -17,8 +17,16 @@ from fe_problem.jsonutil import jsonable
 FAILED = ("failed", "timeout")
 
 
+class _Quartiles:
+    """The summary.json form shared by Spread and ArraySpread (median, q1, q3, n)."""
+
+    def to_dict(self) -> dict:
+        """{"median", "q1", "q3", "n"}; numbers that are not finite become None."""
+        return jsonable({"median": self.median, "q1": self.q1, "q3": self.q3, "n": self.n})
+
+
 @dataclass(frozen=True)
-class Spread:
+class Spread(_Quartiles):
     """Median and quartiles of one quantity over the runs that have it (n of them)."""
 
     median: float
@@ -40,13 +48,10 @@ class Spread:
         """Interquartile range q3 - q1."""
         return self.q3 - self.q1
 
-    def to_dict(self) -> dict:
-        """The summary.json form."""
-        return {"median": _num(self.median), "q1": _num(self.q1), "q3": _num(self.q3), "n": self.n}
 
 
 @dataclass(frozen=True, eq=False)
-class ArraySpread:
+class ArraySpread(_Quartiles):
     """Per-component median and quartiles over runs: arrays of shape (m,)."""
 
     median: np.ndarray
@@ -60,9 +65,6 @@ class ArraySpread:
         q1, med, q3 = np.nanquantile(rows, [0.25, 0.5, 0.75], axis=0)
         return cls(med, q1, q3, rows.shape[0])
 
-    def to_dict(self) -> dict:
-        """The summary.json form."""
-        return {"median": _arr(self.median), "q1": _arr(self.q1), "q3": _arr(self.q3), "n": self.n}
 
 
 @dataclass(frozen=True, eq=False)
