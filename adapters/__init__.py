@@ -8,7 +8,8 @@
   random_search, cma_es, sensitivity) and their shared GA operators (ga_operators);
 - variants: the named problem variants a study runs on.
 
-Nothing here imports the application (femu) or its libraries (argparse, matplotlib, rich, dask).
+Nothing here imports the application (femu) or its command-line, plotting, progress or cluster
+libraries (tests/test_layout.py checks).
 """
 
 from fe_problem import _threads  # noqa: F401  (one BLAS thread: before numpy loads)
