@@ -23,6 +23,9 @@ from typing import Any
 
 import numpy as np
 
+from .budget import check_budget, check_min_budget, check_seed
+from .provenance import library_versions
+
 RECORD_FORMAT = "femu.run/1"
 
 
@@ -43,6 +46,7 @@ class RunResult:
     status: ``ok`` (budget spent), ``stopped`` (the method ended by itself before the budget),
     ``failed`` (it raised, or produced NaN), ``timeout`` (time limit).
     Times in seconds: wall_s, cpu_s (this process), fe_s (inside FE evaluations).
+    versions: Python's and every run library's version (adapters.provenance.library_versions).
     """
 
     optimizer: str
@@ -61,6 +65,7 @@ class RunResult:
     error: str | None = None
     variant: str = "paper"
     host: str = ""
+    versions: dict = field(default_factory=dict)
     format: str = RECORD_FORMAT
 
     @property
@@ -69,12 +74,14 @@ class RunResult:
         return self.wall_s - self.fe_s
 
     def to_dict(self) -> dict:
+        """The record as a JSON-ready dict (a best_f that is not finite becomes None)."""
         d = asdict(self)
         d["best_f"] = None if not math.isfinite(self.best_f) else self.best_f
         return d
 
     @classmethod
     def from_dict(cls, d: dict) -> "RunResult":
+        """The record from `to_dict`'s output; unknown keys are ignored."""
         d = dict(d)
         d["best_f"] = math.inf if d.get("best_f") is None else d["best_f"]
         known = set(cls.__dataclass_fields__)
@@ -99,8 +106,7 @@ class BudgetedObjective:
     """
 
     def __init__(self, problem, budget: int, time_limit_s: float | None = None):
-        if int(budget) < 1:
-            raise ValueError(f"budget must be a positive number of evaluations, got {budget}")
+        budget = check_budget(budget)
         self.problem = problem
         self.budget = int(budget)
         self.time_limit_s = time_limit_s
@@ -115,6 +121,7 @@ class BudgetedObjective:
 
     @property
     def remaining(self) -> int:
+        """Evaluations left in the budget."""
         return self.budget - self.n_evals
 
     def _check_time(self) -> None:
@@ -186,14 +193,9 @@ def run(name: str, problem, budget: int, seed: int, time_limit_s: float | None =
     from .registry import get
 
     cls = get(name)
-    if not _is_int(seed) or seed < 0:
-        raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
-    if not _is_int(budget) or budget < 1:
-        raise ValueError(f"budget must be an integer >= 1 (FE evaluations), got {budget!r}")
+    seed, budget = check_seed(seed), check_budget(budget)
     optimizer = cls()
-    min_budget = int(getattr(optimizer, "min_budget", 1))
-    if budget < min_budget:
-        raise ValueError(f"optimizer {name!r} needs a budget of at least {min_budget} evaluations, got {budget}")
+    check_min_budget(name, optimizer, budget, problem.n_var, **options)
     objective = BudgetedObjective(problem, budget, time_limit_s)
     rng = np.random.default_rng(int(seed))
     status, error = "stopped", None
@@ -217,11 +219,7 @@ def run(name: str, problem, budget: int, seed: int, time_limit_s: float | None =
         budget=int(budget), options=dict(options), n_evals=objective.n_evals, best_f=objective.best_f,
         best_x=[] if objective.best_x is None else objective.best_x.tolist(), trace=objective.finish_trace(),
         wall_s=wall, cpu_s=cpu, fe_s=objective.fe_s, status=status, error=error, variant=variant,
-        host=platform.node())
-
-
-def _is_int(v) -> bool:
-    return isinstance(v, (int, np.integer)) and not isinstance(v, bool)
+        host=platform.node(), versions=library_versions())
 
 
 def _stop_signal(exc: BaseException) -> BaseException | None:

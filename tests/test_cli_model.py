@@ -12,7 +12,7 @@ import fe_problem as fp
 from femu.cli import main
 
 FEMU = Path(sys.executable).with_name("femu")
-# shared/reference/hframe.md, nominal elastic frequencies, modes 1-10
+# docs/hframe.md, nominal elastic frequencies, modes 1-10
 HFRAME_MD_HZ = [56.287, 127.217, 228.388, 263.523, 452.854, 658.509, 1043.033, 1248.947, 1442.207, 1813.389]
 # hframe.md lists three decimals (+-5e-4 Hz) of the frequencies of the exact 9.8 x 32.2 mm
 # section; the shipped file stores I to six figures (dI/I = 1.3e-6), which moves bending

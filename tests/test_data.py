@@ -1,4 +1,4 @@
-"""Measured modal data: the JSON contract (shared/formats/modal-data.md), UFF dataset 55,
+"""Measured modal data: the JSON contract (docs/modal-data-format.md), UFF dataset 55,
 the shipped paper dataset and the synthetic measurement generator."""
 
 import copy

@@ -91,7 +91,7 @@ def read_uff55(path: str | Path, model: str | None = None, layout: DofLayout = D
 
     `model`: the model the data belongs to, if ID line 1 does not name it; `layout`: the DOFs
     its nodes have (values in other directions are refused). The result obeys
-    the rules of the JSON format (shared/formats/modal-data.md); every error is a
+    the rules of the JSON format (docs/modal-data-format.md); every error is a
     DataFileError that names the file, the dataset and what is wrong.
     """
     path = Path(path)

@@ -19,19 +19,34 @@ COMMANDS = ("model", "study", "results", "report", "reproduce", "diagnose")
 
 
 def _module(name: str):
+    """The module of command `name`."""
     return importlib.import_module(f"femu.cli.{name}")
+
+
+class HelpFormatter(argparse.RawDescriptionHelpFormatter):
+    """Keeps the command docstrings' layout and appends "(default: X)" to the help of every
+    option that has a default worth showing (not None, False or a default the help states)."""
+
+    def _get_help_string(self, action):
+        text = action.help or ""
+        if ("%(default)" in text or "default" in text.lower() or not action.option_strings
+                or action.default in (None, False, argparse.SUPPRESS)):
+            return text
+        return text + " (default: %(default)s)"
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of `femu` with every command's sub-parser."""
-    p = argparse.ArgumentParser(prog="femu", description="FE model updating of planar frames: models, "
-                                "optimizer benchmarks, studies, reports and diagnosis.")
+    p = argparse.ArgumentParser(prog="femu", formatter_class=HelpFormatter,
+                                description="FE model updating of planar frames: models, optimizer "
+                                "benchmarks, studies, reports and diagnosis. `femu COMMAND --help` "
+                                "describes each command's arguments.")
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name in COMMANDS:
         module = _module(name)
         doc = (module.__doc__ or "").strip()
         sp = sub.add_parser(name, help=doc.splitlines()[0] if doc else None, description=doc or None,
-                            formatter_class=argparse.RawDescriptionHelpFormatter)
+                            formatter_class=HelpFormatter)
         module.add_arguments(sp)
         sp.set_defaults(func=module.run)
     return p

@@ -3,10 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 
-from fe_problem.jsonutil import jsonable
+from fe_problem.jsonutil import dumps
 
 
 def positive_int(text: str) -> int:
@@ -22,5 +21,4 @@ def positive_int(text: str) -> int:
 
 def print_json(obj) -> None:
     """``obj`` as indented JSON on stdout (numpy values and dataclasses made plain)."""
-    json.dump(jsonable(obj), sys.stdout, indent=1)
-    sys.stdout.write("\n")
+    sys.stdout.write(dumps(obj) + "\n")

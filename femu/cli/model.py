@@ -6,12 +6,14 @@ from ._args import positive_int, print_json
 
 
 def add_arguments(p) -> None:
+    """The arguments of `femu model`."""
     p.add_argument("model", help="a shipped model name (hframe) or a model file")
     p.add_argument("--modes", type=positive_int, default=10, help="how many elastic modes (default 10; all the model has if fewer)")
-    p.add_argument("--json", action="store_true", help="machine-readable output")
+    p.add_argument("--json", action="store_true", help="print the summary as one JSON object instead of text")
 
 
 def run(args) -> int:
+    """`femu model`: the model's summary and first frequencies, as text or JSON."""
     from fe_problem import load_model, modal_analysis
 
     model = load_model(args.model)

@@ -4,9 +4,10 @@ from __future__ import annotations
 
 
 def add_arguments(rp) -> None:
-    rp.add_argument("store")
-    rp.add_argument("--out", required=True, help="output directory")
-    rp.add_argument("--ioh", action="store_true", help="also export IOHprofiler files")
+    """The arguments of `femu report`."""
+    rp.add_argument("store", help="the store directory a `femu study` wrote")
+    rp.add_argument("--out", required=True, help="output directory: report.md, summary.json and PNG figures")
+    rp.add_argument("--ioh", action="store_true", help="also export IOHprofiler files to OUT/ioh")
 
 
 def run(args) -> int:

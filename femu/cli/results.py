@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
-import json
 import sys
+
+from fe_problem.jsonutil import dumps
 
 
 def add_arguments(r) -> None:
-    r.add_argument("store")
-    r.add_argument("--json", action="store_true", help="a JSON list of runs")
+    """The arguments of `femu results`."""
+    r.add_argument("store", help="the store directory a `femu study` wrote")
+    r.add_argument("--json", action="store_true", help="print every run record as a JSON list instead of a table")
 
 
 def run(args) -> int:
@@ -17,8 +19,7 @@ def run(args) -> int:
 
     runs = Store(args.store).runs()
     if args.json:
-        json.dump([r.to_dict() for r in runs], sys.stdout, indent=1)
-        sys.stdout.write("\n")
+        sys.stdout.write(dumps([r.to_dict() for r in runs]) + "\n")
         return 0
     if not runs:
         print(f"no runs in {args.store}")

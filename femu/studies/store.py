@@ -17,6 +17,7 @@ import tempfile
 from pathlib import Path
 
 from adapters.harness import RunResult
+from fe_problem.jsonutil import dumps
 
 
 class StoreError(ValueError):
@@ -24,6 +25,7 @@ class StoreError(ValueError):
 
 
 def run_key(variant: str, optimizer: str, budget: int, seed: int) -> str:
+    """The key (file stem) of one run in a store: ``VARIANT__OPTIMIZER__bBUDGET__sSEED``."""
     return f"{variant}__{optimizer}__b{int(budget)}__s{int(seed)}"
 
 
@@ -40,7 +42,7 @@ def atomic_write_json(path: Path, obj) -> None:
     try:
         os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes the file private: give it the usual mode
         with os.fdopen(fd, "w") as fh:
-            json.dump(obj, fh, indent=1)
+            fh.write(dumps(obj))
             fh.flush()
             os.fsync(fh.fileno())
         os.replace(tmp, path)
