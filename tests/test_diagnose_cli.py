@@ -48,11 +48,55 @@ def files(tmp_path_factory):
             "crack_bad_mode": fp.save_modal_data(crack_bad_mode, d / "crack_bad_mode.json")}
 
 
+# == the JSON record's keys, pinned as they were before the record became dataclasses ==========
+CORRELATION_KEYS = ["measured_hz", "model_hz", "error_pct", "mean_abs_error_pct", "mac", "mean_mac", "comac",
+                    "mean_comac", "paired_model_mode"]
+RECORD_KEYS = {
+    "record": ["cause", "alternatives", "residuals", "gain", "selection", "candidates", "warnings", "extended_model"],
+    "cause": {"identified": ["kind", "location", "estimate", "identifiable", "p_adjusted", "label"],
+              "none": ["kind", "location", "estimate", "identifiable", "p_adjusted", "explanation"],
+              "undetermined": ["kind", "location", "estimate", "identifiable", "p_adjusted", "label",
+                               "indistinguishable", "explanation"]},
+    "alternative": ["kind", "location", "label", "estimate", "chi2_drop", "delta_to_best"],
+    "residuals": CORRELATION_KEYS + ["global_scale", "chi2", "n_residuals", "reduced_chi2", "mac_matrix",
+                                     "unpaired_modes", "pinned_parameters", "measured_dofs"],
+    "pinned": ["parameter", "element", "bound", "value_pa"],
+    "gain": {"none": ["held_out_modes", "fit_modes", "before"],
+             "extended": ["held_out_modes", "fit_modes", "before", "after", "estimate_from_fit_modes",
+                          "mean_abs_error_pct_reduction", "mean_mac_gain"],
+             "frequencies only": ["held_out_modes", "fit_modes", "before", "after", "estimate_from_fit_modes",
+                                  "mean_abs_error_pct_reduction"]},
+    "selection": ["method", "alpha", "n_candidates", "threshold_chi2_drop", "n_fitted", "statistic", "p_value",
+                  "p_adjusted", "dispersion", "ambiguity_chi2", "freq_noise", "shape_noise"],
+    "candidate": {False: ["label", "kind", "location", "screen_chi2_drop", "fitted"],
+                  True: ["label", "kind", "location", "screen_chi2_drop", "fitted", "chi2", "chi2_drop",
+                         "delta_to_best", "estimate", "global_scale"]},
+}
+
+
+def assert_record_keys(record: dict, cause: str, gain: str) -> None:
+    """The record's keys, in order, are exactly those `femu diagnose --json` printed before."""
+    assert list(record) == RECORD_KEYS["record"]
+    assert list(record["cause"]) == RECORD_KEYS["cause"][cause]
+    assert record["alternatives"] and all(list(a) == RECORD_KEYS["alternative"] for a in record["alternatives"])
+    assert list(record["residuals"]) == RECORD_KEYS["residuals"]
+    assert all(list(p) == RECORD_KEYS["pinned"] for p in record["residuals"]["pinned_parameters"])
+    assert list(record["gain"]) == RECORD_KEYS["gain"][gain]
+    for key in ("before", "after"):
+        if key in record["gain"]:
+            assert list(record["gain"][key]) == CORRELATION_KEYS
+    assert list(record["selection"]) == RECORD_KEYS["selection"]
+    assert {c["fitted"] for c in record["candidates"]} == {True, False}
+    assert all(list(c) == RECORD_KEYS["candidate"][c["fitted"]] for c in record["candidates"])
+    assert isinstance(record["warnings"], list)
+
+
 def test_json_names_the_added_mass_and_out_writes_a_usable_extended_model(files, capsys, tmp_path):
     out_dir = tmp_path / "report"
     code, out, err = femu(capsys, "diagnose", files["mass"], "--json", "--out", out_dir)
     assert code == 0, err
     record = json.loads(out)  # stdout is exactly one JSON object
+    assert_record_keys(record, "identified", "extended")
     cause = record["cause"]
     assert (cause["kind"], cause["location"], cause["identifiable"]) == ("added_mass", {"node": 9}, True)
     assert 0.03 < cause["estimate"]["mass_kg"] < 0.05
@@ -112,6 +156,8 @@ def test_paper_data_cannot_tell_the_candidates_apart(capsys):
     code, out, err = femu(capsys, "diagnose", "paper", "--json")
     assert code == 0, err
     record = json.loads(out)
+    assert_record_keys(record, "undetermined", "frequencies only")
+    assert record["residuals"]["pinned_parameters"]  # the paper's data pin moduli at a bound
     cause = record["cause"]
     assert cause["identifiable"] is False
     assert len(cause["indistinguishable"]) >= 2
@@ -133,6 +179,7 @@ def test_no_effect_gives_cause_none_and_no_extended_model(capsys, tmp_path):
     assert sorted(p.name for p in out_dir.iterdir()) == ["candidates.png", "correlation.png", "diagnosis.json",
                                                          "frequency_errors.png", "report.md", "shapes.png"]
     record = json.loads((out_dir / "diagnosis.json").read_text())
+    assert_record_keys(record, "none", "none")
     assert record["cause"]["kind"] == "none" and record["extended_model"] is None
     assert "after" not in record["gain"] and "-> " not in out.split("Held-out")[1]
 
