@@ -149,6 +149,9 @@ def test_summary_shows_the_cause_and_leaves_out_a_mode_that_pairs_with_nothing(f
     assert after < before
     assert "Alternatives" in out
     assert f"wrote {tmp_path / 'extended.model.json'}" in out
+    # --out names every file it writes, and writes nothing it does not name
+    named = sorted(line.removeprefix("wrote ") for line in lines if line.startswith("wrote "))
+    assert named == sorted(str(p) for p in tmp_path.iterdir()) and len(named) == 7
     assert (tmp_path / "shapes.png").read_bytes()[:8] == PNG_MAGIC
 
 
@@ -163,7 +166,7 @@ def test_paper_data_cannot_tell_the_candidates_apart(capsys):
     assert len(cause["indistinguishable"]) >= 2
     assert cause["estimate"] == {}
     assert record["residuals"]["mac_matrix"] is None  # the paper gives frequencies only
-    summary = summary_text(record, "paper", "hframe")
+    summary = summary_text(fp.diagnose(None, "paper"), "paper", "hframe")  # the record the CLI printed
     assert "CAUSE: cannot tell apart: " + ", ".join(cause["indistinguishable"]) in summary
     assert "COMAC: - (no measured shapes)" in summary
 
