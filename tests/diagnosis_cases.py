@@ -203,15 +203,18 @@ def run_cases(seed: int) -> tuple[list[tuple[str, str]], int]:
 
     pairs, places_wrong = [], 0
     columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn())
-    with tempfile.TemporaryDirectory() as tmp, Progress(*columns, console=Console(stderr=True)) as progress:
+    console = Console(stderr=True)
+    with tempfile.TemporaryDirectory() as tmp, Progress(*columns, console=console) as progress:
         task = progress.add_task("building cases", total=None)
         all_cases = cases(seed)
         progress.update(task, total=len(all_cases), description=f"diagnosing (seed {seed})")
-        for c in all_cases:
+        for k, c in enumerate(all_cases, 1):
             cause = diagnose_through_cli(c, tmp)["cause"]
             pairs.append((c.kind, cause["kind"]))
             places_wrong += cause["kind"] == c.kind and not named_correctly(c, cause)
             progress.advance(task)
+            if not console.is_terminal:  # a log gets one line per case instead of a bar
+                console.print(f"{k}/{len(all_cases)}: {c.kind} -> {cause['kind']}", highlight=False)
     return pairs, places_wrong
 
 

@@ -253,3 +253,58 @@ def test_out_that_is_a_file(files, capsys, tmp_path):
     code, out, err = femu(capsys, "diagnose", files["mass"], "--out", blocker)
     assert code == 2 and out == ""
     assert f"--out {blocker}: exists and is not a directory" in err
+
+
+# == the typed record, the one correlation, the figures ==========================================
+def test_record_attributes_are_what_the_json_says(files):
+    diag = fp.diagnose("hframe", files["mass"])
+    record = json.loads(json.dumps(diag.to_dict(), allow_nan=False))
+    assert_record_keys(record, "identified", "extended")
+    assert isinstance(diag.cause, fp.diagnosis.Cause) and (diag.cause.kind, diag.cause.location) == ("added_mass",
+                                                                                                  {"node": 9})
+    c = diag.residuals.correlation
+    assert record["residuals"]["paired_model_mode"] == c.paired_model_mode.tolist()
+    assert record["residuals"]["mean_mac"] == c.mean_mac and record["residuals"]["chi2"] == diag.residuals.chi2
+    assert [a["label"] for a in record["alternatives"]] == [a.label for a in diag.alternatives]
+    assert diag.best.label == diag.cause.label
+    assert record["gain"]["mean_abs_error_pct_reduction"] == pytest.approx(
+        diag.gain.before.mean_abs_error_pct - diag.gain.after.mean_abs_error_pct)
+
+
+def test_correlate_pairs_and_scores_one_model_against_data():
+    from fe_problem.correlation import correlate
+
+    data = fp.synthetic_measurement("hframe", 5, freq_noise=0.0, shape_noise=0.0, seed=0)
+    modes = fp.modal_analysis(HFRAME, 7)
+    at = modes.at(data.dofs)
+    c = correlate(modes.frequencies_hz, at, data)  # paired afresh: the model measured itself
+    np.testing.assert_array_equal(c.model_index, np.arange(5))
+    np.testing.assert_allclose(c.error_pct, 0.0, atol=1e-9)
+    np.testing.assert_allclose(c.mac, 1.0, atol=1e-12)
+    np.testing.assert_allclose(c.comac, 1.0, atol=1e-12)
+    assert c.mac_matrix.shape == (5, 7)
+    # a given pairing with mode 3 left unpaired: NaN there, -1 as its model mode, means over the rest
+    c = correlate(1.1 * modes.frequencies_hz, at, data, np.array([0, 1, -1, 3, 4]))
+    assert np.isnan(c.model_hz[2]) and np.isnan(c.mac[2]) and c.paired_model_mode.tolist() == [1, 2, -1, 4, 5]
+    assert c.mean_abs_error_pct == pytest.approx(10.0)
+    # the problem's correlation is this one, with its fixed pairing
+    problem = fp.UpdatingProblem(data=data)
+    rep = problem.correlation()
+    np.testing.assert_allclose(rep.mac, 1.0, atol=1e-12)
+    assert rep.mean_abs_error_pct == pytest.approx(0.0, abs=1e-9)
+
+
+def test_shape_figure_draws_every_measured_mode_on_a_numbered_frame(files, tmp_path, monkeypatch):
+    import femu.reports.diagnosis as report
+
+    drawn = []
+    monkeypatch.setattr(report, "save_figure", lambda fig, path: drawn.append(fig))
+    data = fp.load_modal_data(files["crack_bad_mode"])
+    diag = fp.diagnose("hframe", data)
+    report.plot_shapes(diag, HFRAME, diag.extended_model, data, tmp_path / "shapes.png")
+    panels = [ax for ax in drawn[0].axes if ax.get_visible()]
+    assert len(panels) == data.n_modes == 8  # mode 3 pairs with nothing and is drawn all the same
+    assert "pairs with no model mode" in panels[2].get_title()
+    for ax in panels:
+        texts = [t.get_text() for t in ax.texts]
+        assert all(str(e.id) in texts for e in HFRAME.elements) and all(str(n.id) in texts for n in HFRAME.nodes)

@@ -101,7 +101,8 @@ def _shape_layout(model: FrameModel, n_panels: int):
     extent = np.ptp(xy, axis=0)
     size = float(np.max(extent))
     aspect = float((extent[0] + 0.3 * size) / (extent[1] + 0.3 * size))
-    ncols = min(n_panels, MAX_SHAPE_COLUMNS if aspect < 0.8 else 2)
+    most = MAX_SHAPE_COLUMNS if aspect < 0.8 else 2
+    ncols = math.ceil(n_panels / math.ceil(n_panels / most))  # rows as full as they can be: 5 -> 3 + 2
     nrows = math.ceil(n_panels / ncols)
     panel_h = 4.6
     fig, axes = figure(ncols * max(2.6, panel_h * aspect + 0.3), nrows * panel_h + 0.7, nrows, ncols, sharey=True)
