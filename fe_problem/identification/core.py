@@ -1,9 +1,9 @@
 """`identify`: FRFs -> stable physical poles -> residues -> real normal modes -> ModalData.
 
 Steps: the band's lines; LSCF poles at orders 1..max_order (sdypy-EMA); the stabilisation
-chart with residues by LSFD at every order; clustering of the stable poles and the choice of
+chart with residues by a windowed fit at every order; clustering of the stable poles and the choice of
 the physical ones (poles.py); each mode's residues from a least-squares fit on a window
-around its peak with every chosen pole (shapes.py; the global LSFD with lower and upper
+around its peak with the poles near it (shapes.py; the global LSFD with lower and upper
 residuals is the synthesised fit of the report); real normal modes from the complex residues (sdypy-EMA,
 Ahmadian-Gladwell-Ismail); mass-normalised through the driving point when the reference is
 measured. The spread of each mode over its stable orders is its uncertainty (in `meta`).
@@ -117,8 +117,10 @@ def identify(frfs: FRFSet, model=None, band_hz=None, n_modes: int | None = None,
         warn.append(f"asked for {n_modes} modes, found {len(labels)} stable physical modes in {lo:g}-{hi:g} Hz")
     labels = labels[:n_modes] if n_modes else labels
     if not labels:
+        hint = (f"; the band starts at {lo / hi:.0%} of its top, and the LSCF (sdypy-EMA) maps 0 Hz to the top "
+                "onto the unit circle: widen the band downwards" if lo > 0.3 * hi else "")
         raise ValueError(f"{frfs.sources[0]}: no stable physical mode found in {lo:g}-{hi:g} Hz "
-                         f"(orders 1-{max_order}, damping below {max_damping})")
+                         f"(orders 1-{max_order}, damping below {max_damping}){hint}")
     fr = np.array([np.median(chart.frequency_hz[chart.cluster == lab]) for lab in labels])
     zr = np.array([np.median(chart.damping[chart.cluster == lab]) for lab in labels])
     modal_poles = P.complex_pole(fr, zr)

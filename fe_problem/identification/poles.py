@@ -1,7 +1,7 @@
 """Poles over model orders (LSCF, sdypy-EMA), the stabilisation chart, automatic selection.
 
 A pole of order n is *stable* when order n-1 has a pole within `tol_frequency` (relative) in
-frequency, `tol_damping` (relative) in damping and whose residue vector (LSFD at each order)
+frequency, `tol_damping` (relative) in damping and whose residue vector (windowed fit, shapes.py)
 has MAC >= `min_mac` with its own. Stable poles are grouped by average-linkage clustering on
 the distance |f_a - f_b| / f_max + (1 - MAC_ab): one group per physical mode, closely spaced
 modes stay apart because their shapes differ. A group is a mode when it holds a stable pole
@@ -15,6 +15,8 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
+
+from .shapes import windowed_residues
 
 #: Defaults of the selection, documented in docs/identify.md
 MAX_ORDER = 40            # highest LSCF order (pole pairs); polynomial orders 2, 4, ..., 2 x MAX_ORDER
@@ -109,7 +111,7 @@ def stabilisation(frequency_hz, frf, form: str, poles_per_order, progress=None, 
         if poles.size == 0:
             prev = None
             continue
-        res = lsfd(poles, frequency_hz, frf, form)[0].T                 # (n_poles, n_channels)
+        res = windowed_residues(poles, frequency_hz, frf, form).T      # (n_poles, n_channels)
         f, z = np.abs(poles) / (2 * np.pi), -poles.real / np.abs(poles)
         stable = np.zeros(poles.size, bool)
         if prev is not None:

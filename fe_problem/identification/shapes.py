@@ -5,8 +5,9 @@ an upper residual (a constant and an omega^2 term for accelerance). A mode that 
 above the band bends the FRFs near the band's edge more than an omega^2 term can follow, and
 the residues of the top in-band mode are biased (MAC 0.99 against the truth on noise-free
 FRFs of the H-frame with the next mode 5 % above the band). Here each mode's residues are fitted
-on a window around its own peak, with every chosen pole in the model and a local complex
-residual that is linear in frequency: out-of-band modes are smooth across one window.
+on a window around its own peak, with the poles within twice the window in the model and a
+local complex residual that is linear in frequency: other modes, in the band or out of it, are
+smooth across one window. The stabilisation chart uses the same fit at every order.
 """
 
 from __future__ import annotations
@@ -34,20 +35,22 @@ def windowed_residues(poles: np.ndarray, frequency_hz: np.ndarray, frf: np.ndarr
     df = frequency_hz[1] - frequency_hz[0]
     f0, zeta = np.abs(poles) / (2 * np.pi), -poles.real / np.abs(poles)
     out = np.empty((frf.shape[0], poles.size), complex)
-    n = poles.size
-    for r in range(n):  # one small least-squares problem per mode, all channels at once
+    for r in range(poles.size):  # one small least-squares problem per mode, all channels at once
         half = max(WINDOW_HALF_WIDTHS * zeta[r] * f0[r], MIN_WINDOW_LINES * df)
         w = np.abs(frequency_hz - f0[r]) <= half
+        near = np.flatnonzero(np.abs(f0 - f0[r]) <= 2 * half)   # poles farther away are smooth here
         om = omega[w]
         local = (om - om.mean()) / max(om.std(), 1e-12)
-        cols = np.concatenate([_basis(om, poles, form), np.ones((om.size, 1)), local[:, None]], axis=1)
+        k = near.size
+        cols = np.concatenate([_basis(om, poles[near], form), np.ones((om.size, 1)), local[:, None]], axis=1)
         # real unknowns: [Re A, Im A] per pole, then complex residual coefficients (2 real each)
-        real_cols = np.concatenate([cols[:, : 2 * n], cols[:, 2 * n:], 1j * cols[:, 2 * n:]], axis=1)
+        real_cols = np.concatenate([cols[:, : 2 * k], cols[:, 2 * k:], 1j * cols[:, 2 * k:]], axis=1)
         m = np.concatenate([real_cols.real, real_cols.imag])
         y = np.concatenate([frf[:, w].real, frf[:, w].imag], axis=1).T
-        scale = np.linalg.norm(m, axis=0)
+        scale = np.maximum(np.linalg.norm(m, axis=0), 1e-300)
         x = np.linalg.lstsq(m / scale, y, rcond=None)[0] / scale[:, None]
-        out[:, r] = x[r] + 1j * x[n + r]
+        i = int(np.flatnonzero(near == r)[0])
+        out[:, r] = x[i] + 1j * x[k + i]
     return out
 
 
