@@ -84,6 +84,9 @@ def write_uff58(frfs: FRFSet, path: str | Path, test: str = "roving-hammer") -> 
     path = Path(path)
     ordinate = ORDINATE_OF_FORM[frfs.form]
     id1 = f"{_MODEL_TAG} {frfs.model}" if frfs.model else "NONE"
+    if len(id1) > 80:
+        raise FRFFileError(f"{path}: the model name {frfs.model!r} is longer than UFF ID line 1 can hold "
+                           f"({80 - len(_MODEL_TAG) - 1} characters): name the model with --model when identifying")
     ref_node, ref_dir = frfs.reference
     f = np.asarray(frfs.frequency_hz, float)
     sets = []
