@@ -130,8 +130,11 @@ def _uff_channel(ds: dict, where: str):
     return coords[0][:2], coords[1][:2], form, units, np.asarray(ds["x"], float), sign * data
 
 
-def read_uff58(path: str | Path) -> FRFSet:
-    """The FRFs (datasets 58) of one UFF file; other dataset types are ignored."""
+def uff_datasets(path: str | Path, dataset_type: int, what: str, error=FRFFileError):
+    """Yield (k, ds) for the k-th (1-based) dataset of `dataset_type` in a UFF file, read by pyuff.
+
+    `what` describes the type in messages; every failure is `error` naming the file (and the
+    dataset). One reader for any UFF dataset type (uff.py's dataset 55 reader could use it too)."""
     import pyuff
 
     path = Path(path)
@@ -139,18 +142,23 @@ def read_uff58(path: str | Path) -> FRFSet:
         uff = pyuff.UFF(str(path))
         types = [int(t) for t in uff.get_set_types()]
     except Exception as exc:  # pyuff raises bare Exceptions
-        raise FRFFileError(f"{path}: not a readable UFF file ({exc})") from None
-    blocks = [i for i, t in enumerate(types) if t == 58]
+        raise error(f"{path}: not a readable UFF file ({exc})") from None
+    blocks = [i for i, t in enumerate(types) if t == dataset_type]
     if not blocks:
-        raise FRFFileError(f"{path}: no dataset 58 (function at nodal DOF) in the file; it holds dataset type(s) "
-                           f"{sorted(set(types))}")
-    channels, model = [], None
+        raise error(f"{path}: no dataset {dataset_type} ({what}) in the file; it holds dataset type(s) "
+                    f"{sorted(set(types))}")
     for k, block in enumerate(blocks, 1):
-        where = f"{path}: channel {k} (dataset 58 #{k})"
         try:
-            ds = uff.read_sets(block)
+            yield k, uff.read_sets(block)
         except Exception as exc:
-            raise FRFFileError(f"{where}: cannot be read ({exc})") from None
+            raise error(f"{path}: dataset {dataset_type} #{k}: cannot be read ({exc})") from None
+
+
+def read_uff58(path: str | Path) -> FRFSet:
+    """The FRFs (datasets 58) of one UFF file; other dataset types are ignored."""
+    channels, model = [], None
+    for k, ds in uff_datasets(path, 58, "function at nodal DOF"):
+        where = f"{path}: channel {k} (dataset 58 #{k})"
         channels.append((where,) + _uff_channel(ds, where))
         id1 = str(ds.get("id1", "")).strip()
         if k == 1 and id1.lower().startswith(_MODEL_TAG):
