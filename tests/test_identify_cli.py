@@ -100,10 +100,12 @@ def test_closely_spaced_modes(tmp_path, capsys):
     model_file = fp.save_model(model, tmp_path / "massed.model.json")
     truth = fp.modal_analysis(model, 6).frequencies_hz
     assert (truth[5] - truth[4]) / truth[4] < 0.04
-    fp.synthetic_frf(model, band_hz=(5, 700), damping=0.02, noise=NOISE, seed=4, path=tmp_path / "close.uff")
-    code, out, err = femu(capsys, "identify", tmp_path / "close.uff", "--model", model_file, "--out",
-                          tmp_path / "out", "--json")
+    # the FRF file names its model by a path relative to itself, as the data format does
+    fp.synthetic_frf(model, band_hz=(5, 700), damping=0.02, noise=NOISE, seed=4, model_name=model_file.name,
+                     path=tmp_path / "close.uff")
+    code, out, err = femu(capsys, "identify", tmp_path / "close.uff", "--out", tmp_path / "out", "--json")
     assert code == 0, err
+    assert json.loads(out)["model"] == "../massed.model.json"  # relative to the written data file
     data = fp.load_modal_data(tmp_path / "out" / "modal-data.json")
     assert data.n_modes == 6
     err_pct, mac = compare(data, model, 6)

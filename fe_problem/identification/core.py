@@ -12,6 +12,7 @@ measured. The spread of each mode over its stable orders is its uncertainty (in 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -87,7 +88,7 @@ def _uncertainty(chart: P.Chart, lab: int, shape: np.ndarray) -> dict:
 
 
 def identify(frfs: FRFSet, model=None, band_hz=None, n_modes: int | None = None, max_order: int = P.MAX_ORDER,
-             max_damping: float = P.MAX_DAMPING, progress=None, lscf_progress: bool = False) -> Identification:
+             max_damping: float = P.MAX_DAMPING, progress=None) -> Identification:
     """Identify the modes in FRFs (an FRFSet from `read_frf` or `synthetic_frf`).
 
     model: FrameModel, name or file (default: the one the FRFs name); band_hz (lo, hi) Hz (default:
@@ -103,12 +104,15 @@ def identify(frfs: FRFSet, model=None, band_hz=None, n_modes: int | None = None,
             raise FRFFileError(f"{frfs.sources[0]}: the FRF file names no model (UFF ID line 1 'model: NAME', "
                                "or a model field); pass --model")
         model = frfs.model
+        beside = Path(frfs.sources[0]).parent / model  # a model file path is relative to the FRF file
+        if not Path(model).is_absolute() and beside.is_file():
+            model = str(beside)
     model_ref = model if isinstance(model, str) else model.name
     model = load_model(model)
     check_coordinates(frfs, model)
     (lo, hi), keep = _band(frfs, band_hz, n_modes)
     freq, frf = frfs.frequency_hz[keep], frfs.frf[:, keep]
-    per_order = P.lscf_poles(frfs.frequency_hz, frfs.frf, (lo, hi), frfs.form, max_order, lscf_progress)
+    per_order = P.lscf_poles(frfs.frequency_hz, frfs.frf, (lo, hi), frfs.form, max_order)
     chart = P.select(P.stabilisation(freq, frf, frfs.form, per_order, progress, max_damping=max_damping),
                      max_damping=max_damping)
     labels = list(chart.chosen)

@@ -68,10 +68,9 @@ def mac_complex(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return num / np.maximum(den, 1e-300)
 
 
-def lscf_poles(frequency_hz, frf, band_hz, form: str, max_order: int = MAX_ORDER, progress: bool = False):
+def lscf_poles(frequency_hz, frf, band_hz, form: str, max_order: int = MAX_ORDER):
     """Poles of every LSCF order 1..max_order (pole pairs) over the band: a list of complex arrays
-    (rad/s), upper half plane, in band, damping in (0, 1). sdypy-EMA's LSCF (tqdm progress bar on
-    stderr with `progress`)."""
+    (rad/s), upper half plane, in band, damping in (0, 1). sdypy-EMA's LSCF (fast: no progress bar)."""
     from sdypy import EMA
 
     lo, hi = band_hz
@@ -79,7 +78,7 @@ def lscf_poles(frequency_hz, frf, band_hz, form: str, max_order: int = MAX_ORDER
                       frf_form=form)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        model.get_poles(method="lscf", show_progress=progress)
+        model.get_poles(method="lscf", show_progress=False)
     out = []
     for p in model.all_poles:
         p = np.asarray(p, complex)

@@ -38,10 +38,9 @@ def add_arguments(p) -> None:
     p.add_argument("--json", action="store_true", help="print the modal-data document on stdout")
 
 
-def _model_reference(model_arg: str | None, frf_model: str | None, out: Path) -> str | None:
+def _model_reference(name: str, out: Path) -> str:
     """The model as the data file should name it: a shipped name, or a path relative to `out`."""
-    name = model_arg or frf_model
-    if name is None or not Path(name).is_file():  # a shipped model's name
+    if not Path(name).is_file():  # a shipped model's name
         return name
     return os.path.relpath(Path(name).resolve(), out.resolve())
 
@@ -77,8 +76,7 @@ def run(args) -> int:
     ident = identify(frfs, model=args.model, band_hz=args.band, n_modes=args.modes, max_order=args.max_order,
                      max_damping=args.max_damping, progress=progress if show else None)
     wall_s = time.perf_counter() - t0
-    model_ref = _model_reference(args.model, frfs.model, out)
-    data = replace(ident.data, model=model_ref or ident.data.model,
+    data = replace(ident.data, model=_model_reference(ident.data.model, out),
                    meta={**ident.data.meta, "wall_s": round(wall_s, 3)})
     try:
         out.mkdir(parents=True, exist_ok=True)
