@@ -20,3 +20,8 @@ __all__ = [
     "paper_table", "release_element_end", "save_modal_data", "save_model", "split_element",
     "synthetic_measurement", "with_formulation",
 ]
+
+# From FRFs to modal data (issue 12): the synthetic test rig, FRF files, identification
+from .identification import FRFFileError, FRFSet, Identification, identify, read_frf, synthetic_frf  # noqa: E402
+
+__all__ += ["FRFFileError", "FRFSet", "Identification", "identify", "read_frf", "synthetic_frf"]
