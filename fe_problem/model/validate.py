@@ -35,24 +35,24 @@ def _positive(value: Any, where: str, allow_zero: bool = False) -> None:
 def validate(m: FrameModel) -> None:
     """Raise ModelFileError (naming `m.source`, the item and the field) if `m` breaks a rule."""
     src = m.source
-    ids = [n.id for n in m.nodes]
-    if not m.nodes:
-        raise ModelFileError(f"{src}: 'nodes' is empty")
-    if len(set(ids)) != len(ids):
-        raise ModelFileError(f"{src}: 'nodes' has duplicate ids {_duplicates(ids)}")
+    _check_ids(src, "nodes", [n.id for n in m.nodes])
     for n in m.nodes:
         for v, name in ((n.x, "x"), (n.y, "y")):
             if not (isinstance(v, (int, float)) and math.isfinite(v)):
                 raise ModelFileError(f"{src}: node {n.id} field '{name}' must be a finite number, got {v!r}")
     _validate_tables(m)
-    eids = [e.id for e in m.elements]
-    if not m.elements:
-        raise ModelFileError(f"{src}: 'elements' is empty")
-    if len(set(eids)) != len(eids):
-        raise ModelFileError(f"{src}: 'elements' has duplicate ids {_duplicates(eids)}")
+    _check_ids(src, "elements", [e.id for e in m.elements])
     for e in m.elements:
         _validate_element(m, e)
     _validate_nodal(m)
+
+
+def _check_ids(src, field: str, ids: list) -> None:
+    """Raise ModelFileError if the list `field` is empty or repeats an id."""
+    if not ids:
+        raise ModelFileError(f"{src}: '{field}' is empty")
+    if len(set(ids)) != len(ids):
+        raise ModelFileError(f"{src}: '{field}' has duplicate ids {_duplicates(ids)}")
 
 
 def _validate_tables(m: FrameModel) -> None:
