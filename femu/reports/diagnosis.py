@@ -45,7 +45,7 @@ def deformed_frame(model: FrameModel, u: np.ndarray, scale: float, n_points: int
 
 
 def _translation_dofs(model: FrameModel) -> list[tuple[int, str]]:
-    return [(n.id, d) for n in model.nodes for d in ("x", "y")]
+    return [(n.id, d) for n in model.nodes for d in model.layout.translations]
 
 
 def draw_numbered_frame(ax, model: FrameModel, cause_location: dict | None = None) -> None:
@@ -90,11 +90,12 @@ def _draw_measured(ax, model: FrameModel, data: ModalData, i: int, at_dofs: np.n
     coordinates by least squares (`at_dofs`), or, for a mode that pairs with no model mode, so
     that its largest entry is drawn at the figure's amplitude."""
     pos = {nd.id: (nd.x, nd.y) for nd in model.nodes}
-    drawn = [c for c, (_, d) in enumerate(data.dofs) if d in ("x", "y")]
+    first, second = model.layout.translations[:2]  # the drawing plane
+    drawn = [c for c, (_, d) in enumerate(data.dofs) if d in (first, second)]
     m = data.shapes[:, i]
     a = 1.0 / np.max(np.abs(m[drawn])) if at_dofs is None else float(m @ at_dofs / (m @ m))
     base = np.array([pos[data.dofs[c][0]] for c in drawn])
-    along_x = np.array([data.dofs[c][1] == "x" for c in drawn])
+    along_x = np.array([data.dofs[c][1] == first for c in drawn])
     v = scale * a * m[drawn]
     dxy = np.stack([np.where(along_x, v, 0.0), np.where(along_x, 0.0, v)], axis=1)
     ax.quiver(base[:, 0], base[:, 1], dxy[:, 0], dxy[:, 1], angles="xy", scale_units="xy", scale=1,
