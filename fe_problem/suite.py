@@ -42,7 +42,7 @@ from .problem import UpdatingProblem
 
 #: Best J known on the paper problem (see docs/suite.md for the command that proves it).
 PAPER_F_OPT = 5.413672741093528e-06
-PAPER_F_OPT_HOW = ("best known: inverse eigensensitivity (10 seeds, restarts) and CMA-ES (10 seeds) agree to a "
+PAPER_F_OPT_HOW = ("inverse eigensensitivity (10 seeds, restarts) and CMA-ES (10 seeds) agree to a "
                    "relative 1e-10; proof: python benchmarks/suite_fopt.py")
 
 #: How f_opt is known: exact (J >= 0 and J(truth) = 0), best known (proven by a command),
