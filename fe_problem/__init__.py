@@ -12,13 +12,15 @@ from .assembly import AffineModel
 from .parameters import Parameter, element_moduli
 from .problem import CorrelationReport, UpdatingProblem
 from .diagnosis import Diagnosis, diagnose
+from .suite import SuiteProblem, select_suite, suite_entry, suite_ids, suite_problem
 
 __all__ = [
     "AffineModel", "CorrelationReport", "Diagnosis", "diagnose", "DataFileError", "FrameModel", "ModalData", "ModalResult",
     "ModelFileError", "Parameter", "UpdatingProblem", "add_mass", "comac", "crack_element", "element_moduli",
     "frequency_errors_pct", "load_modal_data", "load_model", "mac", "modal_analysis", "pair_modes",
     "paper_table", "release_element_end", "save_modal_data", "save_model", "split_element",
-    "synthetic_measurement", "with_formulation",
+    "synthetic_measurement", "with_formulation", "SuiteProblem", "select_suite", "suite_entry", "suite_ids",
+    "suite_problem",
 ]
 
 # From FRFs to modal data (issue 12): the synthetic test rig, FRF files, identification

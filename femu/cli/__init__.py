@@ -15,7 +15,7 @@ import os
 import sys
 
 #: The commands, in the order `femu --help` lists them: each is the module femu.cli.<name>.
-COMMANDS = ("model", "study", "results", "report", "reproduce", "diagnose", "identify")
+COMMANDS = ("model", "suite", "study", "results", "report", "reproduce", "diagnose", "identify")
 
 
 def _module(name: str):

@@ -1,0 +1,284 @@
+"""The benchmark suite: updating problems with stable ids ``family/dimension/instance`` and a
+known optimum value f_opt.
+
+Families (dimension = n_var, the number of updating parameters):
+
+- ``paper/12/1``: the published H-frame data (5 frequencies, 12 moduli, eq. 4 weights);
+  f_opt is the best value known, ``PAPER_F_OPT``, proven by ``benchmarks/suite_fopt.py``
+  (docs/suite.md).
+- ``hframe-freq``, ``hframe-shape``: the H-frame with each of its 12 elements split into 1, 2,
+  4, 8 or 16 equal parts, one modulus per part in [6e10, 8e10] Pa (n_var 12, 24, 48, 96, 192);
+  8 modes "measured" on a hidden truth drawn per instance inside the bounds, frequencies only
+  or with shapes at the 15 measured coordinates, no noise: J >= 0 and J(truth) = 0, so
+  f_opt = 0 exactly.
+- ``hframe-freq-noisy``, ``hframe-shape-noisy``: as above with 0.2 % frequency and 2 % shape
+  noise. The minimum is then unknown and below J(truth); f_opt is the reference J(truth)
+  (computed when the problem is built): a run that fits the data as well as the truth does
+  has reached it.
+- ``frame-shape``: a one-bay multi-storey steel frame fixed at its base, 4, 8, 16, 32 or 64
+  storeys (3 elements each: n_var 12 to 192), moduli within +-15 % of 210 GPa, 8 modes with
+  shapes at the storey nodes (x, y), noise-free: f_opt = 0 exactly.
+
+Every instance's truth and noise come from a seed derived from its id alone (SHA-256), so an
+id means the same problem on every machine and in every version that keeps this module.
+Problems are built only when asked for (`suite_problem`): listing the suite (`suite_entry`)
+builds no FE system, since large sizes are slow to assemble.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from .correlation import pair_modes
+from .modal_data import ModalData, synthetic_measurement
+from .modal import modal_analysis
+from .model import Element, FrameModel, LumpedMass, Material, Node, Section, Support, load_model, split_element
+from .parameters import element_moduli
+from .problem import UpdatingProblem
+
+#: Best J known on the paper problem (see docs/suite.md for the command that proves it).
+PAPER_F_OPT = 5.413672741093528e-06
+PAPER_F_OPT_HOW = ("inverse eigensensitivity (10 seeds, restarts) and CMA-ES (10 seeds) agree to a "
+                   "relative 1e-10; proof: python benchmarks/suite_fopt.py")
+
+#: How f_opt is known: exact (J >= 0 and J(truth) = 0), best known (proven by a command),
+#: reference (J at the hidden truth of a noisy instance: an upper bound on the minimum).
+F_OPT_KINDS = ("exact", "best known", "reference")
+
+H_FRAME_SPLITS = (1, 2, 4, 8, 16)
+FRAME_STOREYS = (4, 8, 16, 32, 64)
+N_INSTANCES = 5
+N_MODES = 8
+FREQ_NOISE, SHAPE_NOISE = 0.002, 0.02
+MAX_DRAWS = 200
+#: |J(truth)| allowed on a noise-free instance: the round-off of 1 - MAC (a few 1e-16 per mode).
+ROUND_OFF = 1e-12
+
+
+@dataclass(frozen=True)
+class Family:
+    """A family of suite problems: its structure, what is measured, and its sizes (n_var)."""
+
+    name: str
+    structure: str          # "paper", "hframe" or "frame"
+    shapes: bool
+    noisy: bool
+    dimensions: tuple[int, ...]
+    instances: int
+    description: str
+
+
+FAMILIES = {f.name: f for f in (
+    Family("paper", "paper", False, False, (12,), 1, "published H-frame data, 5 frequencies, eq. 4 weights"),
+    Family("hframe-freq", "hframe", False, False, tuple(12 * s for s in H_FRAME_SPLITS), N_INSTANCES,
+           "split H-frame, 8 frequencies of a hidden truth, noise-free"),
+    Family("hframe-shape", "hframe", True, False, tuple(12 * s for s in H_FRAME_SPLITS), N_INSTANCES,
+           "split H-frame, 8 frequencies and shapes of a hidden truth, noise-free"),
+    Family("hframe-freq-noisy", "hframe", False, True, tuple(12 * s for s in H_FRAME_SPLITS), N_INSTANCES,
+           "split H-frame, 8 frequencies of a hidden truth, 0.2 % noise"),
+    Family("hframe-shape-noisy", "hframe", True, True, tuple(12 * s for s in H_FRAME_SPLITS), N_INSTANCES,
+           "split H-frame, 8 frequencies and shapes of a hidden truth, 0.2 % / 2 % noise"),
+    Family("frame-shape", "frame", True, False, tuple(3 * s for s in FRAME_STOREYS), N_INSTANCES,
+           "multi-storey one-bay frame, 8 frequencies and shapes of a hidden truth, noise-free"),
+)}
+
+
+@dataclass(frozen=True)
+class SuiteEntry:
+    """What the suite says about one problem without building it.
+
+    n_dof: free DOFs of the FE model; f_opt: None where it is known only once the problem is
+    built (the noisy instances' reference J(truth)); f_opt_kind: one of `F_OPT_KINDS`.
+    """
+
+    id: str
+    family: str
+    n_var: int
+    instance: int
+    n_dof: int
+    f_opt: float | None
+    f_opt_kind: str
+    f_opt_how: str
+    description: str
+
+    def to_dict(self) -> dict:
+        return {"id": self.id, "family": self.family, "n_var": self.n_var, "instance": self.instance,
+                "n_dof": self.n_dof, "f_opt": self.f_opt, "f_opt_kind": self.f_opt_kind,
+                "f_opt_how": self.f_opt_how, "description": self.description}
+
+
+class SuiteProblem(UpdatingProblem):
+    """An `UpdatingProblem` of the suite: its id, `f_opt` (float), how f_opt is known
+    (`f_opt_kind`, `f_opt_how`), and the hidden `truth` (Pa, (n_var,); None for ``paper``)."""
+
+    suite_id: str
+    f_opt: float
+    f_opt_kind: str
+    f_opt_how: str
+    truth: np.ndarray | None
+
+
+def suite_ids() -> tuple[str, ...]:
+    """Every problem id of the suite, in a fixed order (family, dimension, instance)."""
+    return tuple(f"{f.name}/{d}/{i}" for f in FAMILIES.values() for d in f.dimensions
+                 for i in range(1, f.instances + 1))
+
+
+def select_suite(spec: str | list[str] | tuple[str, ...]) -> list[str]:
+    """The ids selected by ``spec``: ids or prefixes of whole id parts, comma-separated or a list
+    (``paper``, ``hframe-freq/48``, ``frame-shape/12/3``), in suite order, each once.
+
+    A part that selects nothing raises ValueError naming it and the families."""
+    parts = [s.strip().strip("/") for s in (spec.split(",") if isinstance(spec, str) else spec)]
+    parts = [p for p in parts if p]
+    if not parts:
+        raise ValueError(f"empty suite selection; families: {', '.join(FAMILIES)}")
+    ids, chosen = suite_ids(), set()
+    for p in parts:
+        key = p.split("/")
+        hit = {i for i in ids if i.split("/")[:len(key)] == key}
+        if not hit:
+            raise ValueError(f"suite selection {p!r} matches no problem; ids are family/dimension/instance "
+                             f"with families {', '.join(FAMILIES)} (`femu suite` lists them)")
+        chosen |= hit
+    return [i for i in ids if i in chosen]
+
+
+def _parse(problem_id: str) -> tuple[Family, int, int]:
+    if problem_id not in set(suite_ids()):
+        raise ValueError(f"unknown suite problem {problem_id!r}; ids are family/dimension/instance, "
+                         f"families {', '.join(FAMILIES)} (`femu suite` lists them)")
+    name, dim, inst = problem_id.split("/")
+    return FAMILIES[name], int(dim), int(inst)
+
+
+def id_seed(problem_id: str, purpose: str) -> int:
+    """A seed fixed by the id and a purpose ("truth", "noise"): the first 8 bytes of SHA-256."""
+    return int.from_bytes(hashlib.sha256(f"femu-suite:{problem_id}:{purpose}".encode()).digest()[:8], "big")
+
+
+# -- structures ------------------------------------------------------------------------------
+
+def split_hframe(parts: int) -> FrameModel:
+    """The H-frame with every element split into `parts` equal elements (new nodes and ids as
+    `split_element` gives them); ``parts = 1`` is the shipped model."""
+    if parts < 1:
+        raise ValueError(f"parts must be >= 1, got {parts}")
+    base = load_model("hframe")
+    model = base
+    for e in base.element_ids:
+        piece = e
+        for k in range(parts - 1):
+            model = split_element(model, piece, 1.0 / (parts - k))
+            piece = max(model.element_ids)
+    return model.replace(name=f"hframe-split{parts}") if parts > 1 else model
+
+
+def storey_frame(storeys: int, storey_height_m: float = 3.0, bay_m: float = 6.0) -> FrameModel:
+    """A one-bay planar steel frame of `storeys` storeys fixed at its base: per storey two
+    columns (A 1.0e-2 m^2, I 1.0e-4 m^4) and a beam (A 8.0e-3 m^2, I 2.0e-4 m^4), E 210 GPa,
+    density 7850 kg/m^3, and 2000 kg floor mass at each storey node. Measured: x and y at every
+    storey node."""
+    if storeys < 1:
+        raise ValueError(f"storeys must be >= 1, got {storeys}")
+    nodes = tuple(Node(2 * s + c + 1, c * bay_m, s * storey_height_m) for s in range(storeys + 1) for c in (0, 1))
+    elements = []
+    for s in range(storeys):
+        left, right, up_l, up_r = 2 * s + 1, 2 * s + 2, 2 * s + 3, 2 * s + 4
+        elements += [Element(3 * s + 1, left, up_l, "column", "steel"),
+                     Element(3 * s + 2, right, up_r, "column", "steel"),
+                     Element(3 * s + 3, up_l, up_r, "beam", "steel")]
+    storey_nodes = [n.id for n in nodes[2:]]
+    return FrameModel(
+        name=f"frame{storeys}", nodes=nodes, materials={"steel": Material(2.1e11, 7850.0, 0.3)},
+        sections={"column": Section(1.0e-2, 1.0e-4), "beam": Section(8.0e-3, 2.0e-4)},
+        elements=tuple(elements), masses=tuple(LumpedMass(n, 2000.0) for n in storey_nodes),
+        supports=(Support(1, ("x", "y", "rz")), Support(2, ("x", "y", "rz"))),
+        measured_dofs=tuple((n, d) for n in storey_nodes for d in ("x", "y")),
+        description=f"one-bay {storeys}-storey steel frame, fixed base (femu suite)")
+
+
+@lru_cache(maxsize=16)
+def _structure(family: Family, n_var: int) -> tuple[FrameModel, tuple]:
+    """The nominal model and its modulus parameters for a family at size n_var."""
+    if family.structure == "frame":
+        model = storey_frame(n_var // 3)
+        return model, element_moduli(model, lower=0.85 * 2.1e11, upper=1.15 * 2.1e11)
+    model = split_hframe(n_var // 12)
+    return model, element_moduli(model)
+
+
+def _n_dof(model: FrameModel) -> int:
+    return 3 * len(model.nodes) - sum(len(s.directions) for s in model.supports)
+
+
+@lru_cache(maxsize=32)
+def _truth_and_data(problem_id: str) -> tuple[np.ndarray, ModalData]:
+    """The hidden truth (Pa) and the synthetic data of a synthetic instance.
+
+    The problem pairs measured with model modes once, at x0, and keeps that pairing; a truth
+    whose lowest modes change order (or shape) so much that measured mode i would pair with a
+    model mode other than the i-th at x0 would have J(truth) > 0. Such draws are rejected: the
+    next draw of the same generator is taken, so the truth is still fixed by the id."""
+    family, n_var, _ = _parse(problem_id)
+    model, params = _structure(family, n_var)
+    lo, hi = np.array([p.lower for p in params]), np.array([p.upper for p in params])
+    rng = np.random.default_rng(id_seed(problem_id, "truth"))
+    noise = (FREQ_NOISE, SHAPE_NOISE if family.shapes else 0.0) if family.noisy else (0.0, 0.0)
+    nominal = modal_analysis(model, N_MODES + 4)
+    for _ in range(MAX_DRAWS):
+        truth = rng.uniform(lo, hi)
+        truth_model = model.with_element_moduli({p.targets[0]: float(v) for p, v in zip(params, truth)})
+        data = synthetic_measurement(truth_model, n_modes=N_MODES, freq_noise=noise[0], shape_noise=noise[1],
+                                     seed=id_seed(problem_id, "noise") % 2**32, with_shapes=family.shapes,
+                                     model_name=model.name)
+        pairing = pair_modes(data.frequencies_hz, nominal.frequencies_hz, data.shapes, nominal.at(data.dofs),
+                             data.has_shape)
+        if np.array_equal(pairing.model_index, np.arange(N_MODES)):
+            meta = dict(data.meta, source=problem_id, suite_id=problem_id)
+            return truth, ModalData(data.model, data.dofs, data.frequencies_hz, data.shapes, meta)
+    raise RuntimeError(f"suite problem {problem_id}: no truth in {MAX_DRAWS} draws keeps the mode pairing of x0")
+
+
+def suite_entry(problem_id: str) -> SuiteEntry:
+    """What the suite knows about `problem_id` without building the problem (cheap)."""
+    family, n_var, inst = _parse(problem_id)
+    if family.structure == "paper":
+        return SuiteEntry(problem_id, family.name, n_var, inst, _n_dof(load_model("hframe")), PAPER_F_OPT,
+                          "best known", PAPER_F_OPT_HOW, family.description)
+    model, _ = _structure(family, n_var)
+    if family.noisy:
+        f_opt, kind, how = None, "reference", ("J at the hidden truth, computed when the problem is built "
+                                               "(an upper bound on the minimum)")
+    else:
+        f_opt, kind, how = 0.0, "exact", "0: noise-free data of a truth inside the bounds, J >= 0 and J(truth) = 0"
+    return SuiteEntry(problem_id, family.name, n_var, inst, _n_dof(model), f_opt, kind, how, family.description)
+
+
+def suite_problem(problem_id: str) -> SuiteProblem:
+    """A fresh `SuiteProblem` (its own evaluation counter) for a suite id; builds the FE system
+    (slow for the largest sizes until assembly scales). ValueError for an unknown id."""
+    entry = suite_entry(problem_id)
+    family = FAMILIES[entry.family]
+    if family.structure == "paper":
+        p = SuiteProblem("hframe", "paper", name=problem_id)
+        truth = None
+    else:
+        model, params = _structure(family, entry.n_var)
+        truth, data = _truth_and_data(problem_id)
+        p = SuiteProblem(model, data, parameters=params, weights="unit",
+                         shape_weight=1.0 if family.shapes else 0.0, name=problem_id)
+    f_opt = entry.f_opt
+    if truth is not None:  # not counted as an evaluation
+        at_truth = float(p.evaluate(truth)[0])
+        p.n_evals = 0
+        if f_opt is None:  # a noisy instance: the reference J(truth)
+            f_opt = at_truth
+        elif abs(at_truth) > ROUND_OFF:  # a guard: the claim f_opt = 0 must hold for this id
+            raise RuntimeError(f"suite problem {problem_id}: J(truth) = {at_truth:.3g}, not 0 within round-off")
+    p.suite_id, p.f_opt, p.f_opt_kind, p.f_opt_how, p.truth = problem_id, f_opt, entry.f_opt_kind, entry.f_opt_how, truth
+    return p
