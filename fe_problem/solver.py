@@ -47,19 +47,19 @@ class ModalSolver:
         # Work in mass-normalised coordinates once: A = L^-1 K L^-T with M0 = L L^T.
         self._linv = np.linalg.inv(cholesky(self.m0, self.name))
         a0 = self._linv @ self.k0 @ self._linv.T
-        da = np.einsum("ij,pjk,lk->pil", self._linv, self.dk, self._linv)
+        da = self._linv @ self.dk @ self._linv.T        # (p, n, n); matmul, not a 3-operand einsum (O(p n^4))
         # Motions that no parameter can strain (the rigid-body modes of a free structure)
         # are eigenvectors of eigenvalue 0 for every theta: project them out once, exactly,
         # so each solve is smaller (39 -> 36 DOFs for the free-free H-frame).
         # Each term normalised by its own size (dA_k is per unit of theta_k, whose range can
         # be anything): a direction is dropped only if every term is zero on it.
         terms = [t / np.linalg.norm(t) for t in (a0, *da) if np.linalg.norm(t) > 0]
-        _, sv, vt = np.linalg.svd(np.vstack(terms))
+        _, sv, vt = np.linalg.svd(np.vstack(terms), full_matrices=False)  # not the (p n)^2 U
         keep = sv > 1e-10 * sv[0]
         self._q = vt[keep].T                       # (n_free, n_kept) orthonormal
         self._a0 = self._q.T @ a0 @ self._q
         k = self._q.shape[1]
-        self._da_flat = np.einsum("ji,pjk,kl->pil", self._q, da, self._q).reshape(len(self.dk), k * k)
+        self._da_flat = (self._q.T @ da @ self._q).reshape(len(self.dk), k * k)
         return self.n_free - k
 
     def stiffness(self, theta: np.ndarray) -> np.ndarray:
