@@ -17,6 +17,7 @@ A built-in name cannot be taken over by a plugin.
 from __future__ import annotations
 
 import importlib
+import re
 from importlib.metadata import entry_points
 
 ENTRY_POINT_GROUP = "femu.optimizers"
@@ -63,10 +64,17 @@ def get(name: str) -> type:
     raise ValueError(f"unknown optimizer {name!r}; available: {', '.join(available())}")
 
 
+#: A Python module path: identifiers joined by dots.
+_DOTTED = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*")
+
+
 def _import_path(name: str) -> type:
     """An optimizer named by its import path ``package.module:Class`` (not registered: for
     trying out a class, e.g. in a test, in every worker process of a study)."""
     module, _, attr = name.partition(":")
+    if not (_DOTTED.fullmatch(module) and attr.isidentifier()):
+        raise ValueError(f"optimizer {name!r}: not a registry name or an import path package.module:Class "
+                         f"(available: {', '.join(available())})")
     try:
         cls = getattr(importlib.import_module(module), attr)
     except (ImportError, AttributeError, ValueError) as exc:  # ValueError: an empty module name

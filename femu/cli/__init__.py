@@ -64,6 +64,14 @@ def main(argv=None) -> int:
         msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
         print(f"femu {args.command}: error: {msg}", file=sys.stderr)
         return 2
+    except OSError as exc:  # a path that is a directory, unreadable, not writable, a full disk
+        where = exc.filename if exc.filename is not None else "file system"
+        print(f"femu {args.command}: error: {where}: {exc.strerror or exc}", file=sys.stderr)
+        return 2
+    except (RecursionError, OverflowError, MemoryError) as exc:  # input too deep or too large
+        print(f"femu {args.command}: error: the input is too large or too deeply nested to read "
+              f"({type(exc).__name__}: {exc})", file=sys.stderr)
+        return 2
 
 
 if __name__ == "__main__":

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 from fe_problem.jsonutil import dumps
 
@@ -17,6 +18,16 @@ def positive_int(text: str) -> int:
     if value < 1:
         raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
     return value
+
+
+def directory(text: str) -> str:
+    """An argparse type: a directory to write into (made if missing). Refuses an empty path
+    (which would mean the current directory without saying so) and an existing non-directory."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty path; name a directory (use . for the current one)")
+    if Path(text).exists() and not Path(text).is_dir():
+        raise argparse.ArgumentTypeError(f"{text} exists and is not a directory")
+    return text
 
 
 def print_json(obj) -> None:

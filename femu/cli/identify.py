@@ -18,7 +18,7 @@ import sys
 import time
 from pathlib import Path
 
-from ._args import positive_int
+from ._args import directory, positive_int
 
 
 def _stderr(msg: str, end: str = "\n") -> None:
@@ -31,7 +31,7 @@ def add_arguments(p) -> None:
     p.add_argument("--band", nargs=2, type=float, metavar=("LO", "HI"), default=None,
                    help="frequency band in Hz (default: every line)")
     p.add_argument("--modes", type=positive_int, default=None, help="keep the lowest N modes (default: all found)")
-    p.add_argument("--out", default="femu-identify", help="output directory (default femu-identify)")
+    p.add_argument("--out", default="femu-identify", type=directory, help="output directory (default femu-identify)")
     p.add_argument("--max-order", type=positive_int, default=40, help="highest LSCF order, pole pairs (default 40)")
     p.add_argument("--max-damping", type=float, default=0.10, help="largest physical damping ratio (default 0.10)")
     p.add_argument("--progress", action="store_true", help="show progress on stderr even when it is not a terminal")

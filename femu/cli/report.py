@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+from ._args import directory
+
 
 def add_arguments(rp) -> None:
     """The arguments of `femu report`."""
     rp.add_argument("store", help="the store directory a `femu study` wrote")
-    rp.add_argument("--out", required=True, help="output directory: report.md, summary.json and PNG figures")
+    rp.add_argument("--out", required=True, type=directory, help="output directory: report.md, summary.json and PNG figures")
     rp.add_argument("--ioh", action="store_true", help="also export IOHprofiler files to OUT/ioh")
 
 

@@ -7,6 +7,8 @@ missing), writes OUT/report.md with its figures and prints the medians over seed
 
 from __future__ import annotations
 
+from ._args import directory
+
 import sys
 
 
@@ -18,7 +20,7 @@ def add_arguments(rr) -> None:
                     help="a count N (the seeds 0..N-1) or a list of seeds as for `femu study` "
                          "(0-29, 0,3,7; one seed s is s-s); default: %(default)s, the seeds 0-4")
     rr.add_argument("--budget", type=int, default=DEFAULT_BUDGET, help="FE evaluations per run")
-    rr.add_argument("--out", default="femu-reproduce", help="output directory: OUT/store and OUT/report.md")
+    rr.add_argument("--out", default="femu-reproduce", type=directory, help="output directory: OUT/store and OUT/report.md")
     rr.add_argument("--workers", type=int, default=None,
                     help="local worker processes (0: run in this process; default: every core)")
     out = rr.add_mutually_exclusive_group()

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -20,6 +21,7 @@ from typing import Callable, Iterator
 
 from fe_problem.jsonutil import dumps
 
+from .kill import kill_tree
 from .tasks import STARTUP_LIMIT_S, Task, hard_deadline_s, hard_timeout_error, lost_record, run_task, startup_error
 
 #: Runs in one Dask worker process go one at a time (process-global random generators).
@@ -60,7 +62,7 @@ def run_task_in_child(task: Task) -> dict:
                     return record
         finally:
             if proc.poll() is None:
-                proc.kill()
+                kill_tree(proc.pid)
                 proc.wait()
         if proc.returncode != 0 or not out.exists():
             return lost_record(task, "failed", f"the run's process exited with code {proc.returncode}: "
@@ -79,7 +81,7 @@ class DaskCluster:
         from distributed.comm.registry import get_backend
 
         scheme, location = parse_address(address)
-        if not location:
+        if not location or (scheme in ("tcp", "tls", "ws", "wss") and not re.fullmatch(r".+:\d{1,5}", location)):
             raise ValueError(f"--scheduler {address!r}: not a scheduler address (tcp://host:port)")
         try:  # a bad scheme, checked before a Client exists (a failed Client lingers on exit)
             get_backend(scheme)

@@ -37,6 +37,7 @@ import time
 from collections import deque
 from typing import Callable, Iterable, Iterator
 
+from .kill import kill_tree
 from .tasks import STARTUP_LIMIT_S, Task, hard_deadline_s, hard_timeout_error, lost_record, run_task, startup_error
 
 class InProcess:
@@ -156,9 +157,7 @@ class LocalPool:
 
 
 def _stop(proc) -> None:
-    proc.terminate()
-    proc.join(2)
-    if proc.is_alive():
-        proc.kill()
-        proc.join()
+    """End a run's process and every process it started."""
+    kill_tree(proc.pid)
+    proc.join()
 

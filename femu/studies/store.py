@@ -2,22 +2,33 @@
 
     STORE/study.json             what the study was asked to run (written at start)
     STORE/runs/<key>.json        one RunResult (format femu.run/1), written atomically
+    STORE/runs/<key>.claim       the process running that run now (pid, host), while it runs
 
 A run's key is ``<variant>__<optimizer>__b<budget>__s<seed>``. Files are written to a
 temporary name in the same directory and renamed into place, so a killed study leaves only
 whole records (and at most a hidden ``.<key>.json.*.tmp`` file, which is ignored); a study
-started again skips every key already present.
+started again skips every key already present. A study claims each run before it starts it
+(a claim file created exclusively), so two studies on one store never run the same run; a
+claim left by a process that is gone (a kill -9, a crash) is stale and taken over.
 """
 
 from __future__ import annotations
 
 import json
 import os
+import socket
 import tempfile
+import time
 from pathlib import Path
+
+import psutil
 
 from adapters.harness import RunResult
 from fe_problem.jsonutil import dumps
+
+
+#: Seconds after which a claim file that cannot be read counts as stale.
+UNREADABLE_CLAIM_S = 10.0
 
 
 class StoreError(ValueError):
@@ -56,6 +67,8 @@ class Store:
     """A study's result directory."""
 
     def __init__(self, path: str | Path):
+        if not str(path).strip():
+            raise StoreError("--store: an empty path; name a directory (use . for the current one)")
         self.path = Path(path)
         if self.path.exists() and not self.path.is_dir():
             raise StoreError(f"{self.path}: a store is a directory, this is a file")
@@ -74,6 +87,54 @@ class Store:
         path = self.runs_dir / f"{run_key(result.variant, result.optimizer, result.budget, result.seed)}.json"
         atomic_write_json(path, result.to_dict())
         return path
+
+    def claim(self, key: str) -> bool:
+        """Claim run `key` for this process; False if a live process holds it already. A claim
+        of a process that no longer runs on this host is stale: it is removed and retaken."""
+        path = self.runs_dir / f"{key}.claim"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        for _ in range(2):
+            try:
+                fd = os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+            except FileExistsError:
+                if not self._stale(path):
+                    return False
+                path.unlink(missing_ok=True)
+                continue
+            with os.fdopen(fd, "w") as fh:
+                fh.write(json.dumps({"pid": os.getpid(), "host": socket.gethostname()}))
+            return True
+        return False
+
+    def release(self, key: str) -> None:
+        """Remove this process's claim of run `key` (another process's claim is left alone)."""
+        path = self.runs_dir / f"{key}.claim"
+        if self._owner(path) == (os.getpid(), socket.gethostname()):
+            path.unlink(missing_ok=True)
+
+    def claimed(self) -> set[str]:
+        """Keys of the runs that some process has claimed and not yet released."""
+        return {p.stem for p in self.runs_dir.glob("*.claim")} if self.runs_dir.is_dir() else set()
+
+    @staticmethod
+    def _owner(path: Path) -> tuple[int, str] | None:
+        try:
+            d = json.loads(path.read_text())
+            return int(d["pid"]), str(d["host"])
+        except (OSError, ValueError, KeyError, TypeError):  # half-written or damaged: no owner
+            return None
+
+    def _stale(self, path: Path) -> bool:
+        """Whether the claim at `path` belongs to a process that is gone (on this host), or
+        cannot be read at all. A claim from another host is trusted."""
+        owner = self._owner(path)
+        if owner is None:  # being written this instant, or damaged: stale only once it is old
+            try:
+                return time.time() - path.stat().st_mtime > UNREADABLE_CLAIM_S
+            except FileNotFoundError:
+                return True
+        pid, host = owner
+        return host == socket.gethostname() and not psutil.pid_exists(pid)
 
     def read(self, key: str) -> RunResult:
         path = self.runs_dir / f"{key}.json"

@@ -70,7 +70,8 @@ def _check_options(options, optimizers: list[str]) -> dict[str, dict]:
 class StudyResult:
     """What a study left in its store.
 
-    runs: every run of the grid (kept and new), in grid order (variant, optimizer, seed);
+    runs: every run of the grid (kept and new), in grid order (variant, optimizer, seed), but
+    for the `n_elsewhere` runs another process on the same store was running (claimed);
     n_new: runs done by this call; n_kept: runs found in the store; wall_s: seconds."""
 
     store: Path
@@ -79,6 +80,7 @@ class StudyResult:
     n_kept: int
     wall_s: float
     executor: str
+    n_elsewhere: int = 0
 
     def counts(self) -> dict[str, int]:
         """Number of runs per status."""
@@ -93,8 +95,12 @@ class StudyResult:
         statuses = ", ".join(f"{c.get(s, 0)} {s}" for s in ("ok", "failed", "timeout"))
         if c.get("stopped"):
             statuses += f", {c['stopped']} stopped"
-        return (f"femu study: {len(self.runs)} runs in {self.store} ({self.n_new} new, {self.n_kept} kept): "
+        line = (f"femu study: {len(self.runs)} runs in {self.store} ({self.n_new} new, {self.n_kept} kept): "
                 f"{statuses}; {self.wall_s:.1f} s ({self.executor})")
+        if self.n_elsewhere:
+            line += (f"; {self.n_elsewhere} runs left to another process running them on this store "
+                     f"(the same command gathers them once it has finished)")
+        return line
 
 
 def _n_cores() -> int:
@@ -138,6 +144,9 @@ def _check_inputs(optimizers, seeds, budget, variants, workers, scheduler, time_
         raise ValueError("--workers and --scheduler exclude each other (the Dask cluster has its own workers)")
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 0):
         raise ValueError(f"--workers: must be an integer >= 0 (0: run in this process), got {workers!r}")
+    if workers == 0 and time_limit_s is not None:
+        raise ValueError("--time-limit needs worker processes (--workers >= 1 or --scheduler): in this process "
+                         "a plugin that stops calling the objective cannot be stopped")
     return optimizers, seeds, budget, variants, options
 
 
@@ -185,22 +194,44 @@ def run_study(optimizers, seeds, budget: int, store, variants=("paper",), worker
     grid = [Task(o, v, budget, s, options.get(o, {}), time_limit_s)
             for v in variants for o in optimizers for s in seeds]
     stored = _stored_runs(store, grid)
-    todo = [t for t in grid if t.key not in stored or (retry_failed and stored[t.key].status in RETRY_STATUSES)]
-    executor = _executor(todo, optimizers, workers, scheduler)
+    wanted = [t for t in grid if t.key not in stored or (retry_failed and stored[t.key].status in RETRY_STATUSES)]
+    executor = _executor(wanted, optimizers, workers, scheduler)  # a bad scheduler fails before any file
+    todo, n_elsewhere = _claim(store, wanted, stored)
+    try:
+        t0 = time.perf_counter()
+        store.path.mkdir(parents=True, exist_ok=True)
+        write_manifest(store, {"optimizers": optimizers, "seeds": seeds, "budget": budget, "variants": variants,
+                               "time_limit_s": time_limit_s, "options": options,
+                               "retry_failed": bool(retry_failed)}, executor.name)
+        records = {t.key: stored[t.key] for t in grid if t.key in stored}
+        todo_keys = {t.key for t in todo}
+        kept_failed = sum(1 for k, r in records.items() if k not in todo_keys and r.status in RETRY_STATUSES)
+        with Progress(len(grid), len(grid) - len(todo), kept_failed,
+                      enabled=progress and sys.stdout.isatty()) as bar:
+            for task, record in executor.run(todo, bar.running):
+                result = RunResult.from_dict(record)
+                store.write(result)
+                records[task.key] = result
+                bar.done(result.status in RETRY_STATUSES)
+    finally:
+        for t in todo:
+            store.release(t.key)
+    return StudyResult(store=store.path, runs=tuple(records[t.key] for t in grid if t.key in records),
+                       n_new=len(todo), n_kept=len(grid) - len(todo) - n_elsewhere, wall_s=time.perf_counter() - t0,
+                       executor=executor.name, n_elsewhere=n_elsewhere)
 
-    t0 = time.perf_counter()
-    store.path.mkdir(parents=True, exist_ok=True)
-    write_manifest(store, {"optimizers": optimizers, "seeds": seeds, "budget": budget, "variants": variants,
-                           "time_limit_s": time_limit_s, "options": options, "retry_failed": bool(retry_failed)},
-                   executor.name)
-    records = {t.key: stored[t.key] for t in grid if t.key in stored}
-    todo_keys = {t.key for t in todo}
-    kept_failed = sum(1 for k, r in records.items() if k not in todo_keys and r.status in RETRY_STATUSES)
-    with Progress(len(grid), len(grid) - len(todo), kept_failed, enabled=progress and sys.stdout.isatty()) as bar:
-        for task, record in executor.run(todo, bar.running):
-            result = RunResult.from_dict(record)
-            store.write(result)
-            records[task.key] = result
-            bar.done(result.status in RETRY_STATUSES)
-    return StudyResult(store=store.path, runs=tuple(records[t.key] for t in grid), n_new=len(todo),
-                       n_kept=len(grid) - len(todo), wall_s=time.perf_counter() - t0, executor=executor.name)
+
+def _claim(store: Store, wanted: list[Task], stored: dict) -> tuple[list[Task], int]:
+    """The wanted runs to do now, each claimed in the store, and how many are left to another
+    process that holds their claim. A run another process finished between reading the store
+    and claiming is read into `stored` instead of being run again."""
+    todo, elsewhere = [], 0
+    for t in wanted:
+        if not store.claim(t.key):
+            elsewhere += 1
+        elif t.key not in stored and (store.runs_dir / f"{t.key}.json").exists():
+            stored[t.key] = store.read(t.key)
+            store.release(t.key)
+        else:
+            todo.append(t)
+    return todo, elsewhere
