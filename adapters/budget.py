@@ -16,12 +16,18 @@ def _is_int(v) -> bool:
     return isinstance(v, (int, np.integer)) and not isinstance(v, bool)
 
 
+#: The largest budget a run may have (FE evaluations): days of computing on the H-frame.
+MAX_BUDGET = 10**9
+
+
 def check_budget(budget, flag: str | None = None) -> int:
-    """`budget` as an int; ValueError unless it is an integer >= 1 (FE evaluations). The
-    message starts with `flag` (e.g. ``--budget``) when the value came from one."""
+    """`budget` as an int; ValueError unless it is an integer from 1 to `MAX_BUDGET` (FE
+    evaluations). The message starts with `flag` (e.g. ``--budget``) when it came from one."""
+    what = f"{flag}: must be" if flag else "budget must be"
     if not _is_int(budget) or budget < 1:
-        what = f"{flag}: must be" if flag else "budget must be"
         raise ValueError(f"{what} an integer >= 1 (FE evaluations), got {budget!r}")
+    if budget > MAX_BUDGET:
+        raise ValueError(f"{what} at most {MAX_BUDGET} FE evaluations, got {budget}")
     return int(budget)
 
 

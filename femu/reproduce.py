@@ -96,8 +96,9 @@ def reproduce(seeds=DEFAULT_SEEDS, budget: int = DEFAULT_BUDGET, out="femu-repro
     log = sys.stderr if log is None else log
     seed_list = parse_seed_count(seeds)
     budget = check_budget(budget, "--budget")
-    from femu.studies.study import run_study
+    from femu.studies.study import check_workers, run_study
 
+    check_workers(workers)
     names, left_out = solvers(budget)
     for name, why in left_out.items():
         print(f"femu reproduce: leaving out {name}: {why}", file=log)

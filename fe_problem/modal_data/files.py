@@ -3,10 +3,9 @@ ship with the project (``paper``), loaded by name."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
-from ..jsonutil import dumps
+from ..jsonutil import dumps, read_json_file
 from ..shipped import resolve, shipped_names
 from .json_format import modal_data_from_dict, modal_data_to_dict
 from .types import DataFileError, ModalData
@@ -30,11 +29,7 @@ def load_modal_data(name_or_path: str | Path | ModalData) -> ModalData:
     if path.suffix.lower() in UFF_SUFFIXES:
         data = read_uff55(path)
     else:
-        try:
-            raw = json.loads(path.read_text())
-        except json.JSONDecodeError as exc:
-            raise DataFileError(f"{path}: not valid JSON ({exc})") from None
-        data = modal_data_from_dict(raw, source=str(path))
+        data = modal_data_from_dict(read_json_file(path, DataFileError), source=str(path))
     try:
         model = data.load_model()
     except (FileNotFoundError, ValueError) as exc:

@@ -3,12 +3,12 @@ of its parsed content and the dictionary written back."""
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
 
 from ..dofs import SPATIAL
+from ..model.validate import is_number, shown
 from .types import DATA_FORMAT, DataFileError, ModalData
 
 
@@ -48,8 +48,8 @@ def modal_data_from_dict(d: Any, source: str = "<memory>") -> ModalData:
         if not isinstance(mode, dict) or "frequency_hz" not in mode:
             raise _err(source, f"{where}: missing 'frequency_hz'")
         f = mode["frequency_hz"]
-        if isinstance(f, bool) or not isinstance(f, (int, float)) or not math.isfinite(f) or f <= 0:
-            raise _err(source, f"{where}.frequency_hz: must be a finite number > 0, got {f!r}")
+        if not is_number(f) or f <= 0:
+            raise _err(source, f"{where}.frequency_hz: must be a finite number > 0, got {shown(f)}")
         freqs[k] = f
         s = mode.get("shape")
         if s is None:
@@ -58,8 +58,8 @@ def modal_data_from_dict(d: Any, source: str = "<memory>") -> ModalData:
             n = len(s) if isinstance(s, list) else type(s).__name__
             raise _err(source, f"{where}.shape: needs {len(dofs)} numbers (one per 'dofs' entry), got {n}")
         for j, v in enumerate(s):
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise _err(source, f"{where}.shape[{j}]: must be a finite number, got {v!r}")
+            if not is_number(v):
+                raise _err(source, f"{where}.shape[{j}]: must be a finite number, got {shown(v)}")
         if not any(s):
             raise _err(source, f"{where}.shape: all zeros")
         shapes[:, k] = s

@@ -4,14 +4,13 @@ models that ship with the project (``hframe``), loaded by name."""
 from __future__ import annotations
 
 import dataclasses
-import json
 from pathlib import Path
 from typing import Any
 
-from ..jsonutil import dumps
+from ..jsonutil import dumps, read_json_file
 from ..shipped import resolve, shipped_names
 from .types import Element, FrameModel, LumpedMass, Material, Node, Section, Spring, Support
-from .validate import ModelFileError, is_number
+from .validate import ModelFileError, is_number, shown
 
 MODEL_FORMAT = "femu.model/1"
 MODEL_SUFFIX = ".model.json"
@@ -33,7 +32,7 @@ def _int(value: Any, where: str) -> int:
 
 def _number(value: Any, where: str) -> float:
     if not is_number(value):
-        raise ModelFileError(f"{where}: must be a finite number, got {value!r}")
+        raise ModelFileError(f"{where}: must be a finite number, got {shown(value)}")
     return float(value)
 
 
@@ -160,11 +159,7 @@ def load_model(name_or_path: str | Path) -> FrameModel:
     if isinstance(name_or_path, FrameModel):
         return name_or_path
     path = resolve(name_or_path, MODEL_SUFFIX, "model")
-    try:
-        d = json.loads(path.read_text())
-    except json.JSONDecodeError as exc:
-        raise ModelFileError(f"{path}: not valid JSON ({exc})") from None
-    return model_from_dict(d, source=str(path))
+    return model_from_dict(read_json_file(path, ModelFileError), source=str(path))
 
 
 def save_model(model: FrameModel, path: str | Path) -> Path:

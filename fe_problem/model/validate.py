@@ -17,8 +17,19 @@ class ModelFileError(ValueError):
 
 
 def is_number(value: Any) -> bool:
-    """A finite int or float that is not a bool."""
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+    """A finite int or float that is not a bool (an integer too large for a float is not)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return False
+    try:
+        return math.isfinite(value)
+    except OverflowError:  # an int of more than ~308 digits
+        return False
+
+
+def shown(value: Any, limit: int = 60) -> str:
+    """`repr(value)` cut to `limit` characters, for one-line error messages."""
+    text = repr(value) if not isinstance(value, int) or abs(value) < 10**limit else f"an integer of {len(str(abs(value)))} digits"
+    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def _duplicates(ids: list) -> list:
@@ -29,7 +40,7 @@ def _positive(value: Any, where: str, allow_zero: bool = False) -> None:
     ok = is_number(value) and (value >= 0 if allow_zero else value > 0)
     if not ok:
         need = "a finite number >= 0" if allow_zero else "a finite number > 0"
-        raise ModelFileError(f"{where}: must be {need}, got {value!r}")
+        raise ModelFileError(f"{where}: must be {need}, got {shown(value)}")
 
 
 def validate(m: FrameModel) -> None:
@@ -39,7 +50,7 @@ def validate(m: FrameModel) -> None:
     for n in m.nodes:
         for v, name in ((n.x, "x"), (n.y, "y")):
             if not (isinstance(v, (int, float)) and math.isfinite(v)):
-                raise ModelFileError(f"{src}: node {n.id} field '{name}' must be a finite number, got {v!r}")
+                raise ModelFileError(f"{src}: node {n.id} field '{name}' must be a finite number, got {shown(v)}")
     _validate_tables(m)
     _check_ids(src, "elements", [e.id for e in m.elements])
     for e in m.elements:

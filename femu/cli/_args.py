@@ -33,3 +33,9 @@ def directory(text: str) -> str:
 def print_json(obj) -> None:
     """``obj`` as indented JSON on stdout (numpy values and dataclasses made plain)."""
     sys.stdout.write(dumps(obj) + "\n")
+
+
+def warn_skipped(store, command: str) -> None:
+    """One line on stderr per damaged run record `store.runs(skip_invalid=True)` left out."""
+    for message in store.skipped:
+        print(f"{command}: warning: left out {message}", file=sys.stderr)

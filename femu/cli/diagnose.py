@@ -12,7 +12,6 @@ the file, which `femu.cli.main` turns into one line on stderr and exit code 2.
 
 from __future__ import annotations
 
-from ._args import directory
 
 import math
 import sys
@@ -65,7 +64,7 @@ def _p_text(p) -> str:
 def add_arguments(d) -> None:
     d.add_argument("data", help="a modal-data file (JSON or UFF 55) or a shipped dataset (paper)")
     d.add_argument("--model", default=None, help="model name or file (default: the data's model)")
-    d.add_argument("--out", default=None, type=directory, metavar="DIR",
+    d.add_argument("--out", default=None, metavar="DIR",
                    help="directory for the extended model, diagnosis.json, report.md and its figures")
     d.add_argument("--json", action="store_true", help="print the diagnosis record as JSON on stdout")
     d.add_argument("--freq-noise", type=float, default=0.002,

@@ -6,18 +6,24 @@ import sys
 
 from fe_problem.jsonutil import dumps
 
+from ._args import warn_skipped
+
 
 def add_arguments(r) -> None:
     """The arguments of `femu results`."""
     r.add_argument("store", help="the store directory a `femu study` wrote")
     r.add_argument("--json", action="store_true", help="print every run record as a JSON list instead of a table")
+    r.add_argument("--skip-invalid", action="store_true",
+                   help="leave out damaged or hand-edited run records (each named on stderr) instead of stopping")
 
 
 def run(args) -> int:
     """`femu results STORE [--json]`: the stored runs, as a table or a JSON list."""
     from femu.studies.store import Store
 
-    runs = Store(args.store).runs()
+    store = Store(args.store)
+    runs = store.runs(skip_invalid=args.skip_invalid)
+    warn_skipped(store, "femu results")
     if args.json:
         sys.stdout.write(dumps([r.to_dict() for r in runs]) + "\n")
         return 0

@@ -167,7 +167,7 @@ def plot_shapes(diag: Diagnosis, model: FrameModel, extended: FrameModel | None,
         _draw_mode(ax, diag, model, extended, data, i, calibrated, ext, size)
     for ax in axes[:, 0]:
         ax.set_ylabel("y (m)", fontsize=8)
-    handles, labels = {}, []
+    handles = {}
     for ax in axes.ravel():  # every kind of line once, whichever panel drew it first
         for h, label in zip(*ax.get_legend_handles_labels()):
             handles.setdefault(label, h)

@@ -15,6 +15,7 @@ claim left by a process that is gone (a kill -9, a crash) is stale and taken ove
 from __future__ import annotations
 
 import json
+import math
 import os
 import socket
 import tempfile
@@ -23,8 +24,8 @@ from pathlib import Path
 
 import psutil
 
-from adapters.harness import RunResult
-from fe_problem.jsonutil import dumps
+from adapters.harness import RECORD_FORMAT, RunResult
+from fe_problem.jsonutil import dumps, read_json_file
 
 
 #: Seconds after which a claim file that cannot be read counts as stale.
@@ -33,6 +34,65 @@ UNREADABLE_CLAIM_S = 10.0
 
 class StoreError(ValueError):
     """An unreadable store or record; the message names the file."""
+
+
+#: The statuses a run record can have (adapters.harness.RunResult).
+STATUSES = ("ok", "stopped", "failed", "timeout")
+#: What to do about a damaged record.
+REDO_HINT = "delete the file and run the same `femu study` command again to redo that run"
+
+
+def _is_int(v) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool)
+
+
+def _is_num(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def check_record(d, key: str) -> str | None:
+    """What is wrong with the run record `d` stored under `key` (None if nothing): every field
+    of format femu.run/1 with its type and range, and the key it must be stored under."""
+    if not isinstance(d, dict):
+        return f"a JSON {type(d).__name__}, not an object"
+    if d.get("format", RECORD_FORMAT) != RECORD_FORMAT:
+        return f"field 'format': {d.get('format')!r} is not {RECORD_FORMAT!r}"
+    for name in ("optimizer", "problem", "variant"):
+        if not isinstance(d.get(name), str) or not d.get(name):
+            return f"field {name!r}: must be a non-empty string, got {d.get(name)!r}"
+    checks = (("seed", _is_int(d.get("seed")) and d.get("seed", -1) >= 0, "an integer >= 0"),
+              ("budget", _is_int(d.get("budget")) and d.get("budget", 0) >= 1, "an integer >= 1"),
+              ("n_evals", _is_int(d.get("n_evals")) and 0 <= d.get("n_evals", -1) <= max(d["budget"], 0)
+               if _is_int(d.get("budget")) else False, "an integer from 0 to the budget"),
+              ("best_f", d.get("best_f") is None or (_is_num(d["best_f"]) and d["best_f"] >= 0),
+               "a finite number >= 0 (J is a sum of squares) or null"),
+              ("status", d.get("status") in STATUSES, f"one of {', '.join(STATUSES)}"),
+              ("options", isinstance(d.get("options", {}), dict), "an object"),
+              ("best_x", isinstance(d.get("best_x", []), list) and all(_is_num(v) for v in d.get("best_x", [])),
+               "a list of finite numbers"),
+              ("trace", _trace_ok(d.get("trace", [])), "a list of [n_evals, f] pairs, n_evals increasing"))
+    for name, ok, need in checks:
+        if not ok:
+            return f"field {name!r}: must be {need}, got {d.get(name)!r}"[:300]
+    for name in ("wall_s", "cpu_s", "fe_s"):
+        if not (_is_num(d.get(name, 0.0)) and d.get(name, 0.0) >= 0):
+            return f"field {name!r}: must be a number of seconds >= 0, got {d.get(name)!r}"
+    expected = run_key(d["variant"], d["optimizer"], d["budget"], d["seed"])
+    if expected != key:
+        return f"its fields (variant, optimizer, budget, seed) make the key {expected!r}, not the file's name {key!r}"
+    return None
+
+
+def _trace_ok(trace) -> bool:
+    if not isinstance(trace, list):
+        return False
+    last = 0
+    for entry in trace:
+        if not (isinstance(entry, list) and len(entry) == 2 and _is_int(entry[0]) and entry[0] >= last
+                and _is_num(entry[1])):
+            return False
+        last = entry[0]
+    return True
 
 
 def run_key(variant: str, optimizer: str, budget: int, seed: int) -> str:
@@ -70,6 +130,7 @@ class Store:
         if not str(path).strip():
             raise StoreError("--store: an empty path; name a directory (use . for the current one)")
         self.path = Path(path)
+        self.skipped: list[str] = []  # the damaged records the last runs(skip_invalid=True) left out
         if self.path.exists() and not self.path.is_dir():
             raise StoreError(f"{self.path}: a store is a directory, this is a file")
 
@@ -137,20 +198,34 @@ class Store:
         return host == socket.gethostname() and not psutil.pid_exists(pid)
 
     def read(self, key: str) -> RunResult:
+        """The run record stored under `key`; StoreError naming the file, the field and what
+        to do if it is damaged or was edited into something that is not a record."""
         path = self.runs_dir / f"{key}.json"
         try:
-            data = json.loads(path.read_text())
-            if not isinstance(data, dict):
-                raise TypeError(f"a JSON {type(data).__name__}, not an object")
-            return RunResult.from_dict(data)
-        except (OSError, ValueError, TypeError) as exc:  # ValueError: bad JSON or field values
-            raise StoreError(f"{path}: not a readable run record ({exc})") from None
+            data = read_json_file(path, StoreError)
+        except StoreError as exc:
+            problem = str(exc).removeprefix(f"{path}: ")
+        else:
+            problem = check_record(data, key)
+        if problem:
+            raise StoreError(f"{path}: not a readable run record ({problem}); {REDO_HINT}")
+        return RunResult.from_dict(data)
 
-    def runs(self) -> list[RunResult]:
-        """Every finished run, sorted by variant, optimizer, budget, seed."""
+    def runs(self, skip_invalid: bool = False) -> list[RunResult]:
+        """Every finished run, sorted by variant, optimizer, budget, seed. A damaged record
+        raises StoreError (naming every damaged file), or with `skip_invalid` is left out and
+        its message kept in `self.skipped`."""
         if not self.path.is_dir():
             raise StoreError(f"{self.path}: no such store (run `femu study ... --store {self.path}` first)")
-        out = [self.read(k) for k in self.keys()]
+        out, self.skipped = [], []
+        for k in sorted(self.keys()):
+            try:
+                out.append(self.read(k))
+            except StoreError as exc:
+                self.skipped.append(str(exc))
+        if self.skipped and not skip_invalid:
+            more = f" (and {len(self.skipped) - 1} more damaged records)" if len(self.skipped) > 1 else ""
+            raise StoreError(f"{self.skipped[0]}{more}; --skip-invalid goes on with the valid records")
         return sorted(out, key=lambda r: (r.variant, r.optimizer, r.budget, r.seed))
 
     def write_manifest(self, manifest: dict) -> None:
@@ -160,10 +235,7 @@ class Store:
         p = self.path / "study.json"
         if not p.exists():
             return None
-        try:
-            data = json.loads(p.read_text())
-        except (OSError, ValueError) as exc:
-            raise StoreError(f"{p}: not valid JSON ({exc})") from None
+        data = read_json_file(p, StoreError)
         if not isinstance(data, dict):
             raise StoreError(f"{p}: not a study manifest (a JSON {type(data).__name__}, not an object)")
         return data

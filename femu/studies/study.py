@@ -125,6 +125,12 @@ def check_budget_for(optimizers: list[str], budget, variants: list[str], options
     return budget
 
 
+def check_workers(workers) -> None:
+    """ValueError unless `workers` is None (every core) or an integer >= 0 (0: this process)."""
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 0):
+        raise ValueError(f"--workers: must be an integer >= 0 (0: run in this process), got {workers!r}")
+
+
 def _check_inputs(optimizers, seeds, budget, variants, workers, scheduler, time_limit_s, options):
     """The study's arguments checked and normalised; ValueError naming the flag otherwise."""
     optimizers = parse_names(optimizers, "optimizers")
@@ -142,8 +148,7 @@ def _check_inputs(optimizers, seeds, budget, variants, workers, scheduler, time_
         raise ValueError(f"--time-limit: must be a positive number of seconds, got {time_limit_s!r}")
     if scheduler is not None and workers is not None:
         raise ValueError("--workers and --scheduler exclude each other (the Dask cluster has its own workers)")
-    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 0):
-        raise ValueError(f"--workers: must be an integer >= 0 (0: run in this process), got {workers!r}")
+    check_workers(workers)
     if workers == 0 and time_limit_s is not None:
         raise ValueError("--time-limit needs worker processes (--workers >= 1 or --scheduler): in this process "
                          "a plugin that stops calling the objective cannot be stopped")
