@@ -70,6 +70,21 @@ def run_task_in_child(task: Task) -> dict:
         return json.loads(out.read_text())
 
 
+def check_scheduler_address(address: str) -> None:
+    """ValueError unless `address` is a Dask scheduler address (tcp://host:port and the like)
+    of a scheme distributed knows; nothing is contacted."""
+    from distributed.comm import parse_address
+    from distributed.comm.registry import get_backend
+
+    scheme, location = parse_address(address)
+    if not location or (scheme in ("tcp", "tls", "ws", "wss") and not re.fullmatch(r".+:\d{1,5}", location)):
+        raise ValueError(f"--scheduler {address!r}: not a scheduler address (tcp://host:port)")
+    try:  # a bad scheme, checked before a Client exists (a failed Client lingers on exit)
+        get_backend(scheme)
+    except ValueError as exc:
+        raise ValueError(f"--scheduler {address}: {exc}") from None
+
+
 class DaskCluster:
     """Submits every task to the Dask scheduler at `address` and yields them as they finish.
 
@@ -77,16 +92,8 @@ class DaskCluster:
 
     def __init__(self, address: str):
         from dask.distributed import Client
-        from distributed.comm import parse_address
-        from distributed.comm.registry import get_backend
 
-        scheme, location = parse_address(address)
-        if not location or (scheme in ("tcp", "tls", "ws", "wss") and not re.fullmatch(r".+:\d{1,5}", location)):
-            raise ValueError(f"--scheduler {address!r}: not a scheduler address (tcp://host:port)")
-        try:  # a bad scheme, checked before a Client exists (a failed Client lingers on exit)
-            get_backend(scheme)
-        except ValueError as exc:
-            raise ValueError(f"--scheduler {address}: {exc}") from None
+        check_scheduler_address(address)
         try:
             self.client = Client(address, timeout=10, set_as_default=False)
         except Exception as exc:  # OSError, TimeoutError, ValueError for a malformed address

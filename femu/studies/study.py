@@ -36,7 +36,7 @@ from adapters.registry import get, module_of
 from adapters.variants import VARIANTS, make_problem
 from fe_problem.jsonutil import dumps
 
-from .child import DaskCluster
+from .child import DaskCluster, check_scheduler_address
 from .executors import InProcess, LocalPool
 from .manifest import write_manifest
 from .progress import Progress
@@ -148,6 +148,8 @@ def _check_inputs(optimizers, seeds, budget, variants, workers, scheduler, time_
         raise ValueError(f"--time-limit: must be a positive number of seconds, got {time_limit_s!r}")
     if scheduler is not None and workers is not None:
         raise ValueError("--workers and --scheduler exclude each other (the Dask cluster has its own workers)")
+    if scheduler is not None:
+        check_scheduler_address(scheduler)
     check_workers(workers)
     if workers == 0 and time_limit_s is not None:
         raise ValueError("--time-limit needs worker processes (--workers >= 1 or --scheduler): in this process "
@@ -200,9 +202,9 @@ def run_study(optimizers, seeds, budget: int, store, variants=("paper",), worker
             for v in variants for o in optimizers for s in seeds]
     stored = _stored_runs(store, grid)
     wanted = [t for t in grid if t.key not in stored or (retry_failed and stored[t.key].status in RETRY_STATUSES)]
-    executor = _executor(wanted, optimizers, workers, scheduler)  # a bad scheduler fails before any file
     todo, n_elsewhere = _claim(store, wanted, stored)
     try:
+        executor = _executor(todo, optimizers, workers, scheduler)
         t0 = time.perf_counter()
         store.path.mkdir(parents=True, exist_ok=True)
         write_manifest(store, {"optimizers": optimizers, "seeds": seeds, "budget": budget, "variants": variants,
