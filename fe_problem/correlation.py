@@ -13,13 +13,25 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 
+def pow2_scaled(a: np.ndarray, axis: int = -2) -> np.ndarray:
+    """`a` with each vector along `axis` multiplied by the power of two that brings its largest
+    magnitude into [0.5, 1): exact (no rounding) for any finite scale, so that a shape's scale,
+    which carries no meaning, can be 1e308 or 1e-320 without overflow or underflow downstream.
+    NaN entries are ignored in the scale and kept; all-zero or all-NaN vectors are left as they are."""
+    a = np.asarray(a, dtype=float)
+    with np.errstate(invalid="ignore"):
+        big = np.nanmax(np.abs(a), axis=axis, keepdims=True, initial=0.0) if a.size else np.zeros(1)
+    _, exp = np.frexp(np.where(np.isfinite(big) & (big > 0), big, 1.0))
+    return np.ldexp(a, -exp)
+
+
 def mac(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Modal Assurance Criterion between the columns of a (n, p) and b (n, q): (p, q) in [0, 1].
 
     Broadcasts over leading batch dimensions: a (..., n, p), b (..., n, q) -> (..., p, q).
     """
-    a = np.asarray(a, dtype=float)
-    b = np.asarray(b, dtype=float)
+    a = pow2_scaled(a)  # exact: the MAC is scale-free, and any finite scale stays finite
+    b = pow2_scaled(b)
     cross = np.swapaxes(a, -1, -2) @ b
     na = np.sum(a * a, axis=-2)
     nb = np.sum(b * b, axis=-2)
@@ -38,6 +50,7 @@ def comac(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     b = np.asarray(b, dtype=float)
     if a.shape != b.shape:
         raise ValueError(f"comac needs paired shapes of one shape, got {a.shape} and {b.shape}")
+    a, b = pow2_scaled(a, axis=0), pow2_scaled(b, axis=0)
     a = a / np.linalg.norm(a, axis=0)
     b = b / np.linalg.norm(b, axis=0)
     b = b * np.sign(np.sum(a * b, axis=0))

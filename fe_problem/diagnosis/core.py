@@ -79,7 +79,7 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
 
 def _check(model: FrameModel, data: ModalData) -> None:
     data_model = data.model
-    if data_model != model.name and not data_model.endswith((f"{model.name}.json", f"{model.name}.model.json")):
+    if not data.is_for(model) and not data_model.endswith((f"{model.name}.json", f"{model.name}.model.json")):
         raise DataFileError(f"{data.source}: the data are for model {data_model!r}, not {model.name!r} "
                             "(pass the data's own model, or data measured on this one)")
     data.check_model(model)

@@ -64,6 +64,21 @@ class ModalData:
             path = Path(self.source).parent / path
         return load_model(path)
 
+    def is_for(self, model: FrameModel) -> bool:
+        """Whether this data names `model`: by its name, or as the model file `model` was read
+        from (a path relative to the data file)."""
+        if self.model == model.name:
+            return True
+        if self.model in shipped_models():
+            return False
+        path = Path(self.model)
+        if not path.is_absolute() and self.source not in ("<memory>", ""):
+            path = Path(self.source).parent / path
+        try:
+            return bool(model.source) and path.resolve() == Path(model.source).resolve()
+        except OSError:
+            return False
+
     def check_model(self, model: FrameModel) -> None:
         """Raise DataFileError if a measured DOF does not exist in `model`."""
         ids = set(model.node_ids)

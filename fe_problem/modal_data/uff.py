@@ -27,6 +27,7 @@ Limits of the format, and the choices made:
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -86,6 +87,46 @@ def write_uff55(data: ModalData, path: str | Path) -> Path:
     return path
 
 
+#: Dataset types a UFF file of modes may carry besides 55 without anything being lost:
+#: header (151), units (164), nodes and elements (15, 2411, 82, 2412), coordinate systems (18, 2420).
+HEADER_DATASETS = frozenset({151, 164, 15, 2411, 82, 2412, 18, 2420})
+
+
+def _count_datasets(path: Path, kind: int) -> int:
+    """How many datasets of type `kind` the text of UFF file `path` holds, checking its
+    structure on the way: every dataset opens with a line '    -1', then a line with its type
+    number, and closes with '    -1'. DataFileError (naming the line) for a file cut short (a
+    dataset with no closing delimiter, a last line cut in the middle) or a damaged type line."""
+    try:
+        text = path.read_bytes().decode("latin-1")
+    except OSError as exc:
+        raise DataFileError(f"{path}: cannot be read ({exc.strerror or exc})") from None
+    lines = text.splitlines()
+    count, inside, opened, others = 0, False, 0, {}
+    for number, line in enumerate(lines, 1):
+        if line.strip() != "-1":
+            continue
+        if inside:
+            inside = False
+            continue
+        inside, opened = True, number
+        head_line = lines[number] if number < len(lines) else ""
+        head = head_line.split()
+        if not head or not head[0].isdigit():
+            raise DataFileError(f"{path}: line {number + 1}: the dataset opened at line {number} has no type number "
+                                f"(found {head_line.strip()[:20]!r}): the file is damaged or cut short")
+        count += int(head[0]) == kind
+        others[int(head[0])] = others.get(int(head[0]), 0) + (int(head[0]) != kind)
+    if inside:
+        raise DataFileError(f"{path}: the dataset opened at line {opened} is never closed by '    -1': the file is cut "
+                            "short or damaged")
+    ignored = {t: n for t, n in others.items() if n and t not in HEADER_DATASETS}
+    if ignored and count:
+        warnings.warn(f"{path}: ignored {sum(ignored.values())} dataset(s) of type(s) {sorted(ignored)} among the "
+                      f"{count} datasets {kind}: if one was meant to be a mode, the file is damaged", stacklevel=3)
+    return count
+
+
 def read_uff55(path: str | Path, model: str | None = None, layout: DofLayout = DEFAULT_LAYOUT) -> ModalData:
     """Read the normal modes of the datasets 55 in a UFF file (other dataset types are ignored).
 
@@ -97,6 +138,9 @@ def read_uff55(path: str | Path, model: str | None = None, layout: DofLayout = D
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"no data file {str(path)!r}")
+    if path.is_dir():
+        raise DataFileError(f"{path}: is a directory, not a UFF file")
+    n_raw = _count_datasets(path, 55)
     try:
         uff = pyuff.UFF(str(path))
         types = [int(t) for t in uff.get_set_types()]
@@ -105,6 +149,9 @@ def read_uff55(path: str | Path, model: str | None = None, layout: DofLayout = D
     if not types:
         raise DataFileError(f"{path}: not a UFF file (no '    -1' delimited dataset found)")
     blocks = [i for i, t in enumerate(types) if t == 55]
+    if len(blocks) != n_raw:
+        raise DataFileError(f"{path}: the file holds {n_raw} datasets 55 but only {len(blocks)} can be read: "
+                            "it is damaged (cut short or edited)")
     if not blocks:
         raise DataFileError(f"{path}: no dataset 55 (data at nodes) in the file; it holds dataset type(s) "
                             f"{sorted(set(types))}")

@@ -13,6 +13,7 @@ import argparse
 import importlib
 import os
 import sys
+import warnings
 
 #: The commands, in the order `femu --help` lists them: each is the module femu.cli.<name>.
 COMMANDS = ("model", "suite", "study", "results", "report", "reproduce", "diagnose", "identify")
@@ -52,8 +53,14 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """A library warning (something read with a loss, a doubtful input) as one line on stderr."""
+    print(f"femu: warning: {message}", file=sys.stderr if file is None else file)
+
+
 def main(argv=None) -> int:
     """Run `femu` with ``argv`` (default: the command line); returns the exit code."""
+    warnings.showwarning = _show_warning
     args = build_parser().parse_args(argv)
     try:
         return int(args.func(args) or 0)
