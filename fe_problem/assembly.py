@@ -179,8 +179,56 @@ class AffineModel(ModalSolver):
         self.dofmap = asm.dofmap
         k0, m0 = asm.constant()
         f = self.dofmap.free
+        self._check_mass(m0[np.ix_(f, f)] + np.einsum("p,pij->ij", self.x0, asm.dm[:, f][:, :, f]))
         super().__init__(k0[np.ix_(f, f)], m0[np.ix_(f, f)], asm.dk[:, f][:, :, f], asm.dm[:, f][:, :, f],
                          self.x0, model.name)
+        #: None, or what moves in the zero-energy motions that are not rigid-body motions
+        self.mechanism: str | None = self._find_mechanism() if self.n_rigid else None
+
+    def _check_mass(self, m: np.ndarray) -> None:
+        """ValueError naming the model and the DOFs, if some free DOF carries no mass."""
+        massless = np.flatnonzero(np.diag(m) <= 0.0)
+        if massless.size:
+            names = self._dof_names()
+            shown = ", ".join(names[i] for i in massless[:4]) + (" ..." if massless.size > 4 else "")
+            raise ValueError(f"{self.model.source or self.model.name}: {massless.size} DOF(s) carry no mass "
+                             f"({shown}): connect the node to an element with density, give it a lumped mass "
+                             "with rotary inertia, or support that DOF")
+
+    def _find_mechanism(self) -> str | None:
+        """What moves, if the structure has zero-energy motions that are not rigid-body motions
+        (a mechanism: a pin joint, a chain of hinges): their number and the DOFs that move most.
+        Such modes are dropped with the rigid-body modes; `femu model` shows this line."""
+        k = self.stiffness(self.x0[None, :])[0]
+        lam, vec = np.linalg.eigh(k)
+        null = vec[:, lam < self.RIGID_TOL * max(lam.max(), 1e-300)]
+        m = self.model
+        rigid = np.zeros((self.dofmap.n_total, 3))
+        rigid[: self.dofmap.n_nodal] = m.layout.rigid_motions(np.array([(n.x, n.y) for n in m.nodes]))
+        for (_, node), dof in self.dofmap.hinges.items():  # a released end turns with the body
+            rigid[dof, 2] = 1.0
+        r = rigid[self.dofmap.free]
+        # the rigid motions the supports allow: combinations c with K r c = 0
+        _, sv, vt = np.linalg.svd(k @ r / max(np.abs(k).max(), 1e-300))
+        allowed = r @ vt[np.sum(sv > 1e-9):].T if sv.size else r
+        if null.shape[1] <= (np.linalg.matrix_rank(allowed, tol=1e-9) if allowed.size else 0):
+            return None
+        q, _ = np.linalg.qr(allowed) if allowed.size else (np.zeros((len(r), 0)), None)
+        extra = null - q @ (q.T @ null)
+        u = extra[:, np.argmax(np.linalg.norm(extra, axis=0))]
+        names = self._dof_names()
+        moving = [names[i] for i in np.argsort(-np.abs(u))[:4] if abs(u[i]) > 0.2 * np.abs(u).max()]
+        return (f"{null.shape[1] - q.shape[1]} mechanism motion(s) strain no element and no spring "
+                f"(moving most: {', '.join(moving)})")
+
+    def _dof_names(self) -> list[str]:
+        """A name for every free DOF: 'node N dir' or 'the released end of element E at node N'."""
+        m = self.model
+        names = [f"node {node} {d}" for node, d in m.dofs]
+        names += [""] * (self.dofmap.n_total - self.dofmap.n_nodal)
+        for (eid, node), dof in self.dofmap.hinges.items():
+            names[dof] = f"the released end of element {eid} at node {node}"
+        return [names[i] for i in self.dofmap.free]
 
     # -- parameter vectors ------------------------------------------------------------
     @property

@@ -13,6 +13,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+
 #: Every nodal DOF a layout can name, in the order of the 6 values per node of 3-D data
 #: files (UFF dataset 55, data characteristic 3): 3 translations, then 3 rotations.
 SPATIAL = ("x", "y", "z", "rx", "ry", "rz")
@@ -69,6 +71,21 @@ class DofLayout:
     def rotation_position(self) -> int:
         """Position of the hinge rotation within a node."""
         return self.names.index(self.rotation)
+
+    def rigid_motions(self, xy: np.ndarray) -> np.ndarray:
+        """The rigid-body motions of nodes at coordinates `xy` (n_nodes, 2) in metres:
+        (n_nodes * per_node, n_motions), node-major: for a planar frame the translations along
+        x and y and the rotation about z through the origin (u_x = -y, u_y = x, rz = 1)."""
+        if set(self.names) != {"x", "y", "rz"}:
+            raise NotImplementedError(f"rigid motions of the layout {self.names}")
+        xy = np.asarray(xy, dtype=float)
+        n = len(xy)
+        out = np.zeros((n, self.per_node, 3))
+        ix, iy, ir = (self.position(d) for d in ("x", "y", "rz"))
+        out[:, ix, 0] = 1.0
+        out[:, iy, 1] = 1.0
+        out[:, ix, 2], out[:, iy, 2], out[:, ir, 2] = -xy[:, 1], xy[:, 0], 1.0
+        return out.reshape(n * self.per_node, 3)
 
     def spatial_column(self, name: str) -> int:
         """Column of DOF `name` among the 6 spatial values of a node (x, y, z, rx, ry, rz)."""

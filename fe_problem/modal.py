@@ -21,13 +21,15 @@ class ModalResult:
 
     frequencies_hz: (n_modes,) ascending; shapes: (n_dof, n_modes) on the nodal DOFs, mass-
     normalised (phi^T M phi = I over all DOFs), zero at supported DOFs; dofs: one
-    (node id, direction) per row of `shapes`; n_rigid: rigid-body modes that were dropped.
+    (node id, direction) per row of `shapes`; n_rigid: zero-energy modes that were dropped;
+    mechanism: None, or which of those are mechanism motions rather than rigid-body motions.
     """
 
     frequencies_hz: np.ndarray
     shapes: np.ndarray
     dofs: tuple[tuple[int, str], ...]
     n_rigid: int
+    mechanism: str | None = None
 
     @property
     def eigenvalues(self) -> np.ndarray:
@@ -67,4 +69,4 @@ def modal_analysis(model: FrameModel | str, n_modes: int = 8, parameters: tuple[
     if at_most:
         n_modes = min(n_modes, system.n_elastic)
     lam, phi = system.eigen(theta[None, :], n_modes, vectors=True)
-    return ModalResult(frequencies_hz(lam[0]), system.expand(phi[0]), model.dofs, system.n_rigid)
+    return ModalResult(frequencies_hz(lam[0]), system.expand(phi[0]), model.dofs, system.n_rigid, system.mechanism)

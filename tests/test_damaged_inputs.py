@@ -165,3 +165,47 @@ def test_data_whose_model_is_a_users_model_file_are_accepted(tmp_path, capsys, m
         rec = json.loads(capsys.readouterr().out)
         assert rec["cause"]["kind"] == "stiffness_loss" and rec["cause"]["location"] == {"element": 7}
     assert fp.UpdatingProblem(tmp_path / "myframe.model.json", tmp_path / "data.json").n_var == 12
+
+
+# -- physics that cannot be solved, named where ------------------------------------------------------
+def _hframe_dict():
+    from fe_problem.model import model_to_dict
+
+    return model_to_dict(fp.load_model("hframe"))
+
+
+def test_a_node_connected_to_nothing_is_named(tmp_path, capsys):
+    d = _hframe_dict()
+    d["nodes"].append({"id": 99, "x": 2.0, "y": 2.0})
+    d["masses"] = [{"node": 99, "mass_kg": 1.0, "inertia_kg_m2": 1e-3}]
+    f = tmp_path / "loose.model.json"
+    f.write_text(json.dumps(d))
+    assert main(["model", str(f)]) == 2
+    err = capsys.readouterr().err
+    assert err == f"femu model: error: {f}: node 99 is connected to no element and no spring: remove it or connect it\n"
+
+
+def test_a_dof_without_mass_is_named(tmp_path, capsys):
+    d = _hframe_dict()
+    for e in d["elements"]:  # a pin between elements 1 and 2: node 2's rotation belongs to no element end
+        if e["id"] == 1:
+            e["release_j"] = 0.0
+        if e["id"] == 2:
+            e["release_i"] = 0.0
+    f = tmp_path / "pin.model.json"
+    f.write_text(json.dumps(d))
+    assert main(["model", str(f)]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and f"{f}: 1 DOF(s) carry no mass (node 2 rz)" in err
+
+
+def test_a_mechanism_is_shown_with_what_moves(capsys):
+    model = fp.release_element_end(fp.load_model("hframe"), 5, 3, 0.0)  # the crossbar pinned to the left upright
+    res = fp.modal_analysis(model)
+    assert res.n_rigid == 4 and res.mechanism.startswith("1 mechanism motion(s) strain no element and no spring")
+    assert "node 3 rz" in res.mechanism
+    assert fp.modal_analysis("hframe").mechanism is None
+    from fe_problem.model import Support
+
+    supported = model.replace(supports=(Support(1, ("x", "y")),))  # pinned at a foot: 1 rigid + 1 mechanism
+    assert fp.modal_analysis(supported).n_rigid == 2 and fp.modal_analysis(supported).mechanism.startswith("1 mech")

@@ -56,6 +56,19 @@ def validate(m: FrameModel) -> None:
     for e in m.elements:
         _validate_element(m, e)
     _validate_nodal(m)
+    _check_connected(m)
+
+
+def _check_connected(m: FrameModel) -> None:
+    """Raise ModelFileError naming the first node that no element and no spring touches: it
+    could only float freely (a typo in an element's nodes, a leftover node)."""
+    used = {n for e in m.elements for n in (e.node_i, e.node_j)}
+    used |= {d[0] for s in m.springs for d in (s.dof_a, s.dof_b) if d is not None}
+    loose = [n for n in m.node_ids if n not in used]
+    if loose:
+        raise ModelFileError(f"{m.source}: node {loose[0]} is connected to no element and no spring"
+                             + (f" (nor are nodes {loose[1:6]})" if len(loose) > 1 else "")
+                             + ": remove it or connect it")
 
 
 def _check_ids(src, field: str, ids: list) -> None:

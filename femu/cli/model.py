@@ -26,7 +26,7 @@ def run(args) -> int:
         "formulations": sorted({e.formulation for e in model.elements}),
         "measured_dofs": [list(d) for d in model.measured_dofs],
         "excitation": list(model.excitation) if model.excitation else None,
-        "n_rigid_modes": res.n_rigid, "frequencies_hz": res.frequencies_hz.tolist(),
+        "n_rigid_modes": res.n_rigid, "mechanism": res.mechanism, "frequencies_hz": res.frequencies_hz.tolist(),
     }
     if args.json:
         print_json(summary)
@@ -38,6 +38,8 @@ def run(args) -> int:
           f"{summary['n_dofs']} DOFs, mass {summary['total_mass_kg']:.4f} kg")
     print(f"  {len(model.supports)} supports, {len(model.masses)} lumped masses, {len(model.springs)} springs, "
           f"{res.n_rigid} rigid-body modes dropped")
+    if res.mechanism:
+        print(f"  of the dropped zero-energy modes, {res.mechanism}")
     print(f"  {len(model.measured_dofs)} measured DOFs; excitation {model.excitation}")
     if len(res.frequencies_hz) < args.modes:
         print(f"  the model has only {len(res.frequencies_hz)} elastic modes (asked for {args.modes})")
