@@ -164,6 +164,29 @@ class _Assembly:
         return k0, m0
 
 
+#: The most memory the dense path may take for one model's matrices (bytes): K0, M0 and one
+#: dK (and dM) per parameter, each n_dof x n_dof float64, and the work arrays of the solve.
+MAX_DENSE_BYTES = 4 * 2**30
+
+
+def dense_bytes(n_dof: int, n_params: int) -> int:
+    """Memory (bytes) the dense path needs for a model of `n_dof` DOFs and `n_params` parameters:
+    the constant and per-parameter matrices and their mass-normalised copies, n_dof^2 float64 each."""
+    return 8 * n_dof * n_dof * (2 * max(n_params, 1) + 6)
+
+
+def check_dense_size(model: FrameModel, n_params: int) -> None:
+    """ValueError naming the model, its size and the limit if the dense path would need more
+    than `MAX_DENSE_BYTES`: refused up front, never a machine run out of memory."""
+    n = DofMap.of(model).n_total
+    need = dense_bytes(n, n_params)
+    if need > MAX_DENSE_BYTES:
+        raise ValueError(f"{model.source or model.name}: {len(model.nodes)} nodes, {n} DOFs and {n_params} "
+                         f"parameters need about {need / 2**30:.1f} GiB as dense matrices, more than the "
+                         f"{MAX_DENSE_BYTES / 2**30:.0f} GiB limit (fe_problem.assembly.MAX_DENSE_BYTES); "
+                         "use a coarser model or fewer parameters")
+
+
 class AffineModel(ModalSolver):
     """K(theta), M(theta) of a model over a parameter set, reduced to the free DOFs.
 
@@ -175,6 +198,7 @@ class AffineModel(ModalSolver):
     def __init__(self, model: FrameModel, parameters: tuple[Parameter, ...] = ()):
         self.model = model
         self.parameters = tuple(parameters)
+        check_dense_size(model, len(self.parameters))
         asm = _Assembly(model, self.parameters)
         self.dofmap = asm.dofmap
         k0, m0 = asm.constant()
