@@ -175,12 +175,7 @@ def read_uff55(path: str | Path, model: str | None = None, layout: DofLayout = D
         if k == 1:
             model_id, source = str(ds.get("id1", "")).strip(), str(ds.get("id2", "")).strip()
 
-    values = np.stack(shapes)  # (mode, node, 6 values)
-    measured = np.any(values != 0.0, axis=0)  # (node, 6): non-zero in some mode
-    entries = [(i, d) for i in range(len(nodes)) for d in layout.names if measured[i, layout.spatial_column(d)]]
-    dofs = [(nodes[i], d) for i, d in entries]
-    rows = values[:, [i for i, _ in entries], [layout.spatial_column(d) for _, d in entries]]  # (mode, dof)
-
+    dofs, rows = _measured(nodes, np.stack(shapes), layout)
     if model is None:
         model = model_id[len(_MODEL_TAG):].strip() if model_id.lower().startswith(_MODEL_TAG) else model_id
         if not model or model.upper() == "NONE":
@@ -190,6 +185,15 @@ def read_uff55(path: str | Path, model: str | None = None, layout: DofLayout = D
     raw = {"format": DATA_FORMAT, "model": model, "dofs": [list(d) for d in dofs],
            "modes": [{"frequency_hz": f, "shape": rows[m].tolist()} for m, f in enumerate(freqs)], "meta": meta}
     return modal_data_from_dict(raw, source=str(path))
+
+
+def _measured(nodes: list[int], values: np.ndarray, layout: DofLayout) -> tuple[list, np.ndarray]:
+    """The measured DOFs [(node, direction), ...] (those non-zero in some mode, in file order)
+    and their values (mode, dof), from values (mode, node, 6) of the datasets 55."""
+    measured = np.any(values != 0.0, axis=0)  # (node, 6)
+    entries = [(i, d) for i in range(len(nodes)) for d in layout.names if measured[i, layout.spatial_column(d)]]
+    rows = values[:, [i for i, _ in entries], [layout.spatial_column(d) for _, d in entries]]
+    return [(nodes[i], d) for i, d in entries], rows
 
 
 def _normal_mode(ds: dict, where: str, layout: DofLayout) -> tuple[list[int], np.ndarray, float]:

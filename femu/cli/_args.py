@@ -35,7 +35,20 @@ def print_json(obj) -> None:
     sys.stdout.write(dumps(obj) + "\n")
 
 
-def warn_skipped(store, command: str) -> None:
-    """One line on stderr per damaged run record `store.runs(skip_invalid=True)` left out."""
+def add_store_argument(parser) -> None:
+    """The STORE argument of the commands that read a study's store, and --skip-invalid."""
+    parser.add_argument("store", help="the store directory a `femu study` wrote")
+    parser.add_argument("--skip-invalid", action="store_true",
+                        help="leave out damaged or hand-edited run records (each named on stderr) instead of stopping")
+
+
+def stored_runs(args, command: str):
+    """(store, its runs) for the STORE argument; each damaged record left out (with
+    --skip-invalid) is named in one warning line on stderr."""
+    from femu.studies.store import Store
+
+    store = Store(args.store)
+    runs = store.runs(skip_invalid=args.skip_invalid)
     for message in store.skipped:
-        print(f"{command}: warning: left out {message}", file=sys.stderr)
+        print(f"femu {command}: warning: left out {message}", file=sys.stderr)
+    return store, runs

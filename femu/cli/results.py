@@ -6,24 +6,18 @@ import sys
 
 from fe_problem.jsonutil import dumps
 
-from ._args import warn_skipped
+from ._args import add_store_argument, stored_runs
 
 
 def add_arguments(r) -> None:
     """The arguments of `femu results`."""
-    r.add_argument("store", help="the store directory a `femu study` wrote")
+    add_store_argument(r)
     r.add_argument("--json", action="store_true", help="print every run record as a JSON list instead of a table")
-    r.add_argument("--skip-invalid", action="store_true",
-                   help="leave out damaged or hand-edited run records (each named on stderr) instead of stopping")
 
 
 def run(args) -> int:
     """`femu results STORE [--json]`: the stored runs, as a table or a JSON list."""
-    from femu.studies.store import Store
-
-    store = Store(args.store)
-    runs = store.runs(skip_invalid=args.skip_invalid)
-    warn_skipped(store, "femu results")
+    _, runs = stored_runs(args, "results")
     if args.json:
         sys.stdout.write(dumps([r.to_dict() for r in runs]) + "\n")
         return 0
