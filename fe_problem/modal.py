@@ -66,6 +66,9 @@ def modal_analysis(model: FrameModel | str, n_modes: int = 8, parameters: tuple[
     theta = system.x0 if theta is None else np.asarray(theta, dtype=float)
     if theta.shape != (system.n_params,):
         raise ValueError(f"theta must have shape ({system.n_params},), got {theta.shape}")
+    if system.n_elastic == 0:
+        raise ValueError(f"{model.source or model.name}: the model has no elastic mode: every motion strains "
+                         "nothing (check its stiffness values and connections)")
     if at_most:
         n_modes = min(n_modes, system.n_elastic)
     lam, phi = system.eigen(theta[None, :], n_modes, vectors=True)

@@ -224,3 +224,32 @@ def test_a_model_too_large_for_the_dense_path_is_refused_up_front(tmp_path, caps
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1
     assert f"{f}: 3000 nodes, 9000 DOFs and 0 parameters need about" in err and "GiB limit" in err
+
+
+MODEL_EDITS = [
+    (lambda d: d["elements"][0].__setitem__("section", ["a"]), "elements[0] field 'section': must be the name"),
+    (lambda d: d["elements"][0].__setitem__("material", {"a": 1}), "elements[0] field 'material': must be the name"),
+    (lambda d: d.__setitem__("masses", 5), "field 'masses' must be a list, got 5"),
+    (lambda d: d.__setitem__("measured_dofs", 7), "field 'measured_dofs' must be a list, got 7"),
+    (lambda d: d.__setitem__("supports", [3]), "supports[0] must be an object, got 3"),
+    (lambda d: d["nodes"][3].__setitem__("x", 1e300), "node 4 field 'x' must be a finite number of metres"),
+    (lambda d: d["nodes"][3].__setitem__("x", int("9" * 400)), "got an integer of 400 digits"),
+    (lambda d: d["materials"]["aluminium"].__setitem__("youngs_modulus_pa", 1e-300), "outside the physical range"),
+    (lambda d: d["materials"]["aluminium"].__setitem__("youngs_modulus_pa", 1e300), "outside the physical range"),
+    (lambda d: d["materials"]["aluminium"].__setitem__("density_kg_m3", 1e300), "outside the physical range"),
+    (lambda d: d["sections"]["bar"].__setitem__("area_m2", 1e-300), "outside the physical range"),
+    (lambda d: d["sections"]["bar"].__setitem__("inertia_m4", 1e300), "outside the physical range"),
+]
+
+
+@pytest.mark.parametrize("edit,says", MODEL_EDITS, ids=[s for _, s in MODEL_EDITS])
+def test_a_model_field_of_the_wrong_type_or_range_is_named(tmp_path, capsys, edit, says):
+    d = _hframe_dict()
+    edit(d)
+    f = tmp_path / "bad.model.json"
+    f.write_text(json.dumps(d))
+    with pytest.raises(fp.ModelFileError):
+        fp.load_model(f)
+    assert main(["model", str(f)]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and str(f) in err and says in err and "Traceback" not in err, err

@@ -62,6 +62,13 @@ def _get(obj: dict, key: str, where: str, default: Any = ...) -> Any:
     return default
 
 
+def _name(value: Any, where: str) -> str:
+    """`value` if it is a string (a key of the sections or materials table)."""
+    if not isinstance(value, str):
+        raise ModelFileError(f"{where}: must be the name (a string) of an entry of the table, got {shown(value)}")
+    return value
+
+
 def model_from_dict(d: dict, source: str = "<memory>") -> FrameModel:
     """Build a model from the parsed JSON of a model file; errors name `source` and the field."""
     if _get(d, "format", source) != MODEL_FORMAT:
@@ -71,6 +78,13 @@ def model_from_dict(d: dict, source: str = "<memory>") -> FrameModel:
     for key in ("nodes", "elements"):
         if not isinstance(_get(d, key, source), list):
             raise ModelFileError(f"{source}: field '{key}' must be a list")
+    for key in ("masses", "springs", "supports", "measured_dofs"):
+        if not isinstance(d.get(key, []), list):
+            raise ModelFileError(f"{source}: field '{key}' must be a list, got {shown(d[key])}")
+    for key in ("nodes", "elements", "masses", "springs", "supports"):
+        for i, item in enumerate(d.get(key, [])):
+            if not isinstance(item, dict):
+                raise ModelFileError(f"{source}: {key}[{i}] must be an object, got {shown(item)}")
     nodes = []
     for i, n in enumerate(d["nodes"]):
         where = f"{source}: nodes[{i}]"
@@ -86,7 +100,8 @@ def model_from_dict(d: dict, source: str = "<memory>") -> FrameModel:
         elements.append(Element(
             id=_int(_get(e, "id", where), f"{where} field 'id'"), node_i=_int(ends[0], f"{where} field 'nodes'"),
             node_j=_int(ends[1], f"{where} field 'nodes'"),
-            section=_get(e, "section", where), material=_get(e, "material", where),
+            section=_name(_get(e, "section", where), f"{where} field 'section'"),
+            material=_name(_get(e, "material", where), f"{where} field 'material'"),
             formulation=_get(e, "formulation", where, "euler-bernoulli"),
             release_i=_get(e, "release_i", where, None), release_j=_get(e, "release_j", where, None),
             youngs_modulus_pa=_get(e, "youngs_modulus_pa", where, None),

@@ -36,11 +36,29 @@ def _duplicates(ids: list) -> list:
     return sorted({i for i in ids if ids.count(i) > 1})
 
 
-def _positive(value: Any, where: str, allow_zero: bool = False) -> None:
+#: The physical ranges a model's values must lie in (SI units): a value outside is a typo or a
+#: unit error, and would leave the matrices too ill-conditioned to solve in double precision.
+RANGES = {
+    "coordinate": 1e6,                      # |x|, |y| in m
+    "youngs_modulus_pa": (1e3, 1e13), "density_kg_m3": (1e-3, 1e6),
+    "area_m2": (1e-12, 1e3), "inertia_m4": (1e-24, 1e6), "shear_coefficient": (1e-3, 1e3),
+    "mass_kg": 1e9, "inertia_kg_m2": 1e9, "stiffness": 1e15, "release": 1e15,
+}
+
+
+def _positive(value: Any, where: str, allow_zero: bool = False, field: str | None = None) -> None:
+    """ModelFileError unless `value` is a finite number > 0 (>= 0 with `allow_zero`) within the
+    range RANGES[field] (a (low, high) pair, or a high bound)."""
     ok = is_number(value) and (value >= 0 if allow_zero else value > 0)
     if not ok:
         need = "a finite number >= 0" if allow_zero else "a finite number > 0"
         raise ModelFileError(f"{where}: must be {need}, got {shown(value)}")
+    bounds = RANGES.get(field)
+    if bounds is not None:
+        lo, hi = bounds if isinstance(bounds, tuple) else (0.0, bounds)
+        if not (lo <= value <= hi) and not (allow_zero and value == 0):
+            raise ModelFileError(f"{where}: {shown(value)} is outside the physical range [{lo:g}, {hi:g}] "
+                                 "(SI units: Pa, kg/m^3, m^2, m^4, kg, N/m)")
 
 
 def validate(m: FrameModel) -> None:
@@ -49,8 +67,9 @@ def validate(m: FrameModel) -> None:
     _check_ids(src, "nodes", [n.id for n in m.nodes])
     for n in m.nodes:
         for v, name in ((n.x, "x"), (n.y, "y")):
-            if not (isinstance(v, (int, float)) and math.isfinite(v)):
-                raise ModelFileError(f"{src}: node {n.id} field '{name}' must be a finite number, got {shown(v)}")
+            if not (is_number(v) and abs(v) <= RANGES["coordinate"]):
+                raise ModelFileError(f"{src}: node {n.id} field '{name}' must be a finite number of metres within "
+                                     f"+-{RANGES['coordinate']:g}, got {shown(v)}")
     _validate_tables(m)
     _check_ids(src, "elements", [e.id for e in m.elements])
     for e in m.elements:
@@ -82,15 +101,15 @@ def _check_ids(src, field: str, ids: list) -> None:
 def _validate_tables(m: FrameModel) -> None:
     src = m.source
     for name, mat in m.materials.items():
-        _positive(mat.youngs_modulus_pa, f"{src}: material {name!r} 'youngs_modulus_pa'")
-        _positive(mat.density_kg_m3, f"{src}: material {name!r} 'density_kg_m3'")
+        _positive(mat.youngs_modulus_pa, f"{src}: material {name!r} 'youngs_modulus_pa'", field="youngs_modulus_pa")
+        _positive(mat.density_kg_m3, f"{src}: material {name!r} 'density_kg_m3'", field="density_kg_m3")
         if not (is_number(mat.poisson_ratio) and -1.0 < mat.poisson_ratio < 0.5):
             raise ModelFileError(f"{src}: material {name!r} 'poisson_ratio' must be a number in (-1, 0.5), "
                                  f"got {mat.poisson_ratio!r}")
     for name, sec in m.sections.items():
-        _positive(sec.area_m2, f"{src}: section {name!r} 'area_m2'")
-        _positive(sec.inertia_m4, f"{src}: section {name!r} 'inertia_m4'")
-        _positive(sec.shear_coefficient, f"{src}: section {name!r} 'shear_coefficient'")
+        _positive(sec.area_m2, f"{src}: section {name!r} 'area_m2'", field="area_m2")
+        _positive(sec.inertia_m4, f"{src}: section {name!r} 'inertia_m4'", field="inertia_m4")
+        _positive(sec.shear_coefficient, f"{src}: section {name!r} 'shear_coefficient'", field="shear_coefficient")
 
 
 def _validate_element(m: FrameModel, e) -> None:
@@ -111,15 +130,15 @@ def _validate_element(m: FrameModel, e) -> None:
         raise ModelFileError(f"{where}: 'formulation' must be one of {formulations()}, got {e.formulation!r}")
     for r, name in ((e.release_i, "release_i"), (e.release_j, "release_j")):
         if r is not None:
-            _positive(r, f"{where} '{name}'", allow_zero=True)
+            _positive(r, f"{where} '{name}'", allow_zero=True, field="release")
     if e.youngs_modulus_pa is not None:
-        _positive(e.youngs_modulus_pa, f"{where} 'youngs_modulus_pa'")
+        _positive(e.youngs_modulus_pa, f"{where} 'youngs_modulus_pa'", field="youngs_modulus_pa")
     if (e.crack_position is None) != (e.crack_stiffness is None):
         raise ModelFileError(f"{where}: 'crack_position' and 'crack_stiffness' go together")
     if e.crack_position is not None:
         if not (isinstance(e.crack_position, (int, float)) and 0.0 < e.crack_position < 1.0):
             raise ModelFileError(f"{where} 'crack_position': must be inside (0, 1), got {e.crack_position!r}")
-        _positive(e.crack_stiffness, f"{where} 'crack_stiffness'")
+        _positive(e.crack_stiffness, f"{where} 'crack_stiffness'", field="release")
         if not formulation(e.formulation).supports_crack:
             cracked = [f for f in formulations() if formulation(f).supports_crack]
             raise ModelFileError(f"{where}: a crack needs formulation {' or '.join(map(repr, cracked))}")
@@ -143,13 +162,13 @@ def _validate_nodal(m: FrameModel) -> None:
     for lm in m.masses:
         if lm.node not in idset:
             raise ModelFileError(f"{src}: mass at unknown node {lm.node}")
-        _positive(lm.mass_kg, f"{src}: mass at node {lm.node} 'mass_kg'", allow_zero=True)
-        _positive(lm.inertia_kg_m2, f"{src}: mass at node {lm.node} 'inertia_kg_m2'", allow_zero=True)
+        _positive(lm.mass_kg, f"{src}: mass at node {lm.node} 'mass_kg'", allow_zero=True, field="mass_kg")
+        _positive(lm.inertia_kg_m2, f"{src}: mass at node {lm.node} 'inertia_kg_m2'", allow_zero=True, field="inertia_kg_m2")
     for s in m.springs:
         _check_dof(m, s.dof_a, f"{src}: spring {s.id}")
         if s.dof_b is not None:
             _check_dof(m, s.dof_b, f"{src}: spring {s.id}")
-        _positive(s.stiffness, f"{src}: spring {s.id} 'stiffness'", allow_zero=True)
+        _positive(s.stiffness, f"{src}: spring {s.id} 'stiffness'", allow_zero=True, field="stiffness")
     for sup in m.supports:
         if sup.node not in idset:
             raise ModelFileError(f"{src}: support at unknown node {sup.node}")
