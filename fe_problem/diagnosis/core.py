@@ -20,12 +20,21 @@ Steps
    kind (and place) given only where all of them agree.
 4. The extended model (calibrated, with the effect) as a model file.
 5. Gain: the highest quarter of the modes (at least one) is held out; the calibrated model
-   and the extended model are refitted without them and both predict them. (The choice of
-   candidate saw every mode; the parameters that make the prediction did not.)
+   and the extended model are refitted without them and both predict them, the extended
+   model's prediction with the range its effect's profile-likelihood interval gives. (The
+   choice of candidate saw every mode; the parameters that make the prediction did not; with
+   several causes the last is refitted, the others kept at their sizes.)
+6. Further causes (rounds.py), then the final model's goodness of fit against the stated
+   noise and each estimate's interval (verdict.py).
+
+Noise convention: `shape_noise` is the std of a shape entry as a fraction of the largest
+|entry| of its mode; the defaults are 0.2 % and 2 %. The record states what was used (`noise`)
+and what the final model's misfit implies (`goodness_of_fit`).
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -38,9 +47,9 @@ from ..modal_data import DataFileError, ModalData, load_modal_data
 from ..model import FrameModel, load_model
 from ..parameters import element_moduli
 from .candidates import Candidate, Setting, all_candidates, scale_stiffness, solve
-from .fit import Fit, fit, profiled, screen
+from .fit import Fit, chi2_batch, fit, profiled, screen
 from .record import Cause, CandidateFit, Diagnosis, Gain, Noise, PinnedParameter, Residuals, Selection
-from .verdict import verdict
+from .verdict import profile_interval, verdict
 from .residuals import Observations
 
 ALPHA = 0.01
@@ -96,6 +105,8 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
         warnings.append(v.explanation)
     if len(rounds.causes) > 1:
         extended = rounds.model
+        if cause.identifiable:  # the first cause's size refitted jointly with the others
+            cause = dataclasses.replace(cause, estimate=rounds.causes[0].estimate)
     return Diagnosis(cause, alternatives, residuals_of(cal), rounds.gain, tuple(sel.rows.values()), sel.selection,
                      extended, tuple(warnings), rounds.causes, v, noise)
 
@@ -306,4 +317,17 @@ def gain(cal: Calibration, cand: Candidate | None) -> Gain:
     f = fit(obs_fit, cand)
     hz, sh = cand.forward(np.array([f.a]))
     after = correlate(hz[0] * np.sqrt(f.s), sh[0], obs_hold)
-    return Gain(*modes, before, after, cand.estimate(f.a, f.s))
+    return Gain(*modes, before, after, cand.estimate(f.a, f.s), prediction_interval_hz=_predicted(
+        obs_fit, obs_hold, cand, f, after.model_hz))
+
+
+def _predicted(obs_fit: Observations, obs_hold: Observations, cand: Candidate, f: Fit, at_best) -> tuple:
+    """The held-out frequencies (Hz) predicted at both ends of the effect's profile interval
+    (fitted on the other modes) and at its best: per held-out mode, [lowest, highest]."""
+    low, high = profile_interval(obs_fit, cand, f, max(1.0, f.chi2 / obs_fit.dof(2)))
+    preds = [np.asarray(at_best, dtype=float)]
+    for end in chi2_batch(obs_fit, cand, np.array([v for v in (low, high) if v is not None])):
+        hz, sh = cand.forward(np.array([end.a]))
+        preds.append(correlate(hz[0] * np.sqrt(end.s), sh[0], obs_hold).model_hz)
+    stacked = np.vstack(preds)
+    return tuple((float(np.nanmin(c)), float(np.nanmax(c))) for c in stacked.T)

@@ -228,7 +228,9 @@ class Gain:
     """The held-out test: the highest quarter of the paired modes predicted by models refitted
     on the rest. held_out_modes, fit_modes: 1-based; before: the calibrated model's prediction;
     after: the extended model's (None without a cause); estimate_from_fit_modes: the effect
-    refitted on the fit modes alone; note: why nothing was held out (then the rest is empty)."""
+    refitted on the fit modes alone; note: why nothing was held out (then the rest is empty);
+    prediction_interval_hz: per held-out mode the [low, high] frequency (Hz) the extended model
+    predicts over its effect's 95 % profile-likelihood interval."""
 
     held_out_modes: tuple[int, ...] = ()
     fit_modes: tuple[int, ...] = ()
@@ -236,6 +238,7 @@ class Gain:
     after: Correlation | None = None
     estimate_from_fit_modes: dict | None = None
     note: str | None = None
+    prediction_interval_hz: tuple = ()
 
     @property
     def mean_abs_error_pct_reduction(self) -> float | None:
@@ -260,6 +263,7 @@ class Gain:
             for key in ("mean_abs_error_pct_reduction", "mean_mac_gain"):
                 if getattr(self, key) is not None:
                     out[key] = getattr(self, key)
+            out["prediction_interval_hz"] = [list(p) for p in self.prediction_interval_hz]
         return out
 
 

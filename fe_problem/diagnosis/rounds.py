@@ -5,7 +5,7 @@ jointly (one sweep: each cause's size refitted with the others at theirs), and t
 stops when a round finds nothing significant, cannot tell its candidates apart, or after
 `max_causes` causes. A later round tries no candidate at a place and kind already found, and
 only places of the user's model (a profiled loss splits an element; its parts are no new
-places)."""
+places), and no candidate at a place where a cause was already found."""
 
 from __future__ import annotations
 
@@ -87,7 +87,9 @@ def _new_place(c: Candidate, model: FrameModel, places: set) -> bool:
         return False
     if "node" in loc and loc["node"] not in model.node_ids:
         return False
-    return (c.kind, str(c.location)) not in places
+    # a further effect at a place already explained (a gain where a loss was found, a second
+    # spread of the same loss) only corrects the first effect's form: not a new cause
+    return str(c.location) not in {where for _, where in places}
 
 
 def _joint_refit(obs, st: Setting, picks, sizes) -> list[float]:

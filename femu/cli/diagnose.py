@@ -194,5 +194,10 @@ def _gain_lines(diag: Diagnosis) -> list[str]:
         if getattr(b, key) is not None:
             lines.append(f"  {q:<25} {fmt(getattr(b, key), d)}" + (f" -> {fmt(getattr(a, key), d)}" if a else ""))
     for k, m in enumerate(gain.held_out_modes):
-        lines.append(f"  mode {m}: error {pct(b.error_pct[k])} %" + (f" -> {pct(a.error_pct[k])} %" if a else ""))
+        ranged = ""
+        if a and len(gain.prediction_interval_hz) > k:
+            lo, hi = gain.prediction_interval_hz[k]
+            ranged = f" (predicted {hz(a.model_hz[k])} Hz, 95 % range {hz(lo)}-{hz(hi)}; measured {hz(b.measured_hz[k])})"
+        lines.append(f"  mode {m}: error {pct(b.error_pct[k])} %" + (f" -> {pct(a.error_pct[k])} %" if a else "")
+                     + ranged)
     return lines
