@@ -37,6 +37,17 @@ def test_no_confident_wrong_answer(answers):
     assert not [o for o in outcomes if o[2] == "wrong" and o[0] != "two_effects"], outcomes
 
 
+def test_the_truth_is_never_lost_by_screening(answers):
+    """The record's candidates are the first round's: there every single hidden effect, and
+    one of two, was fitted (the other is sought in a later round)."""
+    from diagnosis_cases import _matches
+
+    for c, a in answers:
+        fitted = [t for t in c.truths if any(x["fitted"] and _matches(t, x["kind"], x["location"])
+                                             for x in a["candidates"])]
+        assert len(fitted) >= min(len(c.truths), 1), (c.cls, c.truths)
+
+
 def test_null_cases_raise_no_alarm(answers):
     null = [a for c, a in answers if not c.truths]
     assert len(null) == SMALL["sparse_none"] + SMALL["portal_none"]
