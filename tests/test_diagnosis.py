@@ -36,6 +36,15 @@ def test_every_hidden_effect_is_named_with_its_place(answers):
     assert not wrong, f"misnamed: {wrong}\n{matrix}"
 
 
+def test_the_truth_is_never_lost_by_screening(answers):
+    """Every hidden effect's kind at its place (shear: the one global candidate) was fitted,
+    not only screened."""
+    for case, a in answers:
+        if case.kind != "none":
+            assert any(c["fitted"] and c["kind"] == case.kind and named_correctly(case, c) for c in a["candidates"]), \
+                (case.kind, case.location)
+
+
 def test_no_effect_answers_none(answers):
     null = [a["cause"]["kind"] for c, a in answers if c.kind == "none"]
     assert len(null) == 20

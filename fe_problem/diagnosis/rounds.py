@@ -5,7 +5,8 @@ jointly (one sweep: each cause's size refitted with the others at theirs), and t
 stops when a round finds nothing significant, cannot tell its candidates apart, or after
 `max_causes` causes. A later round tries no candidate at a place and kind already found, and
 only places of the user's model (a profiled loss splits an element; its parts are no new
-places), and no candidate at a place where a cause was already found."""
+places), no candidate at a place where a cause was already found, and no stiffness change in
+an element next to one where a stiffness change was found (that is the first one's form)."""
 
 from __future__ import annotations
 
@@ -50,7 +51,7 @@ def further_causes(cal, found, sel, cause: Cause, kinds, n_fit, alpha: float, ma
     st, obs = cal.setting, cal.obs
     c0, f0 = found.candidates[sel.best], found.fitted[sel.best]
     picks, sizes, ps = [(c0.kind, c0.label)], [f0.a], [cause.p_adjusted]
-    places = {(c0.kind, str(c0.location))}
+    places = [(c0.kind, c0.location)]
     extra: list[Found] = []
     noise = (obs.freq_noise, obs.shape_noise)
     while cause.identifiable and len(picks) < max_causes:
@@ -71,7 +72,7 @@ def further_causes(cal, found, sel, cause: Cause, kinds, n_fit, alpha: float, ma
         picks.append((ck.kind, ck.label))
         sizes.append(found_k.fitted[sel_k.best].a)
         ps.append(sel_k.selection.p_adjusted)
-        places.add((ck.kind, str(ck.location)))
+        places.append((ck.kind, ck.location))
         sizes = _joint_refit(obs, st, picks, sizes)
     return _finish(cal, st, obs, picks, sizes, ps, cause, extra, gain)
 
@@ -81,15 +82,32 @@ def _ambiguity() -> float:
     return AMBIGUITY_CHI2
 
 
-def _new_place(c: Candidate, model: FrameModel, places: set) -> bool:
+#: Kinds that change an element's stiffness: a further one next to one already found is the
+#: first effect's form (a crack is neither uniform nor linear along its element), not a new cause.
+STIFFNESS_KINDS = ("stiffness_loss", "stiffness_gain")
+
+
+def _new_place(c: Candidate, model: FrameModel, places: list) -> bool:
     loc = c.location or {}
+    if c.kind in STIFFNESS_KINDS and _touches_found_stiffness(model, loc.get("element"), places):
+        return False
     if "element" in loc and loc["element"] not in model.element_ids:
         return False
     if "node" in loc and loc["node"] not in model.node_ids:
         return False
     # a further effect at a place already explained (a gain where a loss was found, a second
     # spread of the same loss) only corrects the first effect's form: not a new cause
-    return str(c.location) not in {where for _, where in places}
+    return c.location not in [where for _, where in places]
+
+
+def _touches_found_stiffness(model: FrameModel, element: int | None, places: list) -> bool:
+    """Whether `element` shares a node with an element where a stiffness change was found."""
+    if element is None or element not in model.element_ids:
+        return False
+    def ends(eid: int) -> set:
+        return {model.element(eid).node_i, model.element(eid).node_j}
+
+    return any(kind in STIFFNESS_KINDS and ends(element) & ends(where["element"]) for kind, where in places)
 
 
 def _joint_refit(obs, st: Setting, picks, sizes) -> list[float]:
