@@ -1,7 +1,22 @@
-"""femu-bench adapters: optimizers under identical budgets, studies, reports and the CLI."""
+"""femu-bench adapters: optimizer plugins under identical budgets.
+
+- protocol: the plugin interface (`Optimizer`, `OptimizerBase`);
+- registry: the built-ins and the entry-point group ``femu.optimizers`` (`available`, `get`);
+- budget: the budget, seed and minimum-budget rules; provenance: library versions of a run;
+- harness: the budgeted objective and `run()`, which returns a `RunResult`;
+- one module per optimizer (pymoo_ga, deap_ga, pyswarms_pso, scipy_sa, mlp_surrogate,
+  random_search, cma_es, sensitivity) and their shared GA operators (ga_operators);
+- variants: the named problem variants a study runs on.
+
+Nothing here imports the application (femu) or its command-line, plotting, progress or cluster
+libraries (tests/test_layout.py checks).
+"""
 
 from fe_problem import _threads  # noqa: F401  (one BLAS thread: before numpy loads)
+from .budget import check_budget, check_min_budget, min_budget
 from .harness import BudgetedObjective, BudgetExhausted, RunResult, run
+from .protocol import Optimizer, OptimizerBase
 from .registry import available, get
 
-__all__ = ["BudgetExhausted", "BudgetedObjective", "RunResult", "available", "get", "run"]
+__all__ = ["BudgetExhausted", "BudgetedObjective", "Optimizer", "OptimizerBase", "RunResult", "available",
+           "check_budget", "check_min_budget", "get", "min_budget", "run"]

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import cma
 import numpy as np
 
@@ -25,8 +27,11 @@ class CMAES:
     """
 
     name = "cma-es"
-    #: one generation of the default population with 12 parameters
-    min_budget = 11
+
+    def min_budget(self, n_var: int, popsize: int | None = None, **options) -> int:
+        """One generation: `popsize`, by default CMA-ES's 4 + floor(3 ln n_var) (11 with 12
+        parameters)."""
+        return int(popsize) if popsize is not None else 4 + int(3 * math.log(int(n_var)))
 
     def minimize(self, objective, bounds, budget, rng: np.random.Generator, sigma0: float = 0.3,
                  popsize: int | None = None, incpopsize: float = 2, cma_options: dict | None = None):

@@ -99,7 +99,10 @@ class DeapGA:
     """
 
     name = "deap-ga"
-    min_budget = 4
+
+    def min_budget(self, n_var: int, **options) -> int:
+        """Four evaluations: the smallest population the operators work on."""
+        return 4
 
     def minimize(self, objective, bounds, budget, rng: np.random.Generator, population: int | None = None,
                  generations: int | None = None, n_elite: int = 2, q: float = 0.08, b: float = 3.0,

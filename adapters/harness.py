@@ -23,6 +23,9 @@ from typing import Any
 
 import numpy as np
 
+from .budget import check_budget, check_min_budget, check_seed
+from .provenance import library_versions
+
 RECORD_FORMAT = "femu.run/1"
 
 
@@ -43,6 +46,7 @@ class RunResult:
     status: ``ok`` (budget spent), ``stopped`` (the method ended by itself before the budget),
     ``failed`` (it raised, or produced NaN), ``timeout`` (time limit).
     Times in seconds: wall_s, cpu_s (this process), fe_s (inside FE evaluations).
+    versions: Python's and every run library's version (adapters.provenance.library_versions).
     """
 
     optimizer: str
@@ -61,6 +65,7 @@ class RunResult:
     error: str | None = None
     variant: str = "paper"
     host: str = ""
+    versions: dict = field(default_factory=dict)
     format: str = RECORD_FORMAT
 
     @property
@@ -69,12 +74,14 @@ class RunResult:
         return self.wall_s - self.fe_s
 
     def to_dict(self) -> dict:
+        """The record as a JSON-ready dict (a best_f that is not finite becomes None)."""
         d = asdict(self)
         d["best_f"] = None if not math.isfinite(self.best_f) else self.best_f
         return d
 
     @classmethod
     def from_dict(cls, d: dict) -> "RunResult":
+        """The record from `to_dict`'s output; unknown keys are ignored."""
         d = dict(d)
         d["best_f"] = math.inf if d.get("best_f") is None else d["best_f"]
         known = set(cls.__dataclass_fields__)
@@ -96,41 +103,73 @@ class BudgetedObjective:
     Parameters: problem (anything with n_var, xl, xu and a vectorised evaluate), budget
     (FE evaluations), time_limit_s (None: no limit). Extra least-squares access for methods
     that need it: `residuals_and_jacobian(x)` is charged `problem.jacobian_cost_evals`.
+
+    What a plugin sees is this object only: the problem behind it is not an attribute (its
+    evaluate and least_squares are kept in closures), and the counters (`n_evals`, `budget`,
+    `remaining`, `best_f`, `best_x`, `trace`, `fe_s`, `time_limit_s`) are read-only
+    properties. `run` also cross-checks the problem's own evaluation count, so a plugin that
+    reaches the problem some other way has its run marked failed.
     """
 
+    #: The names a plugin may read but never assign.
+    READ_ONLY = ("problem", "n_evals", "budget", "remaining", "best_f", "best_x", "trace", "fe_s",
+                 "time_limit_s", "n_var", "bounds")
+
     def __init__(self, problem, budget: int, time_limit_s: float | None = None):
-        if int(budget) < 1:
-            raise ValueError(f"budget must be a positive number of evaluations, got {budget}")
-        self.problem = problem
-        self.budget = int(budget)
-        self.time_limit_s = time_limit_s
-        self.n_evals = 0
-        self.best_f = math.inf
-        self.best_x: np.ndarray | None = None
-        self.trace: list[list[float]] = []
-        self.fe_s = 0.0
+        budget = check_budget(budget)
+        evaluate = problem.evaluate
+        least_squares = getattr(problem, "least_squares", None)
+        cost = int(getattr(problem, "jacobian_cost_evals", 1))
+        self._evaluate = lambda X: evaluate(X)
+        self._least_squares = (lambda x: least_squares(x)) if least_squares is not None else None
+        self._jacobian_cost = cost
+        self._budget = int(budget)
+        self._time_limit_s = time_limit_s
+        self._n_evals = 0
+        self._best_f = math.inf
+        self._best_x: np.ndarray | None = None
+        self._trace: list[list[float]] = []
+        self._fe_s = 0.0
         self._t0 = time.perf_counter()
-        self.n_var = problem.n_var
-        self.bounds = (np.asarray(problem.xl, float).copy(), np.asarray(problem.xu, float).copy())
+        self._n_var = int(problem.n_var)
+        self._bounds = (np.asarray(problem.xl, float).copy(), np.asarray(problem.xu, float).copy())
+
+    def __setattr__(self, name: str, value) -> None:
+        if name in self.READ_ONLY:
+            raise AttributeError(f"the objective's {name!r} is read-only: the harness owns the budget and its counts")
+        super().__setattr__(name, value)
+
+    n_evals = property(lambda self: self._n_evals, doc="Evaluations charged so far.")
+    budget = property(lambda self: self._budget, doc="The run's budget (FE evaluations).")
+    best_f = property(lambda self: self._best_f, doc="Best objective value seen (inf before the first).")
+    best_x = property(lambda self: None if self._best_x is None else self._best_x.copy(),
+                      doc="The point of `best_f` (a copy), or None.")
+    trace = property(lambda self: [list(t) for t in self._trace], doc="Best-so-far [[n_evals, f], ...] (a copy).")
+    fe_s = property(lambda self: self._fe_s, doc="Seconds spent inside FE evaluations.")
+    time_limit_s = property(lambda self: self._time_limit_s, doc="The run's time limit in seconds, or None.")
+    n_var = property(lambda self: self._n_var, doc="The number of parameters.")
+    bounds = property(lambda self: (self._bounds[0].copy(), self._bounds[1].copy()),
+                      doc="(xl, xu), copies: the box the points must lie in.")
 
     @property
     def remaining(self) -> int:
-        return self.budget - self.n_evals
+        """Evaluations left in the budget."""
+        return self._budget - self._n_evals
 
     def _check_time(self) -> None:
-        if self.time_limit_s is not None and time.perf_counter() - self._t0 > self.time_limit_s:
-            raise TimeLimitExceeded(f"time limit of {self.time_limit_s} s exceeded")
+        if self._time_limit_s is not None and time.perf_counter() - self._t0 > self._time_limit_s:
+            raise TimeLimitExceeded(f"time limit of {self._time_limit_s} s exceeded")
 
     def _record(self, X: np.ndarray, f: np.ndarray) -> None:
-        start = self.n_evals
-        self.n_evals += len(f)
+        start = self._n_evals
+        self._n_evals += len(f)
         # every row that beats all before it, also inside a batch, so that best-so-far after
         # any evaluation count is exact; NaN rows never improve (fmin skips them)
-        running = np.fmin.accumulate(np.concatenate(([self.best_f], f)))
+        running = np.fmin.accumulate(np.concatenate(([self._best_f], f)))
         new = np.flatnonzero(running[1:] < running[:-1])
-        self.trace.extend([start + int(i) + 1, float(f[i])] for i in new)
+        self._trace.extend([start + int(i) + 1, float(f[i])] for i in new)
         if len(new):
-            self.best_f, self.best_x = float(f[new[-1]]), X[new[-1]].copy()
+            self._best_f, self._best_x = float(f[new[-1]]), X[new[-1]].copy()
         if np.isnan(f).any():
             raise FloatingPointError(f"the objective returned NaN at evaluation "
                                      f"{start + int(np.argmax(np.isnan(f))) + 1}")
@@ -142,8 +181,10 @@ class BudgetedObjective:
             raise BudgetExhausted()
         take = X[: self.remaining]
         t = time.perf_counter()
-        f = np.asarray(self.problem.evaluate(take), dtype=float)
-        self.fe_s += time.perf_counter() - t
+        f = np.asarray(self._evaluate(take), dtype=float)
+        self._fe_s += time.perf_counter() - t
+        if f.shape != (len(take),):
+            raise ValueError(f"the problem returned values of shape {f.shape} for {len(take)} points")
         self._record(take, f)
         if len(take) < len(X) or self.remaining <= 0:
             raise BudgetExhausted()
@@ -153,16 +194,18 @@ class BudgetedObjective:
         """Objective, frequency residuals and their Jacobian at one point (the problem's
         `least_squares`), charged `problem.jacobian_cost_evals` evaluations."""
         self._check_time()
-        cost = int(getattr(self.problem, "jacobian_cost_evals", 1))
+        if self._least_squares is None:
+            raise TypeError("this problem has no least_squares (residuals and Jacobian)")
+        cost = self._jacobian_cost
         if self.remaining < cost:
             raise BudgetExhausted()
         X = np.atleast_2d(np.asarray(x, dtype=float))
         t = time.perf_counter()
-        out = self.problem.least_squares(X[0])
-        self.fe_s += time.perf_counter() - t
+        out = self._least_squares(X[0])
+        self._fe_s += time.perf_counter() - t
         # charge the extra cost first, so the trace dates the point at the evaluation count
         # after which it is known
-        self.n_evals += cost - 1
+        self._n_evals += cost - 1
         self._record(X, np.array([out.f]))
         if self.remaining <= 0:
             raise BudgetExhausted()
@@ -170,7 +213,7 @@ class BudgetedObjective:
 
     def finish_trace(self) -> list:
         """The trace with a final entry at the last evaluation."""
-        out = [list(t) for t in self.trace]
+        out = [list(t) for t in self._trace]
         if out and out[-1][0] != self.n_evals:
             out.append([self.n_evals, self.best_f])
         return out
@@ -186,20 +229,18 @@ def run(name: str, problem, budget: int, seed: int, time_limit_s: float | None =
     from .registry import get
 
     cls = get(name)
-    if not _is_int(seed) or seed < 0:
-        raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
-    if not _is_int(budget) or budget < 1:
-        raise ValueError(f"budget must be an integer >= 1 (FE evaluations), got {budget!r}")
+    seed, budget = check_seed(seed), check_budget(budget)
     optimizer = cls()
-    min_budget = int(getattr(optimizer, "min_budget", 1))
-    if budget < min_budget:
-        raise ValueError(f"optimizer {name!r} needs a budget of at least {min_budget} evaluations, got {budget}")
+    check_min_budget(name, optimizer, budget, problem.n_var, **options)
     objective = BudgetedObjective(problem, budget, time_limit_s)
     rng = np.random.default_rng(int(seed))
     status, error = "stopped", None
+    counted0 = _problem_count(problem)
     wall0, cpu0 = time.perf_counter(), time.process_time()
     try:
         optimizer.minimize(objective, objective.bounds, objective.budget, rng, **options)
+    except SystemExit as exc:  # a plugin's sys.exit() ends its run, not the study
+        status, error = "failed", f"SystemExit: the optimizer called sys.exit({exc.code!r})"
     except Exception as exc:  # a failing plugin must not end a study
         # a library may re-raise our stop signal wrapped in its own exception: look at the chain
         stop = _stop_signal(exc)
@@ -212,16 +253,33 @@ def run(name: str, problem, budget: int, seed: int, time_limit_s: float | None =
     wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
     if status == "stopped" and objective.n_evals >= objective.budget:
         status = "ok"
+    overrun = _overrun(problem, counted0, objective, budget)
+    if overrun:
+        status, error = "failed", overrun
     return RunResult(
         optimizer=name, problem=getattr(problem, "name", type(problem).__name__), seed=int(seed),
         budget=int(budget), options=dict(options), n_evals=objective.n_evals, best_f=objective.best_f,
         best_x=[] if objective.best_x is None else objective.best_x.tolist(), trace=objective.finish_trace(),
         wall_s=wall, cpu_s=cpu, fe_s=objective.fe_s, status=status, error=error, variant=variant,
-        host=platform.node())
+        host=platform.node(), versions=library_versions())
 
 
-def _is_int(v) -> bool:
-    return isinstance(v, (int, np.integer)) and not isinstance(v, bool)
+def _problem_count(problem) -> int | None:
+    """The problem's own count of evaluated points, if it keeps one (UpdatingProblem does)."""
+    n = getattr(problem, "n_evals", None)
+    return int(n) if isinstance(n, (int, np.integer)) and not isinstance(n, bool) else None
+
+
+def _overrun(problem, counted0: int | None, objective: BudgetedObjective, budget: int) -> str | None:
+    """Why the run spent more than it was charged (None if it did not): the harness's count
+    above the budget, or the problem's own count above what the harness charged."""
+    if objective.n_evals > budget:
+        return f"budget overrun: {objective.n_evals} evaluations charged against a budget of {budget}"
+    counted1 = _problem_count(problem)
+    if counted0 is not None and counted1 is not None and counted1 - counted0 > objective.n_evals:
+        return (f"budget bypassed: the problem evaluated {counted1 - counted0} points but the run was charged "
+                f"{objective.n_evals}; a plugin must evaluate through the objective it is given")
+    return None
 
 
 def _stop_signal(exc: BaseException) -> BaseException | None:

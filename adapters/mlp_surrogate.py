@@ -146,7 +146,10 @@ class MLPSurrogate:
     """
 
     name = "mlp-surrogate"
-    min_budget = 16
+
+    def min_budget(self, n_var: int, **options) -> int:
+        """16 evaluations: 15 design points to train on (budget * 15 // 16) and one refit."""
+        return 16
 
     def minimize(self, objective, bounds, budget, rng: np.random.Generator, n_initial: int | None = None,
                  n_hidden: int = 8, initial_cycles: int = 200, refit_cycles: int = 5,

@@ -32,8 +32,10 @@ class PymooGA:
     """
 
     name = "pymoo-ga"
-    #: one initial population at the default pop_size
-    min_budget = 100
+
+    def min_budget(self, n_var: int, pop_size: int = 100, **options) -> int:
+        """One initial population: `pop_size` evaluations."""
+        return int(pop_size)
 
     def minimize(self, objective, bounds, budget, rng: np.random.Generator, pop_size: int = 100,
                  eliminate_duplicates: bool = True):

@@ -53,8 +53,10 @@ class PyswarmsPSO:
     """
 
     name = "pyswarms-pso"
-    #: one swarm evaluation at the default n_particles
-    min_budget = 30
+
+    def min_budget(self, n_var: int, n_particles: int = 30, **options) -> int:
+        """One swarm evaluation: `n_particles` evaluations."""
+        return int(n_particles)
 
     def minimize(self, objective, bounds, budget, rng: np.random.Generator, n_particles: int = 30,
                  w: float = 0.729, c1: float = 1.49445, c2: float = 1.49445,

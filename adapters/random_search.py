@@ -9,7 +9,10 @@ class RandomSearch:
     """Uniform samples inside the bounds, in batches, until the harness stops the run."""
 
     name = "random-search"
-    min_budget = 1
+
+    def min_budget(self, n_var: int, **options) -> int:
+        """One evaluation."""
+        return 1
 
     def minimize(self, objective, bounds, budget, rng: np.random.Generator, batch_size: int = 100):
         xl, xu = bounds

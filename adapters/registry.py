@@ -1,10 +1,9 @@
 """Optimizer registry: the built-ins and third-party plugins.
 
-A plugin is a class with a `name` and
-``minimize(objective, bounds, budget, rng, **options)``: `objective` takes a batch (n, n_var)
-and returns n values, `bounds` is (xl, xu), `rng` a numpy Generator. The harness enforces the
-budget by raising from `objective`; the plugin's return value is ignored. An optional class
-attribute `min_budget` says how many evaluations the method needs to start.
+A plugin is a class implementing `adapters.protocol.Optimizer`: a `name`,
+``min_budget(n_var, **options)`` (or a plain int attribute ``min_budget``) and
+``minimize(objective, bounds, budget, rng, **options)``. The harness (adapters.harness.run)
+enforces the budget; adapters.budget holds the budget rules.
 
 Third parties register under the entry-point group ``femu.optimizers`` (name -> class), e.g.
 in their pyproject.toml::
@@ -18,6 +17,7 @@ A built-in name cannot be taken over by a plugin.
 from __future__ import annotations
 
 import importlib
+import re
 from importlib.metadata import entry_points
 
 ENTRY_POINT_GROUP = "femu.optimizers"
@@ -64,10 +64,17 @@ def get(name: str) -> type:
     raise ValueError(f"unknown optimizer {name!r}; available: {', '.join(available())}")
 
 
+#: A Python module path: identifiers joined by dots.
+_DOTTED = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*")
+
+
 def _import_path(name: str) -> type:
     """An optimizer named by its import path ``package.module:Class`` (not registered: for
     trying out a class, e.g. in a test, in every worker process of a study)."""
     module, _, attr = name.partition(":")
+    if not (_DOTTED.fullmatch(module) and attr.isidentifier()):
+        raise ValueError(f"optimizer {name!r}: not a registry name or an import path package.module:Class "
+                         f"(available: {', '.join(available())})")
     try:
         cls = getattr(importlib.import_module(module), attr)
     except (ImportError, AttributeError, ValueError) as exc:  # ValueError: an empty module name
@@ -82,3 +89,14 @@ def _checked(cls, what: str) -> type:
         raise ValueError(f"{what} is not an optimizer class "
                          f"(it has no minimize(objective, bounds, budget, rng, **options) method)")
     return cls
+
+
+def module_of(name: str) -> str | None:
+    """The module that defines optimizer `name` (a registry name or ``module:Class``), without
+    importing it; None for an unknown name. Lets a process pool preload it."""
+    if name in BUILTINS:
+        return BUILTINS[name].split(":")[0]
+    if ":" in name:
+        return name.split(":")[0]
+    plugins = _plugins()
+    return plugins[name].module if name in plugins else None

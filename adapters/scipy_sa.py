@@ -29,8 +29,10 @@ class ScipyDualAnnealing:
     """
 
     name = "scipy-sa"
-    #: the initial point and one iteration (2 x 12 visits) with 12 parameters
-    min_budget = 25
+
+    def min_budget(self, n_var: int, **options) -> int:
+        """The initial point and one iteration (2 n_var visits): 25 with 12 parameters."""
+        return 1 + 2 * int(n_var)
 
     def minimize(self, objective, bounds, budget, rng: np.random.Generator, maxiter: int = 1000,
                  initial_temp: float = 5230.0, restart_temp_ratio: float = 2e-5, visit: float = 2.62,

@@ -35,7 +35,10 @@ class Sensitivity:
     """
 
     name = "sensitivity"
-    min_budget = 2
+
+    def min_budget(self, n_var: int, **options) -> int:
+        """Two evaluations: a start point and one least-squares step."""
+        return 2
 
     def minimize(self, objective, bounds, budget, rng: np.random.Generator, restarts: bool = True,
                  ftol: float = 1e-10, xtol: float = 1e-10, gtol: float = 1e-10):

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import os
 
+import fe_problem._threads  # noqa: F401  (one BLAS thread unless set: before numpy loads)
 import numpy as np
 import pytest
 

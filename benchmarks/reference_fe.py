@@ -7,7 +7,7 @@ with `scipy.linalg.eigh`, drop the three rigid-body modes of the free-free frame
 paper's eq. 4 objective.
 
 It is written from the textbook on purpose, independently of fe_problem's element and
-assembly code (fe_problem/elements.py and parameters.py are not used): the model and the
+assembly code (fe_problem/elements/ and assembly.py are not used): the model and the
 measured data are read straight from the shipped JSON files, the 6x6 matrices are written
 out by hand. tests/test_reference_fe.py checks that both give the same objective, so the
 fast path is verified against a from-scratch implementation.
@@ -33,7 +33,7 @@ N_RIGID = 3
 
 
 def _shipped(name: str) -> Path:
-    return Path(str(files("fe_problem") / "data" / name))
+    return Path(str(files("fe_problem") / "shipped" / name))
 
 
 @dataclass(frozen=True)

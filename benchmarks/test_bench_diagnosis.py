@@ -21,5 +21,5 @@ def crack_data(tmp_path_factory):
 def test_diagnosis_of_8_modes_15_coordinates(benchmark, crack_data):
     benchmark.group = "diagnosis"
     result = benchmark.pedantic(fp.diagnose, args=("hframe", str(crack_data)), rounds=5, iterations=1)
-    assert result.cause["kind"] == "stiffness_loss" and result.cause["location"] == {"element": 7}
+    assert result.cause.kind == "stiffness_loss" and result.cause.location == {"element": 7}
     benchmark.extra_info["goal_s"] = 10.0

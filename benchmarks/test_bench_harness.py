@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import pytest
 
-from adapters import available, get, run
+from adapters import available, get, min_budget, run
 from adapters.variants import make_problem
 
 #: FE evaluations per run, raised to the optimizer's `min_budget` where that is larger.
@@ -26,7 +26,7 @@ ROUNDS = 3
 @pytest.mark.benchmark(group="harness-overhead")
 @pytest.mark.parametrize("name", available())
 def test_harness_overhead(benchmark, record, name):
-    budget = max(BUDGET, int(getattr(get(name), "min_budget", 1)))
+    budget = max(BUDGET, min_budget(get(name), make_problem("paper").n_var))
     records = []
 
     def one_run(problem):

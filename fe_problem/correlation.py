@@ -1,4 +1,6 @@
-"""Test-analysis correlation: MAC, COMAC, mode pairing, frequency errors.
+"""Test-analysis correlation: MAC, COMAC, mode pairing, frequency errors, and `correlate`,
+the one correlation of a model's modes with measured ones (`UpdatingProblem.correlation` and the
+diagnosis both use it).
 
 Shapes are columns: (n_dof, n_modes). Nothing here depends on the sign or scale of a shape.
 """
@@ -11,13 +13,25 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 
+def pow2_scaled(a: np.ndarray, axis: int = -2) -> np.ndarray:
+    """`a` with each vector along `axis` multiplied by the power of two that brings its largest
+    magnitude into [0.5, 1): exact (no rounding) for any finite scale, so that a shape's scale,
+    which carries no meaning, can be 1e308 or 1e-320 without overflow or underflow downstream.
+    NaN entries are ignored in the scale and kept; all-zero or all-NaN vectors are left as they are."""
+    a = np.asarray(a, dtype=float)
+    with np.errstate(invalid="ignore"):
+        big = np.nanmax(np.abs(a), axis=axis, keepdims=True, initial=0.0) if a.size else np.zeros(1)
+    _, exp = np.frexp(np.where(np.isfinite(big) & (big > 0), big, 1.0))
+    return np.ldexp(a, -exp)
+
+
 def mac(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Modal Assurance Criterion between the columns of a (n, p) and b (n, q): (p, q) in [0, 1].
 
     Broadcasts over leading batch dimensions: a (..., n, p), b (..., n, q) -> (..., p, q).
     """
-    a = np.asarray(a, dtype=float)
-    b = np.asarray(b, dtype=float)
+    a = pow2_scaled(a)  # exact: the MAC is scale-free, and any finite scale stays finite
+    b = pow2_scaled(b)
     cross = np.swapaxes(a, -1, -2) @ b
     na = np.sum(a * a, axis=-2)
     nb = np.sum(b * b, axis=-2)
@@ -36,6 +50,7 @@ def comac(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     b = np.asarray(b, dtype=float)
     if a.shape != b.shape:
         raise ValueError(f"comac needs paired shapes of one shape, got {a.shape} and {b.shape}")
+    a, b = pow2_scaled(a, axis=0), pow2_scaled(b, axis=0)
     a = a / np.linalg.norm(a, axis=0)
     b = b / np.linalg.norm(b, axis=0)
     b = b * np.sign(np.sum(a * b, axis=0))
@@ -104,3 +119,82 @@ def frequency_errors_pct(measured_hz: np.ndarray, model_hz: np.ndarray) -> np.nd
     """Signed error of the model in percent of the measured frequency: 100 (f_model - f_meas) / f_meas."""
     measured_hz = np.asarray(measured_hz, dtype=float)
     return 100.0 * (np.asarray(model_hz, dtype=float) - measured_hz) / measured_hz
+
+
+@dataclass(frozen=True, eq=False)
+class Correlation:
+    """A model's modes against measured ones, one entry per measured mode (in measured order).
+
+    measured_hz, model_hz (Hz; NaN where unpaired), error_pct (% of the measured frequency) and
+    mac (NaN without a measured shape or a pair): (m,); model_index: the paired model mode,
+    0-based, -1 where unpaired (m,); comac: (n_coord,) over the paired modes with a measured
+    shape (None without any); mac_matrix: measured x model (m, k), None without shapes.
+    """
+
+    measured_hz: np.ndarray
+    model_hz: np.ndarray
+    error_pct: np.ndarray
+    mac: np.ndarray
+    comac: np.ndarray | None
+    mac_matrix: np.ndarray | None
+    model_index: np.ndarray
+
+    @property
+    def paired(self) -> np.ndarray:
+        """(m,) bool: the measured mode pairs with a model mode."""
+        return self.model_index >= 0
+
+    @property
+    def paired_model_mode(self) -> np.ndarray:
+        """(m,) the paired model mode, 1-based; -1 where unpaired."""
+        return np.where(self.paired, self.model_index + 1, -1)
+
+    @property
+    def mean_abs_error_pct(self) -> float | None:
+        """Mean |frequency error| over the paired modes, %; None when none paired."""
+        return float(np.nanmean(np.abs(self.error_pct))) if self.paired.any() else None
+
+    @property
+    def mean_mac(self) -> float | None:
+        """Mean MAC over the paired modes with a measured shape; None without any."""
+        return float(np.nanmean(self.mac)) if np.isfinite(self.mac).any() else None
+
+    @property
+    def mean_comac(self) -> float | None:
+        """Mean COMAC over the measured coordinates; None without shapes."""
+        return None if self.comac is None else float(np.mean(self.comac))
+
+    def to_dict(self) -> dict:
+        """The per-mode view as the diagnosis record writes it (arrays; NaN left to the JSON edge)."""
+        return {"measured_hz": self.measured_hz, "model_hz": self.model_hz, "error_pct": self.error_pct,
+                "mean_abs_error_pct": self.mean_abs_error_pct, "mac": self.mac, "mean_mac": self.mean_mac,
+                "comac": self.comac, "mean_comac": self.mean_comac, "paired_model_mode": self.paired_model_mode}
+
+
+def correlate(model_hz: np.ndarray, model_shapes: np.ndarray | None, measured, pairing=None) -> Correlation:
+    """Correlate one model's modes with measured modes.
+
+    model_hz: (k,) model frequencies in Hz; model_shapes: (n_coord, k) the model's shapes at the
+    measured coordinates (None when no shapes were measured); measured: the measured modes, any
+    object with `frequencies_hz` (m,), `shapes` (n_coord, m; NaN where not measured) and
+    `has_shape` (m,), such as a `ModalData`; pairing: the model mode of each measured mode (a
+    `Pairing` or an index array, -1 unpaired), by default `pair_modes` afresh.
+    """
+    measured_hz = np.array(measured.frequencies_hz, dtype=float)
+    model_hz = np.asarray(model_hz, dtype=float)
+    has_shape = np.asarray(measured.has_shape, dtype=bool)
+    if pairing is None:
+        pairing = pair_modes(measured_hz, model_hz, measured.shapes, model_shapes, has_shape)
+    index = np.asarray(getattr(pairing, "model_index", pairing), dtype=int)
+    ok = index >= 0
+    paired_hz = np.where(ok, model_hz[np.clip(index, 0, None)], np.nan)
+    macs = np.full(measured_hz.shape[0], np.nan)
+    matrix = cm = None
+    if has_shape.any():
+        matrix = mac(np.nan_to_num(np.asarray(measured.shapes, dtype=float)), model_shapes)
+        sel = has_shape & ok
+        if sel.any():
+            measured_sel, model_sel = measured.shapes[:, sel], model_shapes[:, index[sel]]
+            macs[sel] = np.diagonal(mac(measured_sel, model_sel))
+            cm = comac(measured_sel, model_sel)
+    return Correlation(measured_hz, paired_hz, frequency_errors_pct(measured_hz, paired_hz), macs, cm, matrix, index)

@@ -42,3 +42,37 @@ def jsonable(obj):
 def dumps(obj, indent: int | None = 1) -> str:
     """``obj`` as strict JSON text."""
     return json.dumps(jsonable(obj), indent=indent, allow_nan=False)
+
+
+#: The largest JSON file the project reads (bytes): model, data and record files are far smaller.
+MAX_JSON_BYTES = 256 * 2**20
+
+
+def read_json_file(path: Path, error: type[Exception] = ValueError):
+    """The JSON value in the file at `path`, or `error` (a ValueError subclass) with a one-line
+    message naming the file and what is wrong: unreadable (a directory, no permission), too
+    large, not UTF-8 (with the byte offset), not JSON (with line and column), nested too deep,
+    a number too large to hold."""
+    path = Path(path)
+    try:
+        if path.is_dir():
+            raise error(f"{path}: is a directory, not a file")
+        size = path.stat().st_size
+        if size > MAX_JSON_BYTES:
+            raise error(f"{path}: {size} bytes is larger than the {MAX_JSON_BYTES} a JSON file may have")
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise error(f"{path}: cannot be read ({exc.strerror or exc})") from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise error(f"{path}: not UTF-8 text (byte 0x{raw[exc.start]:02x} at offset {exc.start}); "
+                    "save the file as UTF-8") from None
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise error(f"{path}: not valid JSON ({exc})") from None
+    except RecursionError:
+        raise error(f"{path}: JSON nested too deeply to read") from None
+    except ValueError as exc:  # e.g. an integer of more than 4300 digits
+        raise error(f"{path}: not valid JSON ({exc})") from None

@@ -1,7 +1,7 @@
 """Modal analysis: natural frequencies (Hz) and mass-normalised mode shapes.
 
 There is one modal solver in the project, `AffineModel.eigen` (batched, in
-parameters.py); `modal_analysis` is the friendly front door for a single model.
+solver.py); `modal_analysis` is the friendly front door for a single model.
 """
 
 from __future__ import annotations
@@ -11,7 +11,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .model import FrameModel, load_model
-from .parameters import AffineModel, Parameter
+from .assembly import AffineModel
+from .parameters import Parameter
 
 
 @dataclass(frozen=True)
@@ -20,13 +21,15 @@ class ModalResult:
 
     frequencies_hz: (n_modes,) ascending; shapes: (n_dof, n_modes) on the nodal DOFs, mass-
     normalised (phi^T M phi = I over all DOFs), zero at supported DOFs; dofs: one
-    (node id, direction) per row of `shapes`; n_rigid: rigid-body modes that were dropped.
+    (node id, direction) per row of `shapes`; n_rigid: zero-energy modes that were dropped;
+    mechanism: None, or which of those are mechanism motions rather than rigid-body motions.
     """
 
     frequencies_hz: np.ndarray
     shapes: np.ndarray
     dofs: tuple[tuple[int, str], ...]
     n_rigid: int
+    mechanism: str | None = None
 
     @property
     def eigenvalues(self) -> np.ndarray:
@@ -48,10 +51,13 @@ def frequencies_hz(eigenvalues: np.ndarray) -> np.ndarray:
 
 
 def modal_analysis(model: FrameModel | str, n_modes: int = 8, parameters: tuple[Parameter, ...] = (),
-                   theta=None) -> ModalResult:
-    """Elastic modes of `model` (a FrameModel, a shipped model name or a model file path).
+                   theta=None, at_most: bool = False) -> ModalResult:
+    """The `n_modes` lowest elastic modes of `model` (a FrameModel, a shipped model name or a
+    model file path).
 
-    With `parameters` and `theta`, the modes of the model updated to those values.
+    With `parameters` and `theta`, the modes of the model updated to those values. A model
+    with fewer elastic modes raises ValueError, unless `at_most`: then all it has are returned
+    (compare ``len(result.frequencies_hz)`` with `n_modes`).
     """
     model = load_model(model)
     if n_modes < 1:
@@ -60,5 +66,10 @@ def modal_analysis(model: FrameModel | str, n_modes: int = 8, parameters: tuple[
     theta = system.x0 if theta is None else np.asarray(theta, dtype=float)
     if theta.shape != (system.n_params,):
         raise ValueError(f"theta must have shape ({system.n_params},), got {theta.shape}")
+    if system.n_elastic == 0:
+        raise ValueError(f"{model.source or model.name}: the model has no elastic mode: every motion strains "
+                         "nothing (check its stiffness values and connections)")
+    if at_most:
+        n_modes = min(n_modes, system.n_elastic)
     lam, phi = system.eigen(theta[None, :], n_modes, vectors=True)
-    return ModalResult(frequencies_hz(lam[0]), system.expand(phi[0]), model.dofs, system.n_rigid)
+    return ModalResult(frequencies_hz(lam[0]), system.expand(phi[0]), model.dofs, system.n_rigid, system.mechanism)

@@ -15,11 +15,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .correlation import Pairing, comac, frequency_errors_pct, mac, pair_modes
-from .data import ModalData, load_modal_data
+from .correlation import Pairing, correlate, mac, pair_modes
+from .modal_data import ModalData, load_modal_data
 from .modal import ModalResult, frequencies_hz
 from .model import FrameModel, load_model
-from .parameters import AffineModel, Parameter, element_moduli
+from .assembly import AffineModel
+from .parameters import Parameter, element_moduli
 
 WEIGHTS = ("gamma", "unit")
 
@@ -253,22 +254,14 @@ class UpdatingProblem:
                            self.system.n_rigid)
 
     def correlation(self, x=None) -> CorrelationReport:
-        """Paired frequencies, errors, MAC and COMAC of the model at x (default x0)."""
+        """Paired frequencies, errors, MAC and COMAC of the model at x (default x0): `correlate`
+        with the problem's fixed pairing."""
         x = self.x0 if x is None else self.check_x(x, "x")[0]
         lam, phi = self.system.eigen(x[None], self.n_model_modes, vectors=True)
-        f_all = frequencies_hz(lam[0])
-        at = self._at_measured(phi)[0]
-        f = f_all[self.model_index]
-        macs = np.full(self.data.n_modes, np.nan)
-        mm = cm = None
-        if self.has_shape.any():
-            mm = mac(self.data.shapes, at)
-            sel = np.flatnonzero(self.has_shape)
-            macs[sel] = mm[sel, self.model_index[sel]]
-            cm = comac(self.data.shapes[:, sel], at[:, self.model_index[sel]])
-        obj = float(self.objective_from_modes(f[None], phi)[0])
-        return CorrelationReport(x, self.data.frequencies_hz.copy(), f, frequency_errors_pct(self.data.frequencies_hz, f),
-                                 macs, mm, cm, self.pairing, obj)
+        c = correlate(frequencies_hz(lam[0]), self._at_measured(phi)[0], self.data, self.pairing)
+        obj = float(self.objective_from_modes(c.model_hz[None], phi)[0])
+        return CorrelationReport(x, c.measured_hz, c.model_hz, c.error_pct, c.mac, c.mac_matrix, c.comac,
+                                 self.pairing, obj)
 
     def updated_model(self, x) -> FrameModel:
         """The model with modulus parameters set to x (other kinds are not written back)."""

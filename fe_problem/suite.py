@@ -33,11 +33,12 @@ from functools import lru_cache
 
 import numpy as np
 
-# the package's public names (bound before fe_problem/__init__ imports this module), so that the
-# suite does not depend on how the package's internals are laid out
-from . import (FrameModel, ModalData, UpdatingProblem, element_moduli, load_model, modal_analysis, pair_modes,
-               split_element, synthetic_measurement)
-from .model import Element, LumpedMass, Material, Node, Section, Support
+from .correlation import pair_modes
+from .modal_data import ModalData, synthetic_measurement
+from .modal import modal_analysis
+from .model import Element, FrameModel, LumpedMass, Material, Node, Section, Support, load_model, split_element
+from .parameters import element_moduli
+from .problem import UpdatingProblem
 
 #: Best J known on the paper problem (see docs/suite.md for the command that proves it).
 PAPER_F_OPT = 5.4136727410825565e-06

@@ -4,12 +4,15 @@ Runs every available optimizer (the paper's methods: pymoo-ga / deap-ga for its 
 scipy-sa for its SA, mlp-surrogate for its "PSO" response surface, pyswarms-pso for standard
 PSO; plus random-search, cma-es and sensitivity, and any plugin) on the problem variant
 'paper' (the paper's five measured frequencies, 12 element moduli, eq. 4 weights), the same
-budget of FE evaluations and the same seeds 0..N-1 for each, into the resumable store
-OUT/store (adapters.study.run_study: a second call runs only what is missing), then writes
-OUT/report.md with its figures (adapters.report).
+budget of FE evaluations and the same seeds for each (``--seeds``: a count N, the seeds
+0..N-1, or a list as in `femu study`: 0-29, 0,3,7), into the resumable store OUT/store
+(femu.studies.study.run_study: a second call runs only what is missing), then writes
+OUT/report.md with its figures (femu.reports.study). The terminal table and the README's
+Markdown table (``--markdown``) are rendered by femu.reports.reproduce.
 
 Printed (and with --json as one JSON object on stdout):
-``{"budget": B, "seeds": N, "variant": "paper", "solvers": {name: {...}}, ...}`` where every
+``{"budget": B, "seeds": N, "seed_list": [...], "variant": "paper", "solvers": {name: {...}}, ...}``
+(N the number of seeds) where every
 number of a solver is the MEDIAN OVER ITS SEEDS: mean_abs_error_pct (%), frequencies_hz and
 error_pct (per measured mode; of the model at each run's best point), n_evals, wall_s,
 cpu_s, fe_s, overhead_s (seconds), best_f (eq. 4 objective), with the quartiles of best_f
@@ -27,14 +30,15 @@ to spare; `--budget 2000` is the better comparison when time allows.
 from __future__ import annotations
 
 import contextlib
-import json
-import os
 import sys
 import time
 from pathlib import Path
 
+from adapters.budget import check_budget, min_budget
 from adapters.registry import available, get
+from adapters.variants import make_problem
 from femu.reports.study import render_files, summarize
+from femu.studies.seeds import parse_seed_count
 
 #: Seeds 0..DEFAULT_SEEDS-1 and FE evaluations per run when not given (see the module doc).
 DEFAULT_SEEDS = 5
@@ -44,40 +48,20 @@ VARIANT = "paper"
 
 def solvers(budget: int) -> tuple[list[str], dict[str, str]]:
     """The optimizers to run under `budget`: every name in `registry.available()` that loads
-    and accepts the budget, and {name: why not} for the others."""
+    and accepts the budget on the paper problem, and {name: why not} for the others."""
     names, left_out = [], {}
+    n_var = make_problem(VARIANT).n_var
     for name in available():
         try:
-            cls = get(name)
+            need = min_budget(get(name), n_var)
         except Exception as exc:  # a broken plugin or a missing library must not stop the rest
             left_out[name] = f"cannot be loaded: {type(exc).__name__}: {exc}"
             continue
-        min_budget = int(getattr(cls, "min_budget", 1))
-        if budget < min_budget:
-            left_out[name] = f"needs a budget of at least {min_budget} evaluations"
+        if budget < need:
+            left_out[name] = f"needs a budget of at least {need} evaluations"
             continue
         names.append(name)
     return names, left_out
-
-
-@contextlib.contextmanager
-def _single_threaded_blas():
-    """One BLAS thread in the study's worker processes (started inside this block).
-
-    The runs already fill the cores in parallel, and on the H-frame's small matrices a
-    multi-threaded BLAS mostly spins: measured on 2 cores, one least-squares point of the
-    paper's problem took 4-5 ms of CPU with OpenBLAS's default threads and 0.45 ms with one.
-    Variables the user has set are kept."""
-    names = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
-    saved = {n: os.environ.get(n) for n in names}
-    for n in names:
-        os.environ.setdefault(n, "1")
-    try:
-        yield
-    finally:
-        for n, v in saved.items():
-            if v is None:
-                os.environ.pop(n, None)
 
 
 def _median(spread) -> float | None:
@@ -98,40 +82,46 @@ def solver_record(s) -> dict:
             "status": s.status, "statuses": dict(s.statuses), "n_runs": s.n_runs}
 
 
-def reproduce(seeds: int = DEFAULT_SEEDS, budget: int = DEFAULT_BUDGET, out="femu-reproduce",
+def _seed_text(seeds: list[int]) -> str:
+    """The --seeds argument that gives `seeds`: a count when they are 0..N-1."""
+    return str(len(seeds)) if seeds == list(range(len(seeds))) else ",".join(map(str, seeds))
+
+
+def reproduce(seeds=DEFAULT_SEEDS, budget: int = DEFAULT_BUDGET, out="femu-reproduce",
               workers: int | None = None, log=None) -> dict:
     """Run the comparison into OUT/store, write OUT/report.md, return the summary dict
-    described in the module doc. Progress goes to `log` (default: stderr; a progress bar when
-    it is a terminal)."""
+    described in the module doc. `seeds`: a count N (seeds 0..N-1), a list of seeds or a
+    spec such as "0-4,10". Progress goes to `log` (default: stderr; a progress bar when it is
+    a terminal)."""
     log = sys.stderr if log is None else log
-    if isinstance(seeds, bool) or not isinstance(seeds, int) or seeds < 1:
-        raise ValueError(f"--seeds: must be a number of seeds >= 1, got {seeds!r}")
-    if isinstance(budget, bool) or not isinstance(budget, int) or budget < 1:
-        raise ValueError(f"--budget: must be an integer >= 1 (FE evaluations per run), got {budget!r}")
-    from femu.studies.study import run_study
+    seed_list = parse_seed_count(seeds)
+    budget = check_budget(budget, "--budget")
+    from femu.studies.study import check_workers, run_study
 
+    check_workers(workers)
     names, left_out = solvers(budget)
     for name, why in left_out.items():
         print(f"femu reproduce: leaving out {name}: {why}", file=log)
     if not names:
         raise ValueError(f"--budget {budget}: no optimizer can run with this budget")
     out = Path(out)
-    print(f"femu reproduce: {len(names)} optimizers x {seeds} seeds, {budget} FE evaluations each, "
+    print(f"femu reproduce: {len(names)} optimizers x {len(seed_list)} seeds, {budget} FE evaluations each, "
           f"variant {VARIANT!r}, store {out / 'store'}", file=log, flush=True)
     t0 = time.perf_counter()
     # the study's progress bar draws on stdout when stdout is a terminal: send it to `log`, so
-    # that stdout carries only this command's result (the JSON)
-    with contextlib.redirect_stdout(log), _single_threaded_blas():
-        study = run_study(names, list(range(seeds)), budget, out / "store", variants=(VARIANT,), workers=workers,
+    # that stdout carries only this command's result (the JSON); one BLAS thread per worker
+    # comes from fe_problem._threads, imported with the packages
+    with contextlib.redirect_stdout(log):
+        study = run_study(names, seed_list, budget, out / "store", variants=(VARIANT,), workers=workers,
                           progress=True)
     print(study.summary(), file=log, flush=True)
     groups = summarize(list(study.runs))  # this reproduction's runs only, whatever else the store holds
-    report = render_files(groups, out, f"store `{out / 'store'}`, the runs of `femu reproduce --seeds {seeds} "
-                          f"--budget {budget}`")
+    report = render_files(groups, out, f"store `{out / 'store'}`, the runs of `femu reproduce --seeds "
+                          f"{_seed_text(seed_list)} --budget {budget}`")
     (group,) = groups
     p = group.paper
     return {
-        "budget": budget, "seeds": seeds, "variant": VARIANT,
+        "budget": budget, "seeds": len(seed_list), "seed_list": seed_list, "variant": VARIANT,
         "solvers": {s.optimizer: solver_record(s) for s in group.solvers},
         "left_out": left_out,
         "measured_hz": group.measured_hz.tolist(), "initial_hz": group.initial_hz.tolist(),
@@ -142,34 +132,3 @@ def reproduce(seeds: int = DEFAULT_SEEDS, budget: int = DEFAULT_BUDGET, out="fem
                   "text_disagrees_with_table": list(p.disagreements)},
         "store": str(out / "store"), "report": str(report), "wall_s": time.perf_counter() - t0,
     }
-
-
-def _fmt(x, spec) -> str:
-    return format("n/a", ">" + spec.split(".")[0]) if x is None else format(x, spec)
-
-
-def render_text(res: dict) -> str:
-    """The result as a table for a terminal."""
-    n_modes = len(res["measured_hz"])
-    freq = "  ".join(f"{'f' + str(i + 1):>7}" for i in range(n_modes))
-    lines = [f"The paper's comparison on variant {res['variant']!r}: {res['budget']} FE evaluations per run, "
-             f"medians over {res['seeds']} seeds", "",
-             f"{'':<22}{freq}  {'mean|err|%':>10}  {'best_f':>10}  {'n_evals':>7}  {'wall s':>7}  status"]
-
-    def row(label, hz, err, best=None, n=None, wall=None, status=""):
-        f = "  ".join(_fmt(v, "7.1f") for v in hz) if hz else "  ".join(f"{'n/a':>7}" for _ in range(n_modes))
-        return (f"{label:<22}{f}  {_fmt(err, '10.2f')}  {_fmt(best, '10.3e')}  {_fmt(n, '7.0f')}  "
-                f"{_fmt(wall, '7.2f')}  {status}")
-
-    lines.append(row("measured", res["measured_hz"], None))
-    lines.append(row("initial (ours)", res["initial_hz"], res["initial_mean_abs_error_pct"]))
-    for name, s in res["solvers"].items():
-        lines.append(row(name, s["frequencies_hz"], s["mean_abs_error_pct"], s["best_f"], s["n_evals"],
-                         s["wall_s"], s["status"]))
-    for k, hz in res["paper"]["updated_hz"].items():
-        lines.append(row(f"paper {k} (Table 1)", hz, res["paper"]["mean_abs_error_pct_from_table"][k]))
-    lines += ["", "Mean errors of the paper's methods are recomputed from its Table 1; its text states "
-              + ", ".join(f"{k} {v} %" for k, v in res["paper"]["mean_error_pct_text"].items())
-              + " (not all consistent with the table). The H-frame geometry is a reconstruction.",
-              f"Report: {res['report']}   store: {res['store']}   ({res['wall_s']:.1f} s)"]
-    return "\n".join(lines)

@@ -1,8 +1,4 @@
-"""Test session settings."""
+"""Test session settings: one BLAS thread (fe_problem._threads, the one place that sets it),
+imported before anything loads numpy."""
 
-import os
-
-# One BLAS thread (as the packages set on import): many small eigen-solves run far slower
-# threaded on 2 cores; set here too in case a plugin imported numpy first.
-for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ.setdefault(var, "1")
+import fe_problem._threads  # noqa: F401

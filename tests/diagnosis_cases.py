@@ -177,28 +177,67 @@ def diagnose_through_cli(case: Case, directory) -> dict:
     return json.loads(out.getvalue())
 
 
+#: The confusion matrix's row labels, as the README shows them.
+ROW_LABELS = {"stiffness_loss": "stiffness_loss (crack)",
+              "none": f"none ({PLAN['none']} noise only, {PLAN['global']} global stiffness error)"}
+
+
 def confusion(pairs) -> str:
-    """Markdown confusion matrix of (true kind, answered kind) pairs."""
+    """Markdown confusion matrix of (true kind, answered kind) pairs, as in the README."""
     kinds = ["stiffness_loss", "added_mass", "joint_flexibility", "shear_deformation", "none"]
     answered = kinds + sorted({a for _, a in pairs} - set(kinds))
     rows = ["| truth \\ answer | " + " | ".join(answered) + " |", "|---" * (len(answered) + 1) + "|"]
     for t in kinds:
-        rows.append(f"| {t} | " + " | ".join(str(sum(1 for x, a in pairs if x == t and a == c)) for c in answered) + " |")
+        rows.append(f"| {ROW_LABELS.get(t, t)} | "
+                    + " | ".join(str(sum(1 for x, a in pairs if x == t and a == c)) for c in answered) + " |")
     return "\n".join(rows)
 
 
-if __name__ == "__main__":  # python tests/diagnosis_cases.py [seed]: the README's confusion matrix
-    import sys
+def run_cases(seed: int) -> tuple[list[tuple[str, str]], int]:
+    """Diagnose every case of a seed through the CLI, with a progress bar on stderr; returns the
+    (true kind, answered kind) pairs and how many had the right kind but the wrong place."""
     import tempfile
-    import time
 
-    seed = int(sys.argv[1]) if len(sys.argv) > 1 else 2026
-    pairs, places_wrong, t0 = [], 0, time.perf_counter()
-    with tempfile.TemporaryDirectory() as tmp:
-        for c in cases(seed):
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+
+    pairs, places_wrong = [], 0
+    columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn())
+    console = Console(stderr=True)
+    with tempfile.TemporaryDirectory() as tmp, Progress(*columns, console=console) as progress:
+        task = progress.add_task("building cases", total=None)
+        all_cases = cases(seed)
+        progress.update(task, total=len(all_cases), description=f"diagnosing (seed {seed})")
+        for k, c in enumerate(all_cases, 1):
             cause = diagnose_through_cli(c, tmp)["cause"]
             pairs.append((c.kind, cause["kind"]))
             places_wrong += cause["kind"] == c.kind and not named_correctly(c, cause)
+            progress.advance(task)
+            if not console.is_terminal:  # a log gets one line per case instead of a bar
+                console.print(f"{k}/{len(all_cases)}: {c.kind} -> {cause['kind']}", highlight=False)
+    return pairs, places_wrong
+
+
+def main(argv=None) -> int:
+    """python tests/diagnosis_cases.py [SEED] [--markdown]: the README's confusion matrix."""
+    import argparse
+    import sys
+    import time
+
+    parser = argparse.ArgumentParser(description="Diagnose the hidden-effect cases of a seed and print the "
+                                                 "confusion matrix (progress on stderr).")
+    parser.add_argument("seed", nargs="?", type=int, default=2026, help="the cases' seed (default: %(default)s)")
+    parser.add_argument("--markdown", action="store_true",
+                        help="print only the Markdown table on stdout, exactly as in the README (the rest on stderr)")
+    args = parser.parse_args(argv)
+    t0 = time.perf_counter()
+    pairs, places_wrong = run_cases(args.seed)
+    tail = (f"{len(pairs)} cases (seed {args.seed}); right kind but wrong place: {places_wrong}; "
+            f"{time.perf_counter() - t0:.0f} s")
     print(confusion(pairs))
-    print(f"\n{len(pairs)} cases (seed {seed}); right kind but wrong place: {places_wrong}; "
-          f"{time.perf_counter() - t0:.0f} s")
+    print(tail if args.markdown else "\n" + tail, file=sys.stderr if args.markdown else sys.stdout)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

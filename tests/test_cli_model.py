@@ -12,7 +12,7 @@ import fe_problem as fp
 from femu.cli import main
 
 FEMU = Path(sys.executable).with_name("femu")
-# shared/reference/hframe.md, nominal elastic frequencies, modes 1-10
+# docs/hframe.md, nominal elastic frequencies, modes 1-10
 HFRAME_MD_HZ = [56.287, 127.217, 228.388, 263.523, 452.854, 658.509, 1043.033, 1248.947, 1442.207, 1813.389]
 # hframe.md lists three decimals (+-5e-4 Hz) of the frequencies of the exact 9.8 x 32.2 mm
 # section; the shipped file stores I to six figures (dI/I = 1.3e-6), which moves bending
@@ -94,3 +94,37 @@ def test_femu_command_end_to_end():
     bad = subprocess.run([str(FEMU), "model", "no-such-frame"], capture_output=True, text=True, timeout=120)
     assert bad.returncode == 2 and bad.stdout == ""
     assert "no-such-frame" in bad.stderr and "shipped: hframe" in bad.stderr
+
+
+def _propped_cantilever(tmp_path):
+    """A model file with only 4 free DOFs (so 4 elastic modes): two elements, node 1 clamped,
+    node 3 pinned."""
+    doc = {
+        "format": "femu.model/1", "name": "propped", "description": "two-element propped cantilever",
+        "materials": {"steel": {"youngs_modulus_pa": 2.1e11, "density_kg_m3": 7850.0}},
+        "sections": {"bar": {"area_m2": 1e-4, "inertia_m4": 1e-9}},
+        "nodes": [{"id": 1, "x": 0.0, "y": 0.0}, {"id": 2, "x": 0.5, "y": 0.0}, {"id": 3, "x": 1.0, "y": 0.0}],
+        "elements": [{"id": 1, "nodes": [1, 2], "section": "bar", "material": "steel"},
+                     {"id": 2, "nodes": [2, 3], "section": "bar", "material": "steel"}],
+        "supports": [{"node": 1, "directions": ["x", "y", "rz"]}, {"node": 3, "directions": ["x", "y"]}],
+    }
+    path = tmp_path / "propped.model.json"
+    path.write_text(json.dumps(doc))
+    return path
+
+
+def test_model_with_fewer_modes_than_asked(tmp_path, capsys):
+    path = _propped_cantilever(tmp_path)
+    expected = fp.modal_analysis(fp.load_model(path), 4).frequencies_hz
+    with pytest.raises(ValueError, match="only 4 elastic modes, asked for 10"):
+        fp.modal_analysis(fp.load_model(path), 10)  # the API stays strict unless asked not to be
+    assert main(["model", str(path)]) == 0  # --modes defaults to 10
+    out = capsys.readouterr().out
+    assert "the model has only 4 elastic modes (asked for 10)" in out
+    assert "3 nodes, 2 elements (euler-bernoulli), 9 DOFs" in out
+    rows = [line.split() for line in out.splitlines() if line.strip()[:1].isdigit() and len(line.split()) == 2]
+    assert [int(r[0]) for r in rows] == [1, 2, 3, 4]
+    np.testing.assert_allclose([float(r[1]) for r in rows], expected, rtol=1e-3)
+    summary = run_json(capsys, str(path), "--modes", "7")
+    assert summary["n_dofs"] == 9 and summary["n_rigid_modes"] == 0
+    np.testing.assert_array_equal(summary["frequencies_hz"], expected)

@@ -1,4 +1,4 @@
-"""Measured modal data: the JSON contract (shared/formats/modal-data.md), UFF dataset 55,
+"""Measured modal data: the JSON contract (docs/modal-data-format.md), UFF dataset 55,
 the shipped paper dataset and the synthetic measurement generator."""
 
 import copy
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import fe_problem as fp
-from fe_problem.uff import read_uff55, write_uff55
+from fe_problem.modal_data.uff import read_uff55, write_uff55
 
 VALID = {
     "format": "femu.modal-data/1",

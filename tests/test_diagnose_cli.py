@@ -48,11 +48,55 @@ def files(tmp_path_factory):
             "crack_bad_mode": fp.save_modal_data(crack_bad_mode, d / "crack_bad_mode.json")}
 
 
+# == the JSON record's keys, pinned as they were before the record became dataclasses ==========
+CORRELATION_KEYS = ["measured_hz", "model_hz", "error_pct", "mean_abs_error_pct", "mac", "mean_mac", "comac",
+                    "mean_comac", "paired_model_mode"]
+RECORD_KEYS = {
+    "record": ["cause", "alternatives", "residuals", "gain", "selection", "candidates", "warnings", "extended_model"],
+    "cause": {"identified": ["kind", "location", "estimate", "identifiable", "p_adjusted", "label"],
+              "none": ["kind", "location", "estimate", "identifiable", "p_adjusted", "explanation"],
+              "undetermined": ["kind", "location", "estimate", "identifiable", "p_adjusted", "label",
+                               "indistinguishable", "explanation"]},
+    "alternative": ["kind", "location", "label", "estimate", "chi2_drop", "delta_to_best"],
+    "residuals": CORRELATION_KEYS + ["global_scale", "chi2", "n_residuals", "reduced_chi2", "mac_matrix",
+                                     "unpaired_modes", "pinned_parameters", "measured_dofs"],
+    "pinned": ["parameter", "element", "bound", "value_pa"],
+    "gain": {"none": ["held_out_modes", "fit_modes", "before"],
+             "extended": ["held_out_modes", "fit_modes", "before", "after", "estimate_from_fit_modes",
+                          "mean_abs_error_pct_reduction", "mean_mac_gain"],
+             "frequencies only": ["held_out_modes", "fit_modes", "before", "after", "estimate_from_fit_modes",
+                                  "mean_abs_error_pct_reduction"]},
+    "selection": ["method", "alpha", "n_candidates", "threshold_chi2_drop", "n_fitted", "statistic", "p_value",
+                  "p_adjusted", "dispersion", "ambiguity_chi2", "freq_noise", "shape_noise"],
+    "candidate": {False: ["label", "kind", "location", "screen_chi2_drop", "fitted"],
+                  True: ["label", "kind", "location", "screen_chi2_drop", "fitted", "chi2", "chi2_drop",
+                         "delta_to_best", "estimate", "global_scale"]},
+}
+
+
+def assert_record_keys(record: dict, cause: str, gain: str) -> None:
+    """The record's keys, in order, are exactly those `femu diagnose --json` printed before."""
+    assert list(record) == RECORD_KEYS["record"]
+    assert list(record["cause"]) == RECORD_KEYS["cause"][cause]
+    assert record["alternatives"] and all(list(a) == RECORD_KEYS["alternative"] for a in record["alternatives"])
+    assert list(record["residuals"]) == RECORD_KEYS["residuals"]
+    assert all(list(p) == RECORD_KEYS["pinned"] for p in record["residuals"]["pinned_parameters"])
+    assert list(record["gain"]) == RECORD_KEYS["gain"][gain]
+    for key in ("before", "after"):
+        if key in record["gain"]:
+            assert list(record["gain"][key]) == CORRELATION_KEYS
+    assert list(record["selection"]) == RECORD_KEYS["selection"]
+    assert {c["fitted"] for c in record["candidates"]} == {True, False}
+    assert all(list(c) == RECORD_KEYS["candidate"][c["fitted"]] for c in record["candidates"])
+    assert isinstance(record["warnings"], list)
+
+
 def test_json_names_the_added_mass_and_out_writes_a_usable_extended_model(files, capsys, tmp_path):
     out_dir = tmp_path / "report"
     code, out, err = femu(capsys, "diagnose", files["mass"], "--json", "--out", out_dir)
     assert code == 0, err
     record = json.loads(out)  # stdout is exactly one JSON object
+    assert_record_keys(record, "identified", "extended")
     cause = record["cause"]
     assert (cause["kind"], cause["location"], cause["identifiable"]) == ("added_mass", {"node": 9}, True)
     assert 0.03 < cause["estimate"]["mass_kg"] < 0.05
@@ -105,6 +149,9 @@ def test_summary_shows_the_cause_and_leaves_out_a_mode_that_pairs_with_nothing(f
     assert after < before
     assert "Alternatives" in out
     assert f"wrote {tmp_path / 'extended.model.json'}" in out
+    # --out names every file it writes, and writes nothing it does not name
+    named = sorted(line.removeprefix("wrote ") for line in lines if line.startswith("wrote "))
+    assert named == sorted(str(p) for p in tmp_path.iterdir()) and len(named) == 7
     assert (tmp_path / "shapes.png").read_bytes()[:8] == PNG_MAGIC
 
 
@@ -112,12 +159,14 @@ def test_paper_data_cannot_tell_the_candidates_apart(capsys):
     code, out, err = femu(capsys, "diagnose", "paper", "--json")
     assert code == 0, err
     record = json.loads(out)
+    assert_record_keys(record, "undetermined", "frequencies only")
+    assert record["residuals"]["pinned_parameters"]  # the paper's data pin moduli at a bound
     cause = record["cause"]
     assert cause["identifiable"] is False
     assert len(cause["indistinguishable"]) >= 2
     assert cause["estimate"] == {}
     assert record["residuals"]["mac_matrix"] is None  # the paper gives frequencies only
-    summary = summary_text(record, "paper", "hframe")
+    summary = summary_text(fp.diagnose(None, "paper"), "paper", "hframe")  # the record the CLI printed
     assert "CAUSE: cannot tell apart: " + ", ".join(cause["indistinguishable"]) in summary
     assert "COMAC: - (no measured shapes)" in summary
 
@@ -133,6 +182,7 @@ def test_no_effect_gives_cause_none_and_no_extended_model(capsys, tmp_path):
     assert sorted(p.name for p in out_dir.iterdir()) == ["candidates.png", "correlation.png", "diagnosis.json",
                                                          "frequency_errors.png", "report.md", "shapes.png"]
     record = json.loads((out_dir / "diagnosis.json").read_text())
+    assert_record_keys(record, "none", "none")
     assert record["cause"]["kind"] == "none" and record["extended_model"] is None
     assert "after" not in record["gain"] and "-> " not in out.split("Held-out")[1]
 
@@ -203,3 +253,58 @@ def test_out_that_is_a_file(files, capsys, tmp_path):
     code, out, err = femu(capsys, "diagnose", files["mass"], "--out", blocker)
     assert code == 2 and out == ""
     assert f"--out {blocker}: exists and is not a directory" in err
+
+
+# == the typed record, the one correlation, the figures ==========================================
+def test_record_attributes_are_what_the_json_says(files):
+    diag = fp.diagnose("hframe", files["mass"])
+    record = json.loads(json.dumps(diag.to_dict(), allow_nan=False))
+    assert_record_keys(record, "identified", "extended")
+    assert isinstance(diag.cause, fp.diagnosis.Cause) and (diag.cause.kind, diag.cause.location) == ("added_mass",
+                                                                                                  {"node": 9})
+    c = diag.residuals.correlation
+    assert record["residuals"]["paired_model_mode"] == c.paired_model_mode.tolist()
+    assert record["residuals"]["mean_mac"] == c.mean_mac and record["residuals"]["chi2"] == diag.residuals.chi2
+    assert [a["label"] for a in record["alternatives"]] == [a.label for a in diag.alternatives]
+    assert diag.best.label == diag.cause.label
+    assert record["gain"]["mean_abs_error_pct_reduction"] == pytest.approx(
+        diag.gain.before.mean_abs_error_pct - diag.gain.after.mean_abs_error_pct)
+
+
+def test_correlate_pairs_and_scores_one_model_against_data():
+    from fe_problem.correlation import correlate
+
+    data = fp.synthetic_measurement("hframe", 5, freq_noise=0.0, shape_noise=0.0, seed=0)
+    modes = fp.modal_analysis(HFRAME, 7)
+    at = modes.at(data.dofs)
+    c = correlate(modes.frequencies_hz, at, data)  # paired afresh: the model measured itself
+    np.testing.assert_array_equal(c.model_index, np.arange(5))
+    np.testing.assert_allclose(c.error_pct, 0.0, atol=1e-9)
+    np.testing.assert_allclose(c.mac, 1.0, atol=1e-12)
+    np.testing.assert_allclose(c.comac, 1.0, atol=1e-12)
+    assert c.mac_matrix.shape == (5, 7)
+    # a given pairing with mode 3 left unpaired: NaN there, -1 as its model mode, means over the rest
+    c = correlate(1.1 * modes.frequencies_hz, at, data, np.array([0, 1, -1, 3, 4]))
+    assert np.isnan(c.model_hz[2]) and np.isnan(c.mac[2]) and c.paired_model_mode.tolist() == [1, 2, -1, 4, 5]
+    assert c.mean_abs_error_pct == pytest.approx(10.0)
+    # the problem's correlation is this one, with its fixed pairing
+    problem = fp.UpdatingProblem(data=data)
+    rep = problem.correlation()
+    np.testing.assert_allclose(rep.mac, 1.0, atol=1e-12)
+    assert rep.mean_abs_error_pct == pytest.approx(0.0, abs=1e-9)
+
+
+def test_shape_figure_draws_every_measured_mode_on_a_numbered_frame(files, tmp_path, monkeypatch):
+    import femu.reports.diagnosis as report
+
+    drawn = []
+    monkeypatch.setattr(report, "save_figure", lambda fig, path: drawn.append(fig))
+    data = fp.load_modal_data(files["crack_bad_mode"])
+    diag = fp.diagnose("hframe", data)
+    report.plot_shapes(diag, HFRAME, diag.extended_model, data, tmp_path / "shapes.png")
+    panels = [ax for ax in drawn[0].axes if ax.get_visible()]
+    assert len(panels) == data.n_modes == 8  # mode 3 pairs with nothing and is drawn all the same
+    assert "pairs with no model mode" in panels[2].get_title()
+    for ax in panels:
+        texts = [t.get_text() for t in ax.texts]
+        assert all(str(e.id) in texts for e in HFRAME.elements) and all(str(n.id) in texts for n in HFRAME.nodes)

@@ -94,7 +94,7 @@ def test_reference_rejects_what_it_does_not_model(reference, tmp_path):
         reference.evaluate(np.ones((3, 11)))
     with pytest.raises(ValueError, match=r"moduli_pa must have shape \(12,\)"):
         ref.assemble(reference.frame, np.ones(5))
-    doc = json.loads((Path(fe_problem.__file__).parent / "data" / "hframe.model.json").read_text())
+    doc = json.loads((Path(fe_problem.__file__).parent / "shipped" / "hframe.model.json").read_text())
     doc["supports"] = [{"node": 1, "directions": ["x", "y"]}]
     path = tmp_path / "supported.model.json"
     path.write_text(json.dumps(doc))

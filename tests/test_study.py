@@ -19,6 +19,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import adapters
+
 from adapters import run
 from femu.cli import main
 from femu.studies.store import Store
@@ -38,17 +40,18 @@ class Raises:
 
 
 class ReturnsNaN:
-    """Its evaluations come back NaN (as from a broken model): it swaps in a problem that
-    returns NaN, and the harness must fail the run."""
+    """Tries to swap in a problem that returns NaN (as a broken model would): the objective
+    does not let it (the problem is not the plugin's to touch), and the run fails."""
 
     def minimize(self, objective, bounds, budget, rng):
-        objective.problem = _NaNProblem(objective.problem)
+        objective.problem = _NaNProblem()
         objective(rng.uniform(*bounds, size=(3, len(bounds[0]))))
 
 
 class _NaNProblem:
-    def __init__(self, problem):
-        self.problem = problem
+    """A problem whose evaluations come back NaN (a broken model)."""
+
+    n_var, xl, xu, name = 3, np.zeros(3), np.ones(3), "nan-problem"
 
     def evaluate(self, X):
         return np.full(len(X), np.nan)
@@ -223,6 +226,11 @@ def test_hang_on_dask_is_killed_and_recorded(tmp_path, dask_address):
 
 
 # -- failures, hangs, retry ----------------------------------------------------------------
+def test_a_problem_returning_nan_fails_the_run():
+    r = adapters.run("random-search", _NaNProblem(), 10, 0)
+    assert r.status == "failed" and "NaN" in r.error and r.n_evals >= 1
+
+
 def test_failing_plugins_are_stored_and_the_study_goes_on(tmp_path, capsys):
     store = tmp_path / "s"
     names = f"random-search,{plugin(Raises)},{plugin(ReturnsNaN)}"
@@ -235,7 +243,7 @@ def test_failing_plugins_are_stored_and_the_study_goes_on(tmp_path, capsys):
     assert len(runs) == 6
     raised, nan = runs[(plugin(Raises), 0)], runs[(plugin(ReturnsNaN), 1)]
     assert raised.status == "failed" and "RuntimeError: plugin bug" in raised.error and raised.n_evals == 5
-    assert nan.status == "failed" and "NaN" in nan.error
+    assert nan.status == "failed" and "'problem' is read-only" in nan.error and nan.n_evals == 0
     assert runs[("random-search", 1)].status == "ok"
 
     # started again: failed runs are kept as they are ...

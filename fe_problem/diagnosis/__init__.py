@@ -1,7 +1,9 @@
 """Diagnosis: what the model gets wrong, which physical effect explains it, the extended model,
-and the gain on held-out modes. See core.py for the method."""
+and the gain on held-out modes. See core.py for the method, record.py for the answer's record."""
 
 from .candidates import CANDIDATE_KINDS, KINDS, Candidate, Setting, all_candidates
-from .core import Diagnosis, diagnose
+from .core import diagnose
+from .record import CandidateFit, Cause, Diagnosis, Gain, PinnedParameter, Residuals, Selection
 
-__all__ = ["CANDIDATE_KINDS", "KINDS", "Candidate", "Diagnosis", "Setting", "all_candidates", "diagnose"]
+__all__ = ["CANDIDATE_KINDS", "KINDS", "Candidate", "CandidateFit", "Cause", "Diagnosis", "Gain",
+           "PinnedParameter", "Residuals", "Selection", "Setting", "all_candidates", "diagnose"]

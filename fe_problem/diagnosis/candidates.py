@@ -27,7 +27,8 @@ import numpy as np
 from ..elements import PROFILES
 from ..modal import frequencies_hz
 from ..model import FrameModel, add_mass, release_element_end, split_element, with_formulation
-from ..parameters import AffineModel, Parameter
+from ..assembly import AffineModel
+from ..parameters import Parameter
 
 KINDS = ("stiffness_loss", "added_mass", "joint_flexibility", "shear_deformation")
 

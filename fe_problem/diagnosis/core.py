@@ -26,118 +26,27 @@ Steps
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import least_squares
 from scipy.stats import chi2 as chi2_dist
 
-from ..correlation import comac, mac
-from ..data import DataFileError, ModalData, load_modal_data
-from ..model import FrameModel, load_model, model_to_dict
-from ..parameters import AffineModel, element_moduli
+from ..assembly import AffineModel
+from ..correlation import correlate
+from ..modal_data import DataFileError, ModalData, load_modal_data
+from ..model import FrameModel, load_model
+from ..parameters import element_moduli
 from .candidates import Candidate, Setting, all_candidates, scale_stiffness, solve
 from .fit import Fit, fit, profiled, screen
+from .record import Cause, CandidateFit, Diagnosis, Gain, PinnedParameter, Residuals, Selection
 from .residuals import Observations
 
 ALPHA = 0.01
 AMBIGUITY_CHI2 = 2.0 * np.log(20.0)
 MIN_MODES = 3
-
-
-@dataclass(frozen=True, eq=False)
-class Diagnosis:
-    """The answer of a diagnosis; `to_dict()` is the JSON the CLI prints."""
-
-    cause: dict
-    alternatives: list
-    residuals: dict
-    gain: dict
-    candidates: list
-    selection: dict
-    extended_model: FrameModel | None
-    warnings: list = field(default_factory=list)
-
-    def to_dict(self) -> dict:
-        """Plain JSON values only: numbers, strings, lists, dicts; NaN and inf as None."""
-        return _num({"cause": self.cause, "alternatives": self.alternatives, "residuals": self.residuals,
-                     "gain": self.gain, "selection": self.selection, "candidates": self.candidates,
-                     "warnings": self.warnings,
-                     "extended_model": None if self.extended_model is None else model_to_dict(self.extended_model)})
-
-
-def _num(x):
-    """JSON-friendly floats (NaN and inf become None)."""
-    if isinstance(x, dict):
-        return {k: _num(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple, np.ndarray)):
-        return [_num(v) for v in x]
-    if isinstance(x, (float, np.floating)):
-        return float(x) if np.isfinite(x) else None
-    if isinstance(x, np.integer):
-        return int(x)
-    if isinstance(x, np.bool_):
-        return bool(x)
-    return x
-
-
-def _modes_of(system_or_cand, a: float, st: Setting):
-    if isinstance(system_or_cand, Candidate):
-        hz, sh = system_or_cand.forward(np.array([a]))
-    else:
-        hz, sh = solve(system_or_cand, np.zeros((1, 0)), st.coords, st.n_modes)
-    return hz[0], sh[0]
-
-
-def _correlate(obs: Observations, hz: np.ndarray, shapes: np.ndarray, s: float, pairing: np.ndarray) -> dict:
-    """Per-mode errors, MAC and COMAC of a calibrated model against observations."""
-    f = hz * np.sqrt(s)
-    ok = pairing >= 0
-    model_hz = np.where(ok, f[np.clip(pairing, 0, None)], np.nan)
-    err = 100.0 * (model_hz - obs.frequencies_hz) / obs.frequencies_hz
-    macs = np.full(obs.n_modes, np.nan)
-    cm = None
-    sel = obs.has_shape & ok
-    if sel.any():
-        paired = shapes[:, pairing[sel]]
-        macs[sel] = np.diag(mac(obs.shapes[:, sel], paired))
-        cm = comac(obs.shapes[:, sel], paired)
-    return {"measured_hz": obs.frequencies_hz, "model_hz": model_hz, "error_pct": err,
-            "mean_abs_error_pct": float(np.nanmean(np.abs(err))) if ok.any() else None,
-            "mac": macs, "mean_mac": float(np.nanmean(macs)) if sel.any() else None,
-            "comac": cm, "mean_comac": float(np.mean(cm)) if cm is not None else None,
-            "paired_model_mode": np.where(ok, pairing + 1, -1)}
-
-
-def _pinned_moduli(st: Setting, obs: Observations, s: float, pairing: np.ndarray) -> list:
-    """Element moduli a bounded update (+-1/7 of the calibrated value) drives to a bound."""
-    params = element_moduli(st.model)
-    system = AffineModel(st.model, params)
-    e0 = system.x0 * s
-    lo, hi = e0 * 6.0 / 7.0, e0 * 8.0 / 7.0
-
-    def residuals(z):  # z in [0, 1]^12: the moduli scaled into their bounds
-        hz, sh = solve(system, (lo + z * (hi - lo))[None], st.coords, st.n_modes)
-        return obs.residuals(hz[0], sh[0], pairing)[0]
-
-    res = least_squares(residuals, np.full(len(params), 0.5), bounds=(0.0, 1.0), diff_step=1e-4, max_nfev=60)
-    out = []
-    for p, z in zip(params, res.x):
-        if z <= 0.005 or z >= 0.995:
-            out.append({"parameter": p.label, "element": p.targets[0], "bound": "lower" if z <= 0.005 else "upper",
-                        "value_pa": float(lo[params.index(p)] + z * (hi - lo)[params.index(p)])})
-    return out
-
-
-def _check(model: FrameModel, data: ModalData) -> None:
-    data_model = data.model
-    if data_model != model.name and not data_model.endswith((f"{model.name}.json", f"{model.name}.model.json")):
-        raise DataFileError(f"{data.source}: the data are for model {data_model!r}, not {model.name!r} "
-                            "(pass the data's own model, or data measured on this one)")
-    data.check_model(model)
-    if data.n_modes < MIN_MODES:
-        raise DataFileError(f"{data.source}: {data.n_modes} mode(s) are too few to say anything: "
-                            f"a diagnosis needs at least {MIN_MODES}")
+#: How the cause is selected, as the record states it.
+METHOD = "likelihood ratio vs the calibrated model, Bonferroni over candidates, quasi-likelihood dispersion"
 
 
 def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: float = 0.002,
@@ -151,16 +60,67 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
     data = load_modal_data(data)
     model = data.load_model() if model is None else load_model(model)
     _check(model, data)
-    warnings: list[str] = []
-    st = Setting(model, data.dofs, min(data.n_modes + 6, AffineModel(model).n_elastic))
-    baseline_system = AffineModel(model)
-    obs_all = Observations.of(data, freq_noise=freq_noise, shape_noise=shape_noise)
-    hz0, sh0 = _modes_of(baseline_system, 0.0, st)
-    base_all = profiled(obs_all, hz0, sh0)
+    cal = calibrate(model, data, freq_noise, shape_noise)
+    found = screen_and_fit(cal, kinds, n_fit)
+    sel = select(cal, found, alpha)
+    warnings = list(cal.warnings)
+    if sel.selection.p_adjusted >= alpha:
+        cause = Cause("none", None, {}, True, sel.selection.p_adjusted, explanation="no candidate explains the "
+                      "residuals significantly better than the calibrated model")
+        alternatives = tuple(sel.rows[i] for i in found.order[:3] if i in found.fitted)
+        return Diagnosis(cause, alternatives, residuals_of(cal), gain(cal, None), tuple(sel.rows.values()),
+                         sel.selection, None, tuple(warnings))
+    cause, alternatives, extended = extend(cal, found, sel)
+    if cause.explanation:
+        warnings.append(cause.explanation)
+    return Diagnosis(cause, alternatives, residuals_of(cal), gain(cal, found.candidates[sel.best]),
+                     tuple(sel.rows.values()), sel.selection, extended, tuple(warnings))
 
-    # measured modes that pair with no model mode are shown, never fitted
+
+def _check(model: FrameModel, data: ModalData) -> None:
+    data_model = data.model
+    if not data.is_for(model) and not data_model.endswith((f"{model.name}.json", f"{model.name}.model.json")):
+        raise DataFileError(f"{data.source}: the data are for model {data_model!r}, not {model.name!r} "
+                            "(pass the data's own model, or data measured on this one)")
+    data.check_model(model)
+    if data.n_modes < MIN_MODES:
+        raise DataFileError(f"{data.source}: {data.n_modes} mode(s) are too few to say anything: "
+                            f"a diagnosis needs at least {MIN_MODES}")
+
+
+# == 1. calibrate ===============================================================================
+@dataclass(frozen=True, eq=False)
+class Calibration:
+    """The nominal model with its global scale fitted: what every later step starts from.
+
+    hz0, sh0: the nominal model's frequencies (Hz) and shapes at the measured coordinates;
+    base_all: its profiled fit to every measured mode; used / unpaired: measured modes (0-based)
+    that pair / pair with no model mode; obs, base: the paired modes and the fit to them."""
+
+    setting: Setting
+    data: ModalData
+    obs_all: Observations
+    obs: Observations
+    used: np.ndarray
+    unpaired: np.ndarray
+    hz0: np.ndarray
+    sh0: np.ndarray
+    base_all: Fit
+    base: Fit
+    warnings: tuple[str, ...]
+
+
+def calibrate(model: FrameModel, data: ModalData, freq_noise: float, shape_noise: float) -> Calibration:
+    """Fit the global stiffness-to-mass scale; measured modes that pair with no model mode are
+    shown, never fitted."""
+    st = Setting(model, data.dofs, min(data.n_modes + 6, AffineModel(model).n_elastic))
+    obs_all = Observations.of(data, freq_noise=freq_noise, shape_noise=shape_noise)
+    hz, sh = solve(AffineModel(model), np.zeros((1, 0)), st.coords, st.n_modes)
+    hz0, sh0 = hz[0], sh[0]
+    base_all = profiled(obs_all, hz0, sh0)
     unpaired = np.flatnonzero(base_all.pairing < 0)
     used = np.flatnonzero(base_all.pairing >= 0)
+    warnings = []
     if len(unpaired):
         warnings.append(f"measured mode(s) {[int(i) + 1 for i in unpaired]} pair with no model mode "
                         "(MAC < 0.5 with every model mode, or no model frequency within 30 %): left out of the fit")
@@ -170,124 +130,149 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
     if not obs_all.has_shape[used].any():
         warnings.append("no measured shapes: frequencies alone can rarely tell a place apart")
     obs = Observations.of(data, modes=used, freq_noise=freq_noise, shape_noise=shape_noise)
-    base = profiled(obs, hz0, sh0)
+    return Calibration(st, data, obs_all, obs, used, unpaired, hz0, sh0, base_all, profiled(obs, hz0, sh0),
+                       tuple(warnings))
 
-    residual_view = _correlate(obs_all, hz0, sh0, base.s, base_all.pairing)
-    residual_view.update({
-        "global_scale": base.s, "chi2": base.chi2, "n_residuals": obs.n_residuals,
-        "reduced_chi2": base.chi2 / max(obs.n_residuals - 1, 1),
-        "mac_matrix": mac(np.nan_to_num(obs_all.shapes), sh0) if obs_all.has_shape.any() else None,
-        "unpaired_modes": [int(i) + 1 for i in unpaired],
-        "pinned_parameters": _pinned_moduli(st, obs, base.s, base.pairing),
-        "measured_dofs": [list(d) for d in data.dofs],
-    })
 
-    # screen every candidate, fit the promising ones
-    cands = all_candidates(st, kinds)
-    screened = [(screen(obs, c, base), c) for c in cands]
-    order = sorted(range(len(cands)), key=lambda i: -screened[i][0][0])
-    fitted: dict[int, Fit] = {i: fit(obs, cands[i], screened[i][0][1]) for i in order[:n_fit]}
+def residuals_of(cal: Calibration) -> Residuals:
+    """What the calibrated model gets wrong: the correlation of every measured mode, chi^2, and
+    the moduli a bounded update pins at a bound."""
+    base = cal.base
+    return Residuals(correlate(cal.hz0 * np.sqrt(base.s), cal.sh0, cal.obs_all, cal.base_all.pairing),
+                     base.s, base.chi2, cal.obs.n_residuals, base.chi2 / max(cal.obs.n_residuals - 1, 1),
+                     tuple(int(i) + 1 for i in cal.unpaired), _pinned_moduli(cal),
+                     tuple((int(n), str(d)) for n, d in cal.data.dofs))
 
+
+def _pinned_moduli(cal: Calibration) -> tuple[PinnedParameter, ...]:
+    """Element moduli a bounded update (+-1/7 of the calibrated value) drives to a bound."""
+    st, obs = cal.setting, cal.obs
+    params = element_moduli(st.model)
+    system = AffineModel(st.model, params)
+    e0 = system.x0 * cal.base.s
+    lo, hi = e0 * 6.0 / 7.0, e0 * 8.0 / 7.0
+
+    def residuals(z):  # z in [0, 1]^12: the moduli scaled into their bounds
+        hz, sh = solve(system, (lo + z * (hi - lo))[None], st.coords, st.n_modes)
+        return obs.residuals(hz[0], sh[0], cal.base.pairing)[0]
+
+    res = least_squares(residuals, np.full(len(params), 0.5), bounds=(0.0, 1.0), diff_step=1e-4, max_nfev=60)
+    return tuple(PinnedParameter(p.label, p.targets[0], "lower" if z <= 0.005 else "upper",
+                                 float(lo[k] + z * (hi - lo)[k]))
+                 for k, (p, z) in enumerate(zip(params, res.x)) if z <= 0.005 or z >= 0.995)
+
+
+# == 2. screen and fit ==========================================================================
+@dataclass(frozen=True, eq=False)
+class Screening:
+    """Every candidate with its first-order (chi^2 drop, effect size), the screening order
+    (largest drop first) and the proper fits of the most promising (index -> Fit)."""
+
+    candidates: list[Candidate]
+    screened: list[tuple[float, float]]
+    order: list[int]
+    fitted: dict[int, Fit]
+
+
+def screen_and_fit(cal: Calibration, kinds, n_fit: int) -> Screening:
+    """Screen every candidate by its first-order chi^2 drop; fit the `n_fit` most promising."""
+    cands = all_candidates(cal.setting, kinds)
+    screened = [screen(cal.obs, c, cal.base) for c in cands]
+    order = sorted(range(len(cands)), key=lambda i: -screened[i][0])
+    fitted = {i: fit(cal.obs, cands[i], screened[i][1]) for i in order[:n_fit]}
+    return Screening(cands, screened, order, fitted)
+
+
+# == 3. select ==================================================================================
+@dataclass(frozen=True, eq=False)
+class Selected:
+    """The test's outcome: the best fitted candidate's index, the dispersion, the record's
+    selection, and one scored row per candidate (index -> row, in screening order)."""
+
+    best: int
+    dispersion: float
+    selection: Selection
+    rows: dict[int, CandidateFit]
+
+
+def select(cal: Calibration, found: Screening, alpha: float) -> Selected:
+    """The likelihood-ratio test of the best candidate against the calibrated model."""
     n_params_best = 2
+    base, fitted, n = cal.base, found.fitted, len(found.candidates)
     best_i = min(fitted, key=lambda i: fitted[i].chi2)
     best = fitted[best_i]
-    dof = max(obs.n_residuals - n_params_best, 1)
-    dispersion = max(1.0, best.chi2 / dof)
+    dispersion = max(1.0, best.chi2 / max(cal.obs.n_residuals - n_params_best, 1))
     lr = max(base.chi2 - best.chi2, 0.0) / dispersion
     p_single = 0.5 * chi2_dist.sf(lr, 1) if lr > 0 else 1.0
-    p_adj = min(1.0, p_single * len(cands))
-    significant = p_adj < alpha
-
-    table = []
-    for i in order:
-        c = cands[i]
-        row = {"label": c.label, "kind": c.kind, "location": c.location,
-               "screen_chi2_drop": screened[i][0][0], "fitted": i in fitted}
+    p_adj = min(1.0, p_single * n)
+    # the chi^2 drop the best candidate must exceed to be significant (the test, inverted)
+    threshold = dispersion * chi2_dist.isf(min(1.0, 2.0 * alpha / n), 1)
+    selection = Selection(METHOD, alpha, n, threshold, len(fitted), lr, p_single, p_adj, dispersion,
+                          AMBIGUITY_CHI2, cal.obs.freq_noise, cal.obs.shape_noise)
+    rows = {}
+    for i in found.order:
+        c = found.candidates[i]
+        row = CandidateFit(c.label, c.kind, c.location, found.screened[i][0], i in fitted)
         if i in fitted:
             f = fitted[i]
-            row.update({"chi2": f.chi2, "chi2_drop": base.chi2 - f.chi2,
-                        "delta_to_best": (f.chi2 - best.chi2) / dispersion,
-                        "estimate": c.estimate(f.a, f.s), "global_scale": f.s})
-        table.append(_num(row))
+            row = CandidateFit(c.label, c.kind, c.location, found.screened[i][0], True, f.chi2,
+                               base.chi2 - f.chi2, (f.chi2 - best.chi2) / dispersion, c.estimate(f.a, f.s), f.s)
+        rows[i] = row
+    return Selected(best_i, dispersion, selection, rows)
 
-    # the chi^2 drop the best candidate must exceed to be significant (the test, inverted)
-    threshold = dispersion * chi2_dist.isf(min(1.0, 2.0 * alpha / len(cands)), 1)
-    selection = _num({"method": "likelihood ratio vs the calibrated model, Bonferroni over candidates, "
-                                "quasi-likelihood dispersion", "alpha": alpha, "n_candidates": len(cands),
-                      "threshold_chi2_drop": threshold,
-                      "n_fitted": len(fitted), "statistic": lr, "p_value": p_single, "p_adjusted": p_adj,
-                      "dispersion": dispersion, "ambiguity_chi2": AMBIGUITY_CHI2,
-                      "freq_noise": freq_noise, "shape_noise": shape_noise})
 
-    if not significant:
-        cause = {"kind": "none", "location": None, "estimate": {}, "identifiable": True,
-                 "p_adjusted": p_adj, "explanation": "no candidate explains the residuals significantly "
-                 "better than the calibrated model"}
-        close = [i for i in order[:3] if i in fitted]
-        alternatives = [_alt(cands[i], fitted[i], base, best, dispersion) for i in close]
-        gain = _gain(st, data, used, freq_noise, shape_noise, None)
-        return Diagnosis(_num(cause), _num(alternatives), _num(residual_view), _num(gain), table, selection,
-                         None, warnings)
-
-    tied = [i for i in fitted if (fitted[i].chi2 - best.chi2) / dispersion < AMBIGUITY_CHI2]
-    tied.sort(key=lambda i: fitted[i].chi2)
-    c_best = cands[best_i]
+# == 4. extend ==================================================================================
+def extend(cal: Calibration, found: Screening, sel: Selected) -> tuple[Cause, tuple[CandidateFit, ...], FrameModel]:
+    """The cause (or the candidates it cannot tell apart), the alternatives, and the calibrated
+    model extended by the best candidate."""
+    fitted, cands, best = found.fitted, found.candidates, found.fitted[sel.best]
+    tied = sorted((i for i in fitted if (fitted[i].chi2 - best.chi2) / sel.dispersion < AMBIGUITY_CHI2),
+                  key=lambda i: fitted[i].chi2)
+    c_best = cands[sel.best]
     # candidates that differ only in how a loss is spread along one element are one answer
     answers = {(cands[i].kind, str(cands[i].location)) for i in tied}
     identifiable = len(answers) == 1
-    kinds_tied = {cands[i].kind for i in tied}
-    places_tied = {str(cands[i].location) for i in tied}
-    cause = {"kind": c_best.kind if len(kinds_tied) == 1 else "undetermined",
-             "location": c_best.location if len(places_tied) == 1 else None,
-             "estimate": c_best.estimate(best.a, best.s) if identifiable else {},
-             "identifiable": identifiable, "p_adjusted": p_adj, "label": c_best.label if identifiable else None}
-    if not identifiable:
-        cause["indistinguishable"] = [cands[i].label for i in tied]
-        cause["explanation"] = (f"{len(answers)} candidates explain the data equally well (chi^2 within "
-                                f"{AMBIGUITY_CHI2:.1f} of the best): the data cannot tell them apart")
-        warnings.append(cause["explanation"])
-    alternatives = [_alt(cands[i], fitted[i], base, best, dispersion)
-                    for i in sorted(fitted, key=lambda i: fitted[i].chi2)
-                    if (cands[i].kind, cands[i].location) != (c_best.kind, c_best.location)]
+    p_adj = sel.selection.p_adjusted
+    if identifiable:
+        cause = Cause(c_best.kind, c_best.location, c_best.estimate(best.a, best.s), True, p_adj, c_best.label)
+    else:
+        one_kind = len({cands[i].kind for i in tied}) == 1
+        one_place = len({str(cands[i].location) for i in tied}) == 1
+        cause = Cause(c_best.kind if one_kind else "undetermined", c_best.location if one_place else None, {},
+                      False, p_adj, None, tuple(cands[i].label for i in tied),
+                      f"{len(answers)} candidates explain the data equally well (chi^2 within "
+                      f"{AMBIGUITY_CHI2:.1f} of the best): the data cannot tell them apart")
+    alternatives = tuple(sel.rows[i] for i in sorted(fitted, key=lambda i: fitted[i].chi2)
+                         if (cands[i].kind, cands[i].location) != (c_best.kind, c_best.location))
+    model = cal.setting.model
     extended = scale_stiffness(c_best.extend(best.a), best.s).replace(
         name=f"{model.name}+{c_best.label}", description=f"{model.name} extended by diagnosis: {c_best.label} "
         f"({_describe(c_best.estimate(best.a, best.s))}), stiffness scaled by {best.s:.5f}", source="<diagnosis>")
-    gain = _gain(st, data, used, freq_noise, shape_noise, c_best)
-    return Diagnosis(_num(cause), _num(alternatives), _num(residual_view), _num(gain), table, selection,
-                     extended, warnings)
+    return cause, alternatives, extended
 
 
 def _describe(estimate: dict) -> str:
     return ", ".join(f"{k} {v:.4g}" for k, v in estimate.items() if isinstance(v, (int, float)))
 
 
-def _alt(c: Candidate, f: Fit, base: Fit, best: Fit, dispersion: float) -> dict:
-    return {"kind": c.kind, "location": c.location, "label": c.label, "estimate": c.estimate(f.a, f.s),
-            "chi2_drop": base.chi2 - f.chi2, "delta_to_best": (f.chi2 - best.chi2) / dispersion}
-
-
-def _gain(st: Setting, data: ModalData, used: np.ndarray, freq_noise: float, shape_noise: float,
-          cand: Candidate | None) -> dict:
-    """Refit without the highest quarter of the modes and predict them, before and after."""
+# == 5. gain ====================================================================================
+def gain(cal: Calibration, cand: Candidate | None) -> Gain:
+    """Refit without the highest quarter of the paired modes and predict them, before (the
+    calibrated model) and after (the model extended by `cand`, if any)."""
+    used = cal.used
     n_hold = max(1, int(round(len(used) / 4)))
     if len(used) - n_hold < 2:
-        return {"held_out_modes": [], "note": "too few modes to hold any out"}
+        return Gain(note="too few modes to hold any out")
     fit_modes, hold = used[:-n_hold], used[-n_hold:]
-    obs_fit = Observations.of(data, modes=fit_modes, freq_noise=freq_noise, shape_noise=shape_noise)
-    obs_hold = Observations.of(data, modes=hold, freq_noise=freq_noise, shape_noise=shape_noise)
-    hz0, sh0 = _modes_of(AffineModel(st.model), 0.0, st)
-    b = profiled(obs_fit, hz0, sh0)
-    before = _correlate(obs_hold, hz0, sh0, b.s, obs_hold.pair(hz0 * np.sqrt(b.s), sh0))
-    out = {"held_out_modes": [int(i) + 1 for i in hold], "fit_modes": [int(i) + 1 for i in fit_modes],
-           "before": before}
-    if cand is not None:
-        f = fit(obs_fit, cand)
-        hz, sh = _modes_of(cand, f.a, st)
-        after = _correlate(obs_hold, hz, sh, f.s, obs_hold.pair(hz * np.sqrt(f.s), sh))
-        out["after"] = after
-        out["estimate_from_fit_modes"] = cand.estimate(f.a, f.s)
-        if before["mean_abs_error_pct"] is not None and after["mean_abs_error_pct"] is not None:
-            out["mean_abs_error_pct_reduction"] = before["mean_abs_error_pct"] - after["mean_abs_error_pct"]
-        if before["mean_mac"] is not None and after["mean_mac"] is not None:
-            out["mean_mac_gain"] = after["mean_mac"] - before["mean_mac"]
-    return out
+    noise = {"freq_noise": cal.obs.freq_noise, "shape_noise": cal.obs.shape_noise}
+    obs_fit = Observations.of(cal.data, modes=fit_modes, **noise)
+    obs_hold = Observations.of(cal.data, modes=hold, **noise)
+    s = profiled(obs_fit, cal.hz0, cal.sh0).s
+    before = correlate(cal.hz0 * np.sqrt(s), cal.sh0, obs_hold)
+    modes = (tuple(int(i) + 1 for i in hold), tuple(int(i) + 1 for i in fit_modes))
+    if cand is None:
+        return Gain(*modes, before)
+    f = fit(obs_fit, cand)
+    hz, sh = cand.forward(np.array([f.a]))
+    after = correlate(hz[0] * np.sqrt(f.s), sh[0], obs_hold)
+    return Gain(*modes, before, after, cand.estimate(f.a, f.s))

@@ -17,8 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..correlation import MAX_PAIR_FREQ, pair_modes
-from ..data import ModalData
+from ..correlation import MAX_PAIR_FREQ, pair_modes, pow2_scaled
+from ..modal_data import ModalData
 
 
 @dataclass(frozen=True, eq=False)
@@ -34,7 +34,7 @@ class Observations:
     @classmethod
     def of(cls, data: ModalData, modes=None, freq_noise: float = 0.002, shape_noise: float = 0.02):
         modes = np.arange(data.n_modes) if modes is None else np.asarray(modes, dtype=int)
-        shapes = data.shapes[:, modes]
+        shapes = pow2_scaled(data.shapes[:, modes], axis=0)  # any finite scale: no overflow below
         with np.errstate(invalid="ignore"):
             shapes = shapes / np.linalg.norm(shapes, axis=0)
         return cls(data.frequencies_hz[modes], shapes, ~np.isnan(shapes).any(axis=0),

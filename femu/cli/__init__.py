@@ -13,32 +13,54 @@ import argparse
 import importlib
 import os
 import sys
+import warnings
 
 #: The commands, in the order `femu --help` lists them: each is the module femu.cli.<name>.
-COMMANDS = ("model", "suite", "study", "results", "report", "reproduce", "diagnose")
+COMMANDS = ("model", "suite", "study", "results", "report", "reproduce", "diagnose", "identify")
 
 
 def _module(name: str):
+    """The module of command `name`."""
     return importlib.import_module(f"femu.cli.{name}")
+
+
+class HelpFormatter(argparse.RawDescriptionHelpFormatter):
+    """Keeps the command docstrings' layout and appends "(default: X)" to the help of every
+    option that has a default worth showing (not None, False or a default the help states)."""
+
+    def _get_help_string(self, action):
+        text = action.help or ""
+        if ("%(default)" in text or "default" in text.lower() or not action.option_strings
+                or action.default in (None, False, argparse.SUPPRESS)):
+            return text
+        return text + " (default: %(default)s)"
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of `femu` with every command's sub-parser."""
-    p = argparse.ArgumentParser(prog="femu", description="FE model updating of planar frames: models, "
-                                "optimizer benchmarks, studies, reports and diagnosis.")
+    p = argparse.ArgumentParser(prog="femu", formatter_class=HelpFormatter,
+                                description="FE model updating of planar frames: models, optimizer "
+                                "benchmarks, studies, reports and diagnosis. `femu COMMAND --help` "
+                                "describes each command's arguments.")
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name in COMMANDS:
         module = _module(name)
         doc = (module.__doc__ or "").strip()
         sp = sub.add_parser(name, help=doc.splitlines()[0] if doc else None, description=doc or None,
-                            formatter_class=argparse.RawDescriptionHelpFormatter)
+                            formatter_class=HelpFormatter)
         module.add_arguments(sp)
         sp.set_defaults(func=module.run)
     return p
 
 
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """A library warning (something read with a loss, a doubtful input) as one line on stderr."""
+    print(f"femu: warning: {message}", file=sys.stderr if file is None else file)
+
+
 def main(argv=None) -> int:
     """Run `femu` with ``argv`` (default: the command line); returns the exit code."""
+    warnings.showwarning = _show_warning
     args = build_parser().parse_args(argv)
     try:
         return int(args.func(args) or 0)
@@ -48,6 +70,14 @@ def main(argv=None) -> int:
     except (ValueError, FileNotFoundError, KeyError) as exc:
         msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
         print(f"femu {args.command}: error: {msg}", file=sys.stderr)
+        return 2
+    except OSError as exc:  # a path that is a directory, unreadable, not writable, a full disk
+        where = exc.filename if exc.filename is not None else "file system"
+        print(f"femu {args.command}: error: {where}: {exc.strerror or exc}", file=sys.stderr)
+        return 2
+    except (RecursionError, OverflowError, MemoryError) as exc:  # input too deep or too large
+        print(f"femu {args.command}: error: the input is too large or too deeply nested to read "
+              f"({type(exc).__name__}: {exc})", file=sys.stderr)
         return 2
 
 

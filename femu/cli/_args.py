@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
+from pathlib import Path
 
-from fe_problem.jsonutil import jsonable
+from fe_problem.jsonutil import dumps
 
 
 def positive_int(text: str) -> int:
@@ -20,7 +20,35 @@ def positive_int(text: str) -> int:
     return value
 
 
+def directory(text: str) -> str:
+    """An argparse type: a directory to write into (made if missing). Refuses an empty path
+    (which would mean the current directory without saying so) and an existing non-directory."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty path; name a directory (use . for the current one)")
+    if Path(text).exists() and not Path(text).is_dir():
+        raise argparse.ArgumentTypeError(f"{text} exists and is not a directory")
+    return text
+
+
 def print_json(obj) -> None:
     """``obj`` as indented JSON on stdout (numpy values and dataclasses made plain)."""
-    json.dump(jsonable(obj), sys.stdout, indent=1)
-    sys.stdout.write("\n")
+    sys.stdout.write(dumps(obj) + "\n")
+
+
+def add_store_argument(parser) -> None:
+    """The STORE argument of the commands that read a study's store, and --skip-invalid."""
+    parser.add_argument("store", help="the store directory a `femu study` wrote")
+    parser.add_argument("--skip-invalid", action="store_true",
+                        help="leave out damaged or hand-edited run records (each named on stderr) instead of stopping")
+
+
+def stored_runs(args, command: str):
+    """(store, its runs) for the STORE argument; each damaged record left out (with
+    --skip-invalid) is named in one warning line on stderr."""
+    from femu.studies.store import Store
+
+    store = Store(args.store)
+    runs = store.runs(skip_invalid=args.skip_invalid)
+    for message in store.skipped:
+        print(f"femu {command}: warning: left out {message}", file=sys.stderr)
+    return store, runs

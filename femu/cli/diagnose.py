@@ -4,21 +4,25 @@
 
 Default output is a terminal summary of the record; --json prints the record itself
 (`Diagnosis.to_dict()`) as the only thing on stdout; --out DIR writes extended.model.json
-(when there is an effect to add), diagnosis.json and report.md with its figures. Progress and
-warnings go to stderr. Bad input raises ValueError/FileNotFoundError with a message naming
+(when there is an effect to add), diagnosis.json, the figures (shapes.png, frequency_errors.png,
+correlation.png when shapes were measured, candidates.png) and report.md, and names every file
+it wrote. Progress and warnings go to stderr. Bad input raises ValueError/FileNotFoundError with a message naming
 the file, which `femu.cli.main` turns into one line on stderr and exit code 2.
 """
 
 from __future__ import annotations
 
-import json
+
 import math
 import sys
 import warnings
 from pathlib import Path
 
-from femu.reports.diagnosis import (best_label, cause_text, coordinate_labels, estimate_text, fmt, hz, mode_ranges,
-                               pct, threshold_chi2_drop, write_json, write_report)
+from fe_problem.diagnosis import Diagnosis
+from fe_problem.jsonutil import dumps
+from femu.reports.diagnosis import write_json, write_report
+from femu.reports.diagnosis_text import (cause_text, coordinate_labels, estimate_text, fmt, hz, mode_ranges, pct,
+                                         threshold_chi2_drop)
 
 #: How many alternatives and COMAC coordinates the terminal summary lists.
 N_ALTERNATIVES = 5
@@ -60,8 +64,9 @@ def _p_text(p) -> str:
 def add_arguments(d) -> None:
     d.add_argument("data", help="a modal-data file (JSON or UFF 55) or a shipped dataset (paper)")
     d.add_argument("--model", default=None, help="model name or file (default: the data's model)")
-    d.add_argument("--out", default=None, help="directory for the extended model and a report")
-    d.add_argument("--json", action="store_true")
+    d.add_argument("--out", default=None, metavar="DIR",
+                   help="directory for the extended model, diagnosis.json, report.md and its figures")
+    d.add_argument("--json", action="store_true", help="print the diagnosis record as JSON on stdout")
     d.add_argument("--freq-noise", type=float, default=0.002,
                    help="std of a measured frequency, relative (default 0.002 = 0.2 %%)")
     d.add_argument("--shape-noise", type=float, default=0.02,
@@ -84,7 +89,6 @@ def run(args) -> int:
         diag = diagnose(model, data, freq_noise=freq_noise, shape_noise=shape_noise)
     for msg in dict.fromkeys(str(w.message) for w in caught):
         _stderr(f"warning: {msg}")
-    record = diag.to_dict()
 
     written = []
     if out is not None:
@@ -93,93 +97,98 @@ def run(args) -> int:
         if diag.extended_model is not None:
             extended_file = "extended.model.json"
             written.append(save_model(diag.extended_model, out / extended_file))
-        written.append(write_json(record, out / "diagnosis.json"))
-        written.append(write_report(record, model, diag.extended_model, data, out, extended_file))
+        written.append(write_json(diag, out / "diagnosis.json"))
+        written.extend(write_report(diag, model, data, out, extended_file))
 
     if args.json:
-        json.dump(record, sys.stdout, indent=1, allow_nan=False)
-        sys.stdout.write("\n")
-        for w in record["warnings"]:
+        sys.stdout.write(dumps(diag) + "\n")
+        for w in diag.warnings:
             _stderr(f"warning: {w}")
         for p in written:
             _stderr(f"wrote {p}")
         return 0
-    print(summary_text(record, data.source, model.name))
+    print(summary_text(diag, data.source, model.name))
     for p in written:
         print(f"wrote {p}")
     return 0
 
 
 # == the terminal summary =====================================================================
-def summary_text(record: dict, data_source: str, model_name: str) -> str:
-    """The human-readable summary of a diagnosis record (plain text, ~100 columns)."""
-    res, gain, sel, cause = record["residuals"], record["gain"], record["selection"], record["cause"]
-    n = len(res["measured_hz"])
+def summary_text(diag: Diagnosis, data_source: str, model_name: str) -> str:
+    """The human-readable summary of a diagnosis (plain text, ~100 columns)."""
+    res, sel = diag.residuals, diag.selection
     lines = [f"Diagnosis of model {model_name} against {data_source}",
-             f"  {n} measured modes at {len(res['measured_dofs'])} coordinates; noise: frequencies "
-             f"{fmt(100 * sel['freq_noise'], 3)} %, shapes {fmt(100 * sel['shape_noise'], 3)} % of the mode RMS", ""]
-
-    lines += [f"CAUSE: {cause_text(cause)}",
-              f"  p {_p_text(cause.get('p_adjusted'))} (adjusted over {sel['n_candidates']} candidates; "
-              f"significant below {fmt(sel['alpha'], 2)})"]
-    best = best_label(record)
-    needed = threshold_chi2_drop(sel)
-    if cause["kind"] == "none" and best is not None and needed is not None:
-        drop = next(c["chi2_drop"] for c in record["candidates"] if c["label"] == best)
-        lines.append(f"  best candidate {best}: chi^2 drop {fmt(drop)}, {fmt(needed, 3)} needed")
-    lines.append("")
-
-    lines += [f"Calibrated model: global stiffness scale {fmt(res['global_scale'], 6)}, chi^2 {fmt(res['chi2'])} "
-              f"over {res['n_residuals']} residuals",
-              "  mode  measured Hz   model Hz   error %     MAC  model mode"]
-    for k in range(n):
-        p = res["paired_model_mode"][k]
-        lines.append(f"  {k + 1:4d}  {hz(res['measured_hz'][k]):>11}  {hz(res['model_hz'][k]):>9}  "
-                     f"{pct(res['error_pct'][k]):>8}  {fmt(res['mac'][k], 4):>6}  {p if p > 0 else 'none':>10}")
-    summary = f"  mean |error| {fmt(res.get('mean_abs_error_pct'), 3)} %"
-    if res.get("mean_mac") is not None:
-        summary += f", mean MAC {fmt(res['mean_mac'], 4)}, mean COMAC {fmt(res['mean_comac'], 4)}"
-    lines.append(summary)
-    if res.get("comac") is not None:
-        cells = [f"{c:>4} {v:.3f}" for c, v in zip(coordinate_labels(record), res["comac"])]
-        lines.append("  COMAC:" + "".join(("\n        " if i and i % COMAC_PER_LINE == 0 else "  ") + c
-                                          for i, c in enumerate(cells)))
-    else:
-        lines.append("  COMAC: - (no measured shapes)")
-    pinned = res.get("pinned_parameters") or []
-    lines.append("  pinned at a bound by a +-1/7 modulus update: "
-                 + (", ".join(f"{p['parameter']} ({p['bound']})" for p in pinned) or "none"))
-    if res.get("unpaired_modes"):
-        lines.append(f"  measured modes paired with no model mode: {res['unpaired_modes']}")
-    lines.append("")
-
-    alts = record["alternatives"][:N_ALTERNATIVES]
-    if alts:
-        title = "Closest candidates, none significant" if cause["kind"] == "none" else "Alternatives"
-        lines.append(f"{title} (chi^2 drop against the calibrated model; distance to the best, below "
-                     f"{fmt(sel['ambiguity_chi2'], 2)}: cannot tell apart)")
-        width = max(len(a["label"]) for a in alts)
-        for a in alts:
-            lines.append(f"  {a['label']:<{width}}  drop {fmt(a['chi2_drop']):>6}  "
-                         f"distance {fmt(a['delta_to_best']):>6}   {estimate_text(a['estimate'])}")
-        lines.append("")
-
-    if gain.get("held_out_modes"):
-        b, a = gain["before"], gain.get("after")
-        lines.append(f"Held-out mode(s) {mode_ranges(gain['held_out_modes'])} (models refitted on modes "
-                     f"{mode_ranges(gain['fit_modes'])}): calibrated" + (" -> extended" if a else ""))
-        for q, key, d in (("mean |frequency error| %", "mean_abs_error_pct", 3), ("mean MAC", "mean_mac", 4),
-                          ("mean COMAC", "mean_comac", 4)):
-            if b.get(key) is not None:
-                lines.append(f"  {q:<25} {fmt(b[key], d)}" + (f" -> {fmt(a.get(key), d)}" if a else ""))
-        for k, m in enumerate(gain["held_out_modes"]):
-            lines.append(f"  mode {m}: error {pct(b['error_pct'][k])} %"
-                         + (f" -> {pct(a['error_pct'][k])} %" if a else ""))
-    else:
-        lines.append(f"Held-out gain: {gain.get('note', 'no modes held out')}")
-
-    if record["warnings"]:
-        lines += ["", "Warnings:"] + [f"  - {w}" for w in record["warnings"]]
+             f"  {len(res.correlation.measured_hz)} measured modes at {len(res.measured_dofs)} coordinates; noise: "
+             f"frequencies {fmt(100 * sel.freq_noise, 3)} %, shapes {fmt(100 * sel.shape_noise, 3)} % of the mode "
+             "RMS", ""]
+    lines += _cause_lines(diag) + _residual_lines(diag) + _alternative_lines(diag) + _gain_lines(diag)
+    if diag.warnings:
+        lines += ["", "Warnings:"] + [f"  - {w}" for w in diag.warnings]
     return "\n".join(lines)
 
 
+def _cause_lines(diag: Diagnosis) -> list[str]:
+    cause, sel = diag.cause, diag.selection
+    lines = [f"CAUSE: {cause_text(cause)}",
+             f"  p {_p_text(cause.p_adjusted)} (adjusted over {sel.n_candidates} candidates; "
+             f"significant below {fmt(sel.alpha, 2)})"]
+    best, needed = diag.best, threshold_chi2_drop(sel)
+    if cause.is_none and best is not None and needed is not None:
+        lines.append(f"  best candidate {best.label}: chi^2 drop {fmt(best.chi2_drop)}, {fmt(needed, 3)} needed")
+    return lines + [""]
+
+
+def _residual_lines(diag: Diagnosis) -> list[str]:
+    res = diag.residuals
+    c = res.correlation
+    lines = [f"Calibrated model: global stiffness scale {fmt(res.global_scale, 6)}, chi^2 {fmt(res.chi2)} "
+             f"over {res.n_residuals} residuals",
+             "  mode  measured Hz   model Hz   error %     MAC  model mode"]
+    for k, p in enumerate(c.paired_model_mode):
+        lines.append(f"  {k + 1:4d}  {hz(c.measured_hz[k]):>11}  {hz(c.model_hz[k]):>9}  "
+                     f"{pct(c.error_pct[k]):>8}  {fmt(c.mac[k], 4):>6}  {p if p > 0 else 'none':>10}")
+    summary = f"  mean |error| {fmt(c.mean_abs_error_pct, 3)} %"
+    if c.mean_mac is not None:
+        summary += f", mean MAC {fmt(c.mean_mac, 4)}, mean COMAC {fmt(c.mean_comac, 4)}"
+    lines.append(summary)
+    if c.comac is not None:
+        cells = [f"{label:>4} {v:.3f}" for label, v in zip(coordinate_labels(diag), c.comac)]
+        lines.append("  COMAC:" + "".join(("\n        " if i and i % COMAC_PER_LINE == 0 else "  ") + cell
+                                          for i, cell in enumerate(cells)))
+    else:
+        lines.append("  COMAC: - (no measured shapes)")
+    lines.append("  pinned at a bound by a +-1/7 modulus update: "
+                 + (", ".join(f"{p.parameter} ({p.bound})" for p in res.pinned_parameters) or "none"))
+    if res.unpaired_modes:
+        lines.append(f"  measured modes paired with no model mode: {list(res.unpaired_modes)}")
+    return lines + [""]
+
+
+def _alternative_lines(diag: Diagnosis) -> list[str]:
+    alts, sel = diag.alternatives[:N_ALTERNATIVES], diag.selection
+    if not alts:
+        return []
+    title = "Closest candidates, none significant" if diag.cause.is_none else "Alternatives"
+    lines = [f"{title} (chi^2 drop against the calibrated model; distance to the best, below "
+             f"{fmt(sel.ambiguity_chi2, 2)}: cannot tell apart)"]
+    width = max(len(a.label) for a in alts)
+    for a in alts:
+        lines.append(f"  {a.label:<{width}}  drop {fmt(a.chi2_drop):>6}  "
+                     f"distance {fmt(a.delta_to_best):>6}   {estimate_text(a.estimate)}")
+    return lines + [""]
+
+
+def _gain_lines(diag: Diagnosis) -> list[str]:
+    gain = diag.gain
+    if not gain.held_out_modes:
+        return [f"Held-out gain: {gain.note or 'no modes held out'}"]
+    b, a = gain.before, gain.after
+    lines = [f"Held-out mode(s) {mode_ranges(gain.held_out_modes)} (models refitted on modes "
+             f"{mode_ranges(gain.fit_modes)}): calibrated" + (" -> extended" if a else "")]
+    for q, key, d in (("mean |frequency error| %", "mean_abs_error_pct", 3), ("mean MAC", "mean_mac", 4),
+                      ("mean COMAC", "mean_comac", 4)):
+        if getattr(b, key) is not None:
+            lines.append(f"  {q:<25} {fmt(getattr(b, key), d)}" + (f" -> {fmt(getattr(a, key), d)}" if a else ""))
+    for k, m in enumerate(gain.held_out_modes):
+        lines.append(f"  mode {m}: error {pct(b.error_pct[k])} %" + (f" -> {pct(a.error_pct[k])} %" if a else ""))
+    return lines

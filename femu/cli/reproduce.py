@@ -1,29 +1,46 @@
-"""the paper's comparison under one identical budget, with a report"""
+"""the paper's comparison under one identical budget, with a report
+
+Runs every available optimizer on the paper's data (variant 'paper') with the same seeds and
+the same budget of FE evaluations into OUT/store (resumable: a second call runs only what is
+missing), writes OUT/report.md with its figures and prints the medians over seeds as a table.
+"""
 
 from __future__ import annotations
 
-import json
+from ._args import directory
+
 import sys
 
 
 def add_arguments(rr) -> None:
-    rr.add_argument("--seeds", type=int, default=None, help="number of seeds")
-    rr.add_argument("--budget", type=int, default=None, help="FE evaluations per run")
-    rr.add_argument("--out", default="femu-reproduce", help="output directory (store and report)")
-    rr.add_argument("--workers", type=int, default=None)
-    rr.add_argument("--json", action="store_true")
+    """The arguments of `femu reproduce`."""
+    from femu.reproduce import DEFAULT_BUDGET, DEFAULT_SEEDS
+
+    rr.add_argument("--seeds", default=str(DEFAULT_SEEDS),
+                    help="a count N (the seeds 0..N-1) or a list of seeds as for `femu study` "
+                         "(0-29, 0,3,7; one seed s is s-s); default: %(default)s, the seeds 0-4")
+    rr.add_argument("--budget", type=int, default=DEFAULT_BUDGET, help="FE evaluations per run")
+    rr.add_argument("--out", default="femu-reproduce", type=directory, help="output directory: OUT/store and OUT/report.md")
+    rr.add_argument("--workers", type=int, default=None,
+                    help="local worker processes (0: run in this process; default: every core)")
+    out = rr.add_mutually_exclusive_group()
+    out.add_argument("--json", action="store_true",
+                     help="print the result as one JSON object (medians over seeds) instead of a table")
+    out.add_argument("--markdown", action="store_true",
+                     help="print the README's Markdown table of the result instead of the terminal table")
 
 
 def run(args) -> int:
-    """`femu reproduce [--seeds N] [--budget B] [--out DIR] [--workers K] [--json]`."""
-    from femu.reproduce import DEFAULT_BUDGET, DEFAULT_SEEDS, render_text, reproduce
+    """`femu reproduce`: run, report, print the table (or JSON, or Markdown)."""
+    from fe_problem.jsonutil import dumps
+    from femu.reports.reproduce import render_markdown, render_text
+    from femu.reproduce import reproduce
 
-    res = reproduce(seeds=DEFAULT_SEEDS if args.seeds is None else args.seeds,
-                    budget=DEFAULT_BUDGET if args.budget is None else args.budget,
-                    out=args.out, workers=args.workers)
+    res = reproduce(seeds=args.seeds, budget=args.budget, out=args.out, workers=args.workers)
     if args.json:
-        json.dump(res, sys.stdout, indent=1)
-        sys.stdout.write("\n")
+        sys.stdout.write(dumps(res) + "\n")
+    elif args.markdown:
+        sys.stdout.write(render_markdown(res))
     else:
         print(render_text(res))
     return 0

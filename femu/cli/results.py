@@ -2,23 +2,24 @@
 
 from __future__ import annotations
 
-import json
 import sys
+
+from fe_problem.jsonutil import dumps
+
+from ._args import add_store_argument, stored_runs
 
 
 def add_arguments(r) -> None:
-    r.add_argument("store")
-    r.add_argument("--json", action="store_true", help="a JSON list of runs")
+    """The arguments of `femu results`."""
+    add_store_argument(r)
+    r.add_argument("--json", action="store_true", help="print every run record as a JSON list instead of a table")
 
 
 def run(args) -> int:
     """`femu results STORE [--json]`: the stored runs, as a table or a JSON list."""
-    from femu.studies.store import Store
-
-    runs = Store(args.store).runs()
+    _, runs = stored_runs(args, "results")
     if args.json:
-        json.dump([r.to_dict() for r in runs], sys.stdout, indent=1)
-        sys.stdout.write("\n")
+        sys.stdout.write(dumps([r.to_dict() for r in runs]) + "\n")
         return 0
     if not runs:
         print(f"no runs in {args.store}")

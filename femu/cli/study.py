@@ -5,19 +5,23 @@ from __future__ import annotations
 import sys
 
 
-
 def add_arguments(s) -> None:
+    """The arguments of `femu study`."""
     from adapters.registry import available
 
-    s.add_argument("--optimizers", required=True, help="comma-separated names: " + ", ".join(available()))
-    s.add_argument("--seeds", required=True, help="e.g. 0-29 or 0,1,5")
+    s.add_argument("--optimizers", required=True,
+                   help="comma-separated registry names or package.module:Class paths; available: "
+                        + ", ".join(available()))
+    s.add_argument("--seeds", required=True,
+                   help="seeds and ranges, comma-separated: 0-29, 0,3,7 or 0-4,10 (5 is the seed 5; "
+                        "`femu reproduce --seeds 5` is a count)")
     s.add_argument("--budget", type=int, required=True, help="FE evaluations per run")
     s.add_argument("--store", required=True, help="directory of the result store")
-    s.add_argument("--workers", type=int, default=None, help="local processes (default: all cores)")
-    s.add_argument("--scheduler", default=None, help="address of a Dask scheduler (tcp://host:port)")
-    s.add_argument("--variants", default="paper", help="problem variants, comma-separated (paper, synthetic)")
-    s.add_argument("--time-limit", type=float, default=None, help="seconds per run before it is stopped")
-    s.add_argument("--no-progress", action="store_true", help="no progress bar")
+    s.add_argument("--workers", type=int, default=None, help="local worker processes (0: run in this process; default: every core)")
+    s.add_argument("--scheduler", default=None, help="address of a Dask scheduler (tcp://host:port) to run on instead of local processes")
+    s.add_argument("--variants", default="paper", help="problem variants, comma-separated: paper, synthetic")
+    s.add_argument("--time-limit", type=float, default=None, help="seconds per run before it is stopped (default: no limit)")
+    s.add_argument("--no-progress", action="store_true", help="no progress bar (there is one only when stdout is a terminal)")
     s.add_argument("--retry-failed", action="store_true",
                    help="run again the runs stored as failed or timeout (they are kept otherwise)")
 

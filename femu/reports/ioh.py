@@ -35,6 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from adapters.harness import RunResult
+from fe_problem.jsonutil import dumps
 
 #: Prefix of the ioh function names: femu_paper, femu_synthetic, ...
 PREFIX = "femu_"
@@ -205,12 +206,12 @@ def export_runs(runs, out_dir, validate: bool = True) -> Path:
             problem.reset()
             problem.detach_logger()
         logger.close()
-    (out / MARKER).write_text(json.dumps({
+    (out / MARKER).write_text(dumps({
         "format": "femu.ioh-export/1",
         "raw_y_scale": {v: objective_scale(v) for v in sorted({r.variant for r in usable})},
         "algorithms": {a: len(rs) for a, rs in by_alg.items()},
         "skipped": [{"optimizer": r.optimizer, "variant": r.variant, "seed": r.seed, "status": r.status}
-                    for r in skipped]}, indent=1))
+                    for r in skipped]}))
     if validate:
         check_export(out, by_alg)
     return out

@@ -2,28 +2,101 @@
 
     STORE/study.json             what the study was asked to run (written at start)
     STORE/runs/<key>.json        one RunResult (format femu.run/1), written atomically
+    STORE/runs/<key>.claim       the process running that run now (pid, host), while it runs
 
 A run's key is ``<variant>__<optimizer>__b<budget>__s<seed>``. Files are written to a
 temporary name in the same directory and renamed into place, so a killed study leaves only
 whole records (and at most a hidden ``.<key>.json.*.tmp`` file, which is ignored); a study
-started again skips every key already present.
+started again skips every key already present. A study claims each run before it starts it
+(a claim file created exclusively), so two studies on one store never run the same run; a
+claim left by a process that is gone (a kill -9, a crash) is stale and taken over.
 """
 
 from __future__ import annotations
 
 import json
+import math
 import os
+import socket
 import tempfile
+import time
 from pathlib import Path
 
-from adapters.harness import RunResult
+import psutil
+
+from adapters.harness import RECORD_FORMAT, RunResult
+from fe_problem.jsonutil import dumps, read_json_file
+
+
+#: Seconds after which a claim file that cannot be read counts as stale.
+UNREADABLE_CLAIM_S = 10.0
 
 
 class StoreError(ValueError):
     """An unreadable store or record; the message names the file."""
 
 
+#: The statuses a run record can have (adapters.harness.RunResult).
+STATUSES = ("ok", "stopped", "failed", "timeout")
+#: What to do about a damaged record.
+REDO_HINT = "delete the file and run the same `femu study` command again to redo that run"
+
+
+def _is_int(v) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool)
+
+
+def _is_num(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def check_record(d, key: str) -> str | None:
+    """What is wrong with the run record `d` stored under `key` (None if nothing): every field
+    of format femu.run/1 with its type and range, and the key it must be stored under."""
+    if not isinstance(d, dict):
+        return f"a JSON {type(d).__name__}, not an object"
+    if d.get("format", RECORD_FORMAT) != RECORD_FORMAT:
+        return f"field 'format': {d.get('format')!r} is not {RECORD_FORMAT!r}"
+    for name in ("optimizer", "problem", "variant"):
+        if not isinstance(d.get(name), str) or not d.get(name):
+            return f"field {name!r}: must be a non-empty string, got {d.get(name)!r}"
+    checks = (("seed", _is_int(d.get("seed")) and d.get("seed", -1) >= 0, "an integer >= 0"),
+              ("budget", _is_int(d.get("budget")) and d.get("budget", 0) >= 1, "an integer >= 1"),
+              ("n_evals", _is_int(d.get("n_evals")) and 0 <= d.get("n_evals", -1) <= max(d["budget"], 0)
+               if _is_int(d.get("budget")) else False, "an integer from 0 to the budget"),
+              ("best_f", d.get("best_f") is None or (_is_num(d["best_f"]) and d["best_f"] >= 0),
+               "a finite number >= 0 (J is a sum of squares) or null"),
+              ("status", d.get("status") in STATUSES, f"one of {', '.join(STATUSES)}"),
+              ("options", isinstance(d.get("options", {}), dict), "an object"),
+              ("best_x", isinstance(d.get("best_x", []), list) and all(_is_num(v) for v in d.get("best_x", [])),
+               "a list of finite numbers"),
+              ("trace", _trace_ok(d.get("trace", [])), "a list of [n_evals, f] pairs, n_evals increasing"))
+    for name, ok, need in checks:
+        if not ok:
+            return f"field {name!r}: must be {need}, got {d.get(name)!r}"[:300]
+    for name in ("wall_s", "cpu_s", "fe_s"):
+        if not (_is_num(d.get(name, 0.0)) and d.get(name, 0.0) >= 0):
+            return f"field {name!r}: must be a number of seconds >= 0, got {d.get(name)!r}"
+    expected = run_key(d["variant"], d["optimizer"], d["budget"], d["seed"])
+    if expected != key:
+        return f"its fields (variant, optimizer, budget, seed) make the key {expected!r}, not the file's name {key!r}"
+    return None
+
+
+def _trace_ok(trace) -> bool:
+    if not isinstance(trace, list):
+        return False
+    last = 0
+    for entry in trace:
+        if not (isinstance(entry, list) and len(entry) == 2 and _is_int(entry[0]) and entry[0] >= last
+                and _is_num(entry[1])):
+            return False
+        last = entry[0]
+    return True
+
+
 def run_key(variant: str, optimizer: str, budget: int, seed: int) -> str:
+    """The key (file stem) of one run in a store: ``VARIANT__OPTIMIZER__bBUDGET__sSEED``."""
     return f"{variant}__{optimizer}__b{int(budget)}__s{int(seed)}"
 
 
@@ -40,7 +113,7 @@ def atomic_write_json(path: Path, obj) -> None:
     try:
         os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes the file private: give it the usual mode
         with os.fdopen(fd, "w") as fh:
-            json.dump(obj, fh, indent=1)
+            fh.write(dumps(obj))
             fh.flush()
             os.fsync(fh.fileno())
         os.replace(tmp, path)
@@ -54,7 +127,10 @@ class Store:
     """A study's result directory."""
 
     def __init__(self, path: str | Path):
+        if not str(path).strip():
+            raise StoreError("--store: an empty path; name a directory (use . for the current one)")
         self.path = Path(path)
+        self.skipped: list[str] = []  # the damaged records the last runs(skip_invalid=True) left out
         if self.path.exists() and not self.path.is_dir():
             raise StoreError(f"{self.path}: a store is a directory, this is a file")
 
@@ -73,21 +149,83 @@ class Store:
         atomic_write_json(path, result.to_dict())
         return path
 
+    def claim(self, key: str) -> bool:
+        """Claim run `key` for this process; False if a live process holds it already. A claim
+        of a process that no longer runs on this host is stale: it is removed and retaken."""
+        path = self.runs_dir / f"{key}.claim"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        for _ in range(2):
+            try:
+                fd = os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+            except FileExistsError:
+                if not self._stale(path):
+                    return False
+                path.unlink(missing_ok=True)
+                continue
+            with os.fdopen(fd, "w") as fh:
+                fh.write(json.dumps({"pid": os.getpid(), "host": socket.gethostname()}))
+            return True
+        return False
+
+    def release(self, key: str) -> None:
+        """Remove this process's claim of run `key` (another process's claim is left alone)."""
+        path = self.runs_dir / f"{key}.claim"
+        if self._owner(path) == (os.getpid(), socket.gethostname()):
+            path.unlink(missing_ok=True)
+
+    def claimed(self) -> set[str]:
+        """Keys of the runs that some process has claimed and not yet released."""
+        return {p.stem for p in self.runs_dir.glob("*.claim")} if self.runs_dir.is_dir() else set()
+
+    @staticmethod
+    def _owner(path: Path) -> tuple[int, str] | None:
+        try:
+            d = json.loads(path.read_text())
+            return int(d["pid"]), str(d["host"])
+        except (OSError, ValueError, KeyError, TypeError):  # half-written or damaged: no owner
+            return None
+
+    def _stale(self, path: Path) -> bool:
+        """Whether the claim at `path` belongs to a process that is gone (on this host), or
+        cannot be read at all. A claim from another host is trusted."""
+        owner = self._owner(path)
+        if owner is None:  # being written this instant, or damaged: stale only once it is old
+            try:
+                return time.time() - path.stat().st_mtime > UNREADABLE_CLAIM_S
+            except FileNotFoundError:
+                return True
+        pid, host = owner
+        return host == socket.gethostname() and not psutil.pid_exists(pid)
+
     def read(self, key: str) -> RunResult:
+        """The run record stored under `key`; StoreError naming the file, the field and what
+        to do if it is damaged or was edited into something that is not a record."""
         path = self.runs_dir / f"{key}.json"
         try:
-            data = json.loads(path.read_text())
-            if not isinstance(data, dict):
-                raise TypeError(f"a JSON {type(data).__name__}, not an object")
-            return RunResult.from_dict(data)
-        except (OSError, ValueError, TypeError) as exc:  # ValueError: bad JSON or field values
-            raise StoreError(f"{path}: not a readable run record ({exc})") from None
+            data = read_json_file(path, StoreError)
+        except StoreError as exc:
+            problem = str(exc).removeprefix(f"{path}: ")
+        else:
+            problem = check_record(data, key)
+        if problem:
+            raise StoreError(f"{path}: not a readable run record ({problem}); {REDO_HINT}")
+        return RunResult.from_dict(data)
 
-    def runs(self) -> list[RunResult]:
-        """Every finished run, sorted by variant, optimizer, budget, seed."""
+    def runs(self, skip_invalid: bool = False) -> list[RunResult]:
+        """Every finished run, sorted by variant, optimizer, budget, seed. A damaged record
+        raises StoreError (naming every damaged file), or with `skip_invalid` is left out and
+        its message kept in `self.skipped`."""
         if not self.path.is_dir():
             raise StoreError(f"{self.path}: no such store (run `femu study ... --store {self.path}` first)")
-        out = [self.read(k) for k in self.keys()]
+        out, self.skipped = [], []
+        for k in sorted(self.keys()):
+            try:
+                out.append(self.read(k))
+            except StoreError as exc:
+                self.skipped.append(str(exc))
+        if self.skipped and not skip_invalid:
+            more = f" (and {len(self.skipped) - 1} more damaged records)" if len(self.skipped) > 1 else ""
+            raise StoreError(f"{self.skipped[0]}{more}; --skip-invalid goes on with the valid records")
         return sorted(out, key=lambda r: (r.variant, r.optimizer, r.budget, r.seed))
 
     def write_manifest(self, manifest: dict) -> None:
@@ -97,10 +235,7 @@ class Store:
         p = self.path / "study.json"
         if not p.exists():
             return None
-        try:
-            data = json.loads(p.read_text())
-        except (OSError, ValueError) as exc:
-            raise StoreError(f"{p}: not valid JSON ({exc})") from None
+        data = read_json_file(p, StoreError)
         if not isinstance(data, dict):
             raise StoreError(f"{p}: not a study manifest (a JSON {type(data).__name__}, not an object)")
         return data

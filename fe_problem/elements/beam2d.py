@@ -1,4 +1,5 @@
-"""Element matrices of the 2-node planar frame element, vectorised over elements.
+"""Kernels of the 2-node planar frame element, vectorised over elements: matrices and the
+shape interpolation used for drawing.
 
 Local DOFs per element: (u_i, v_i, theta_i, u_j, v_j, theta_j); axial bar plus bending.
 Bending is either Euler-Bernoulli (Hermite cubics, consistent mass) or Timoshenko
@@ -6,7 +7,7 @@ Bending is either Euler-Bernoulli (Hermite cubics, consistent mass) or Timoshenk
 OpenSees' ElasticTimoshenkoBeam2d). With phi = 0 and no rotary inertia the Timoshenko
 matrices reduce to the Euler-Bernoulli ones.
 
-Every function takes arrays of shape (n_el,) and returns (n_el, 6, 6).
+Every matrix function takes arrays of shape (n_el,) and returns (n_el, 6, 6).
 """
 
 from __future__ import annotations
@@ -110,11 +111,6 @@ def cracked_bending_stiffness(length: np.ndarray, ei: np.ndarray, position: np.n
     return k
 
 
-#: Modulus profiles along an element: w(xi) piecewise linear through these values at xi = 0, 1/2, 1.
-PROFILES = {"uniform": (1.0, 1.0, 1.0), "toward_i": (1.0, 0.5, 0.0), "toward_j": (0.0, 0.5, 1.0),
-            "middle": (0.0, 1.0, 0.0)}
-
-
 def weighted_stiffness(length: np.ndarray, area: np.ndarray, inertia: np.ndarray, w: tuple) -> np.ndarray:
     """Local Euler-Bernoulli stiffness of elements whose modulus varies as E w(xi), w piecewise
     linear through w = (w(0), w(1/2), w(1)) (per unit E).
@@ -145,3 +141,27 @@ def weighted_stiffness(length: np.ndarray, area: np.ndarray, inertia: np.ndarray
 def to_global(local: np.ndarray, t: np.ndarray) -> np.ndarray:
     """T^T a T for a stack of element matrices."""
     return np.einsum("eki,ekl,elj->eij", t, local, t)
+
+
+def interpolate(length: np.ndarray, cos: np.ndarray, sin: np.ndarray, ends: np.ndarray, smooth: np.ndarray,
+                xi: np.ndarray) -> np.ndarray:
+    """Displacement (n_el, n_points, 2) in global x, y (m) along elements at fractions `xi`
+    (n_points,) of their length, from the end values `ends` (n_el, 6) in global axes.
+
+    Axial displacement is linear; transverse the Hermite cubic of the end displacements and
+    rotations where `smooth` (n_el,) is True, as in the element itself, else linear (an
+    element whose ends' own rotations are not the nodes' rotations)."""
+    c, s = cos[:, None], sin[:, None]
+    ui, uj = ends[:, 0:3], ends[:, 3:6]
+    axial_i, axial_j = cos * ui[:, 0] + sin * ui[:, 1], cos * uj[:, 0] + sin * uj[:, 1]
+    trans_i, trans_j = -sin * ui[:, 0] + cos * ui[:, 1], -sin * uj[:, 0] + cos * uj[:, 1]
+    xi = xi[None, :]
+    L = length[:, None]
+    hermite = ((1 - 3 * xi**2 + 2 * xi**3) * trans_i[:, None] + L * (xi - 2 * xi**2 + xi**3) * ui[:, 2][:, None]
+               + (3 * xi**2 - 2 * xi**3) * trans_j[:, None] + L * (xi**3 - xi**2) * uj[:, 2][:, None])
+    linear = (1 - xi) * trans_i[:, None] + xi * trans_j[:, None]
+    trans = np.where(smooth[:, None], hermite, linear)
+    axial = (1 - xi) * axial_i[:, None] + xi * axial_j[:, None]
+    return (axial[..., None] * np.stack([c, s], -1)
+            + trans[..., None] * np.stack([-s, c], -1))
+

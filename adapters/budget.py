@@ -1,0 +1,59 @@
+"""The one place for the budget rules: a budget is a whole number of FE evaluations >= 1, a
+seed a whole number >= 0, and an optimizer needs at least its minimum budget.
+
+Every caller (the harness, `run_study`, `femu reproduce`) checks through these functions, so
+the messages are the same everywhere; a command-line caller prefixes the flag (``--budget:``).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+
+def _is_int(v) -> bool:
+    return isinstance(v, (int, np.integer)) and not isinstance(v, bool)
+
+
+#: The largest budget a run may have (FE evaluations): days of computing on the H-frame.
+MAX_BUDGET = 10**9
+
+
+def check_budget(budget, flag: str | None = None) -> int:
+    """`budget` as an int; ValueError unless it is an integer from 1 to `MAX_BUDGET` (FE
+    evaluations). The message starts with `flag` (e.g. ``--budget``) when it came from one."""
+    what = f"{flag}: must be" if flag else "budget must be"
+    if not _is_int(budget) or budget < 1:
+        raise ValueError(f"{what} an integer >= 1 (FE evaluations), got {budget!r}")
+    if budget > MAX_BUDGET:
+        raise ValueError(f"{what} at most {MAX_BUDGET} FE evaluations, got {budget}")
+    return int(budget)
+
+
+def check_seed(seed) -> int:
+    """`seed` as an int; ValueError unless it is an integer >= 0."""
+    if not _is_int(seed) or seed < 0:
+        raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
+    return int(seed)
+
+
+def min_budget(optimizer, n_var: int, **options: Any) -> int:
+    """The fewest FE evaluations `optimizer` (a class or an instance) needs on `n_var`
+    parameters with `options`: its ``min_budget(n_var, **options)`` method, or a plain int
+    attribute ``min_budget`` (older plugins), or 1 when it says nothing."""
+    need = getattr(optimizer, "min_budget", 1)
+    if callable(need):
+        if isinstance(optimizer, type):
+            optimizer = optimizer()
+        need = optimizer.min_budget(int(n_var), **options)
+    return max(1, int(need))
+
+
+def check_min_budget(name: str, optimizer, budget: int, n_var: int, **options: Any) -> None:
+    """ValueError if `budget` is below what optimizer `name` needs (see `min_budget`)."""
+    need = min_budget(optimizer, n_var, **options)
+    if budget < need:
+        how = f" with options {options}" if options else ""
+        raise ValueError(f"optimizer {name!r} needs a budget of at least {need} evaluations, got {budget} "
+                         f"(on {n_var} parameters{how} the method needs at least {need} evaluations to start)")

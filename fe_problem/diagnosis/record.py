@@ -1,0 +1,235 @@
+"""The diagnosis record: typed, frozen dataclasses; JSON only at the edge (`Diagnosis.to_dict()`).
+
+`to_dict()` of each part gives the keys `femu diagnose --json` has always printed, in the same
+order; numbers stay numpy until `fe_problem.jsonutil.jsonable` cleans them (NaN and inf become
+None). Readers (the report, the terminal summary) use the attributes.
+
+Units: frequencies in Hz, errors in % of the measured frequency, moduli in Pa, masses in kg;
+chi^2 values are sums of squared noise-weighted residuals (dimensionless).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..correlation import Correlation
+from ..jsonutil import jsonable
+from ..model import FrameModel, model_to_dict
+
+
+@dataclass(frozen=True)
+class Cause:
+    """The answer: which effect, where, how big.
+
+    kind: a candidate kind, ``"none"`` (nothing significant) or ``"undetermined"`` (tied
+    candidates of different kinds); location: ``{"element": id}``, ``{"node": id}``,
+    ``{"node": id, "element": id}`` or None (no place, or tied candidates disagree on it);
+    estimate: the effect's size in the candidate's own terms (empty unless identifiable);
+    identifiable: False when several candidates explain the data equally well; p_adjusted: the
+    Bonferroni-adjusted p-value of the best candidate; label: the best candidate's label (None
+    when not identifiable; absent from the JSON when kind is none); indistinguishable: the tied
+    candidates' labels; explanation: why the answer is none or not identifiable.
+    """
+
+    kind: str
+    location: dict | None
+    estimate: dict
+    identifiable: bool
+    p_adjusted: float
+    label: str | None = None
+    indistinguishable: tuple[str, ...] = ()
+    explanation: str | None = None
+
+    @property
+    def is_none(self) -> bool:
+        """No candidate is significant."""
+        return self.kind == "none"
+
+    def to_dict(self) -> dict:
+        out = {"kind": self.kind, "location": self.location, "estimate": self.estimate,
+               "identifiable": self.identifiable, "p_adjusted": self.p_adjusted}
+        if not self.is_none:
+            out["label"] = self.label
+        if not self.identifiable:
+            out["indistinguishable"] = list(self.indistinguishable)
+        if self.explanation is not None:
+            out["explanation"] = self.explanation
+        return out
+
+
+@dataclass(frozen=True)
+class PinnedParameter:
+    """An element modulus that a bounded update (+-1/7 of the calibrated value) drives to a bound."""
+
+    parameter: str
+    element: int
+    bound: str          # "lower" or "upper"
+    value_pa: float
+
+
+@dataclass(frozen=True, eq=False)
+class Residuals:
+    """What the calibrated model (nominal model times the global stiffness scale) gets wrong.
+
+    correlation: per-mode frequencies, errors, MAC, COMAC and the MAC matrix (every measured
+    mode); global_scale: the stiffness-to-mass scale; chi2 over n_residuals residuals of the
+    paired modes (reduced_chi2 = chi2 / (n_residuals - 1)); unpaired_modes: 1-based measured
+    modes that pair with no model mode; measured_dofs: the measured coordinates (node, "x"/"y").
+    """
+
+    correlation: Correlation
+    global_scale: float
+    chi2: float
+    n_residuals: int
+    reduced_chi2: float
+    unpaired_modes: tuple[int, ...]
+    pinned_parameters: tuple[PinnedParameter, ...]
+    measured_dofs: tuple[tuple[int, str], ...]
+
+    def to_dict(self) -> dict:
+        return {**self.correlation.to_dict(), "global_scale": self.global_scale, "chi2": self.chi2,
+                "n_residuals": self.n_residuals, "reduced_chi2": self.reduced_chi2,
+                "mac_matrix": self.correlation.mac_matrix, "unpaired_modes": list(self.unpaired_modes),
+                "pinned_parameters": list(self.pinned_parameters),
+                "measured_dofs": [list(d) for d in self.measured_dofs]}
+
+
+@dataclass(frozen=True)
+class Selection:
+    """How the cause was chosen: the likelihood-ratio test and its settings.
+
+    statistic: the chi^2 drop of the best candidate divided by the dispersion; p_value (single
+    test), p_adjusted (times n_candidates, at most 1); threshold_chi2_drop: the drop the best
+    candidate needs to be significant at alpha; dispersion: max(1, reduced chi^2 of the best);
+    ambiguity_chi2: candidates closer than this to the best cannot be told apart; freq_noise,
+    shape_noise: the noise model (relative standard deviations).
+    """
+
+    method: str
+    alpha: float
+    n_candidates: int
+    threshold_chi2_drop: float
+    n_fitted: int
+    statistic: float
+    p_value: float
+    p_adjusted: float
+    dispersion: float
+    ambiguity_chi2: float
+    freq_noise: float
+    shape_noise: float
+
+    def to_dict(self) -> dict:
+        return {k: getattr(self, k) for k in self.__dataclass_fields__}
+
+
+@dataclass(frozen=True)
+class CandidateFit:
+    """One candidate's scores: screened (first-order chi^2 drop) and, if fitted, its fit.
+
+    chi2, chi2_drop (against the calibrated model), delta_to_best (chi^2 distance to the best,
+    divided by the dispersion), estimate (the effect size in the candidate's terms) and
+    global_scale are None unless fitted.
+    """
+
+    label: str
+    kind: str
+    location: dict | None
+    screen_chi2_drop: float
+    fitted: bool
+    chi2: float | None = None
+    chi2_drop: float | None = None
+    delta_to_best: float | None = None
+    estimate: dict | None = None
+    global_scale: float | None = None
+
+    def to_dict(self) -> dict:
+        out = {"label": self.label, "kind": self.kind, "location": self.location,
+               "screen_chi2_drop": self.screen_chi2_drop, "fitted": self.fitted}
+        if self.fitted:
+            out.update({"chi2": self.chi2, "chi2_drop": self.chi2_drop, "delta_to_best": self.delta_to_best,
+                        "estimate": self.estimate, "global_scale": self.global_scale})
+        return out
+
+    def alternative_dict(self) -> dict:
+        """The fitted candidate as an entry of the record's `alternatives`."""
+        return {"kind": self.kind, "location": self.location, "label": self.label, "estimate": self.estimate,
+                "chi2_drop": self.chi2_drop, "delta_to_best": self.delta_to_best}
+
+
+@dataclass(frozen=True, eq=False)
+class Gain:
+    """The held-out test: the highest quarter of the paired modes predicted by models refitted
+    on the rest. held_out_modes, fit_modes: 1-based; before: the calibrated model's prediction;
+    after: the extended model's (None without a cause); estimate_from_fit_modes: the effect
+    refitted on the fit modes alone; note: why nothing was held out (then the rest is empty)."""
+
+    held_out_modes: tuple[int, ...] = ()
+    fit_modes: tuple[int, ...] = ()
+    before: Correlation | None = None
+    after: Correlation | None = None
+    estimate_from_fit_modes: dict | None = None
+    note: str | None = None
+
+    @property
+    def mean_abs_error_pct_reduction(self) -> float | None:
+        """Mean |frequency error| before minus after, percentage points (None if either is missing)."""
+        b, a = _mean(self.before, "mean_abs_error_pct"), _mean(self.after, "mean_abs_error_pct")
+        return None if b is None or a is None else b - a
+
+    @property
+    def mean_mac_gain(self) -> float | None:
+        """Mean MAC after minus before (None if either is missing)."""
+        b, a = _mean(self.before, "mean_mac"), _mean(self.after, "mean_mac")
+        return None if b is None or a is None else a - b
+
+    def to_dict(self) -> dict:
+        if not self.held_out_modes:
+            return {"held_out_modes": [], "note": self.note}
+        out = {"held_out_modes": list(self.held_out_modes), "fit_modes": list(self.fit_modes),
+               "before": self.before}
+        if self.after is not None:
+            out["after"] = self.after
+            out["estimate_from_fit_modes"] = self.estimate_from_fit_modes
+            for key in ("mean_abs_error_pct_reduction", "mean_mac_gain"):
+                if getattr(self, key) is not None:
+                    out[key] = getattr(self, key)
+        return out
+
+
+def _mean(c: Correlation | None, key: str) -> float | None:
+    return None if c is None else getattr(c, key)
+
+
+@dataclass(frozen=True, eq=False)
+class Diagnosis:
+    """The answer of a diagnosis; `to_dict()` is the JSON `femu diagnose --json` prints.
+
+    candidates: every candidate in screening order (fitted ones first); alternatives: the
+    fitted candidates shown beside the cause; extended_model: the calibrated model with the
+    cause's effect (None when the cause is none); warnings: sentences for the user.
+    """
+
+    cause: Cause
+    alternatives: tuple[CandidateFit, ...]
+    residuals: Residuals
+    gain: Gain
+    candidates: tuple[CandidateFit, ...]
+    selection: Selection
+    extended_model: FrameModel | None
+    warnings: tuple[str, ...] = field(default_factory=tuple)
+
+    @property
+    def best(self) -> CandidateFit | None:
+        """The fitted candidate with the lowest chi^2 (the one the test was applied to)."""
+        fitted = [c for c in self.candidates if c.fitted and c.chi2 is not None and np.isfinite(c.chi2)]
+        return min(fitted, key=lambda c: c.chi2) if fitted else None
+
+    def to_dict(self) -> dict:
+        """Plain JSON values only: numbers, strings, lists, dicts; NaN and inf as None."""
+        return jsonable({"cause": self.cause, "alternatives": [a.alternative_dict() for a in self.alternatives],
+                         "residuals": self.residuals, "gain": self.gain, "selection": self.selection,
+                         "candidates": list(self.candidates), "warnings": list(self.warnings),
+                         "extended_model": None if self.extended_model is None
+                         else model_to_dict(self.extended_model)})

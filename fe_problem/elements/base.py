@@ -1,0 +1,73 @@
+"""The interface every element formulation implements, and the registry of formulations.
+
+A formulation computes, for a group of elements of one model (vectorised over the group),
+the global-axis stiffness per unit modulus (E = 1), the mass per unit density (rho = 1), and
+the displaced shape between the ends for drawing. Its matrices act on the element's end DOFs:
+the model layout's DOFs of node_i, then of node_j (`layout.names` order, see dofs.py).
+A new element type is a subclass registered with `register`; nothing else changes.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from typing import TYPE_CHECKING, Sequence
+
+import numpy as np
+
+from ..dofs import DofLayout
+
+if TYPE_CHECKING:
+    from ..model import Element, FrameModel
+
+
+class ElementFormulation(ABC):
+    """One element formulation. Subclasses set `name` and `layout` and implement the methods."""
+
+    #: the name model files use (``"formulation"`` of an element)
+    name: str = ""
+    #: the nodal DOFs the element's ends connect to
+    layout: DofLayout
+    #: whether an element of this formulation may hold a crack (``crack_position``)
+    supports_crack: bool = False
+    #: whether a modulus profile along the element (`PROFILES`) can be assembled
+    supports_profile: bool = False
+
+    @abstractmethod
+    def stiffness(self, model: FrameModel, elements: Sequence[Element]) -> np.ndarray:
+        """Global-axis stiffness per unit modulus, (n, k, k), k = 2 * layout.per_node."""
+
+    @abstractmethod
+    def mass(self, model: FrameModel, elements: Sequence[Element]) -> np.ndarray:
+        """Global-axis consistent mass per unit density, (n, k, k)."""
+
+    @abstractmethod
+    def displaced(self, model: FrameModel, elements: Sequence[Element], ends: np.ndarray,
+                  xi: np.ndarray) -> np.ndarray:
+        """Displacement (n, n_points, 2) in metres along each element at length fractions
+        `xi` (n_points,), from its end DOF values `ends` (n, k) (for drawing)."""
+
+    def profile_stiffness(self, model: FrameModel, element: Element, weights: tuple) -> np.ndarray:
+        """Global-axis stiffness (1, k, k) per unit modulus of one element whose modulus varies
+        as E w(xi), w piecewise linear through `weights` at xi = 0, 1/2, 1."""
+        raise ValueError(f"formulation {self.name!r} has no modulus profiles")
+
+
+_REGISTRY: dict[str, ElementFormulation] = {}
+
+
+def register(formulation: ElementFormulation) -> ElementFormulation:
+    """Add a formulation to the registry under its `name`; returns it."""
+    _REGISTRY[formulation.name] = formulation
+    return formulation
+
+
+def formulation(name: str) -> ElementFormulation:
+    """The registered formulation called `name` (KeyError naming the known ones)."""
+    if name not in _REGISTRY:
+        raise KeyError(f"unknown element formulation {name!r}; known: {sorted(_REGISTRY)}")
+    return _REGISTRY[name]
+
+
+def formulations() -> tuple[str, ...]:
+    """Names of the registered formulations, in registration order."""
+    return tuple(_REGISTRY)

@@ -1,0 +1,123 @@
+"""The planar frame elements: Euler-Bernoulli (optionally cracked) and Timoshenko beams with
+an axial bar, on the nodal DOFs x, y, rz of `PLANAR_FRAME`.
+
+Per element end the local DOFs are (u, v, theta); the matrices come from beam2d.py.
+Timoshenko's shear ratio phi = 24 (1 + nu) I / (kappa A L^2) does not depend on E
+(G = E / 2(1 + nu)), so its stiffness stays linear in E.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Sequence
+
+import numpy as np
+
+from ..dofs import PLANAR_FRAME
+from . import beam2d
+from .base import ElementFormulation, register
+
+if TYPE_CHECKING:
+    from ..model import Element, FrameModel
+
+
+@dataclass(frozen=True)
+class Geometry:
+    """Lengths (m), direction cosines and section properties of a group of elements, (n,) each."""
+
+    length: np.ndarray
+    cos: np.ndarray
+    sin: np.ndarray
+    area: np.ndarray
+    inertia: np.ndarray
+    kappa: np.ndarray
+    nu: np.ndarray
+
+    @classmethod
+    def of(cls, model: FrameModel, elements: Sequence[Element]) -> "Geometry":
+        """The geometry of `elements` of `model`."""
+        xi = np.array([[model.node(e.node_i).x, model.node(e.node_i).y] for e in elements])
+        xj = np.array([[model.node(e.node_j).x, model.node(e.node_j).y] for e in elements])
+        d = xj - xi
+        length = np.hypot(d[:, 0], d[:, 1])
+        sec = [model.sections[e.section] for e in elements]
+        return cls(length, d[:, 0] / length, d[:, 1] / length,
+                   np.array([s.area_m2 for s in sec]), np.array([s.inertia_m4 for s in sec]),
+                   np.array([s.shear_coefficient for s in sec]),
+                   np.array([model.materials[e.material].poisson_ratio for e in elements]))
+
+    def to_global(self, local: np.ndarray) -> np.ndarray:
+        """Local-axis element matrices (n, 6, 6) to global axes."""
+        return beam2d.to_global(local, beam2d.rotation(self.cos, self.sin))
+
+
+class _PlanarBeam(ElementFormulation):
+    layout = PLANAR_FRAME
+
+    def _phi(self, g: Geometry) -> np.ndarray:
+        return np.zeros_like(g.length)
+
+    def _rotary(self, g: Geometry) -> np.ndarray:
+        return np.zeros_like(g.length)
+
+    def mass(self, model, elements):
+        g = Geometry.of(model, elements)
+        return g.to_global(beam2d.local_mass(g.length, g.area, self._rotary(g), self._phi(g)))
+
+    def displaced(self, model, elements, ends, xi):
+        g = Geometry.of(model, elements)
+        smooth = np.array([e.release_i is None and e.release_j is None and e.crack_position is None
+                           for e in elements], dtype=bool)
+        return beam2d.interpolate(g.length, g.cos, g.sin, ends, smooth, xi)
+
+
+class EulerBernoulli(_PlanarBeam):
+    """Hermite-cubic bending with consistent mass and no rotary inertia. A crack (a rotational
+    spring of ``crack_stiffness`` N m/rad at ``crack_position``, scaling with the element's
+    modulus) is built into the element by the flexibility formulation."""
+
+    name = "euler-bernoulli"
+    supports_crack = True
+    supports_profile = True
+
+    def stiffness(self, model, elements):
+        g = Geometry.of(model, elements)
+        k = beam2d.local_stiffness(g.length, g.area, g.inertia, self._phi(g))
+        cracked = np.array([e.crack_position is not None for e in elements], dtype=bool)
+        if cracked.any():
+            # per unit modulus: the crack compliance is c * E (the crack scales with E, see Element)
+            cr = [e for e in elements if e.crack_position is not None]
+            c = np.array([model.element_modulus_pa(e.id) / e.crack_stiffness for e in cr])
+            pos = np.array([e.crack_position for e in cr])
+            bend = beam2d.cracked_bending_stiffness(g.length[cracked], g.inertia[cracked], pos, c)
+            axial = beam2d.local_stiffness(g.length[cracked], g.area[cracked], np.zeros(len(cr)),
+                                           self._phi(g)[cracked])
+            k[cracked] = bend + axial
+        return g.to_global(k)
+
+    def profile_stiffness(self, model, element, weights):
+        if element.crack_position is not None:
+            raise ValueError(f"element {element.id}: a modulus profile needs an uncracked element")
+        g = Geometry.of(model, [element])
+        return g.to_global(beam2d.weighted_stiffness(g.length, g.area, g.inertia, weights))
+
+
+class Timoshenko(_PlanarBeam):
+    """Shear-deformable bending with Przemieniecki's consistent mass and rotary inertia (the
+    formulation of OpenSees' ElasticTimoshenkoBeam2d)."""
+
+    name = "timoshenko"
+
+    def _phi(self, g: Geometry) -> np.ndarray:
+        return 24.0 * (1.0 + g.nu) * g.inertia / (g.kappa * g.area * g.length**2)
+
+    def _rotary(self, g: Geometry) -> np.ndarray:
+        return g.inertia
+
+    def stiffness(self, model, elements):
+        g = Geometry.of(model, elements)
+        return g.to_global(beam2d.local_stiffness(g.length, g.area, g.inertia, self._phi(g)))
+
+
+register(EulerBernoulli())
+register(Timoshenko())

@@ -1,0 +1,349 @@
+"""Frequency response functions on disk: UFF dataset 58 (through pyuff), `.npz` and CSV.
+
+One `FRFSet` holds what a single-reference modal test gave: FRFs (n_channels, n_lines)
+complex, on one uniform frequency axis (Hz), one measured coordinate per channel, the one
+fixed coordinate they share (the reference), the FRF form and its units.
+
+Roving hammer or shaker: in UFF 58 a channel is (response, reference). A shaker test (or a
+roving accelerometer) has one reference and many responses; a roving-hammer test has one
+response (the fixed accelerometer) and many references. By reciprocity both measure one
+column of the FRF matrix: the measured coordinates are the coordinates that change, the
+fixed one is `reference`. Several files are merged (same axis, form, units and reference).
+
+Layouts (docs/identify.md has examples):
+- UFF 58: function type 4 (FRF), complex ordinate; directions 1 (x), 2 (y), 6 (rz), a negative
+  direction flips the sign; ordinate type 12 / 11 / 8 (acceleration, velocity, displacement)
+  over 13 (force) gives accelerance / mobility / receptance. ID line 1 may name the model:
+  ``model: hframe``.
+- `.npz`: ``frequency_hz`` (n_lines,), ``frf`` (n_channels, n_lines) complex,
+  ``response_node`` (n,) int, ``response_dir`` (n,) str, ``reference_node`` int,
+  ``reference_dir`` str, ``form`` str, ``units`` str, optional ``model`` str.
+- CSV: comment lines ``# model: hframe``, ``# form: accelerance``, ``# units: m/s^2/N``,
+  ``# reference: 5 x``; a header ``frequency_hz,re 1 x,im 1 x,re 2 x,im 2 x,...``; one row per line.
+"""
+
+from __future__ import annotations
+
+import csv
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from ..dofs import DEFAULT_LAYOUT, SPATIAL
+
+#: UFF direction codes (1..6 for x, y, z, rx, ry, rz) of the model's nodal DOFs, and back
+UFF_DIRECTION = {name: SPATIAL.index(name) + 1 for name in DEFAULT_LAYOUT.names}
+_DIRECTION_OF = {v: k for k, v in UFF_DIRECTION.items()}
+_CODES_TEXT = ", ".join(f"{c} {n}" for n, c in UFF_DIRECTION.items())
+_NAMES_TEXT = ", ".join(UFF_DIRECTION)
+#: FRF form by UFF ordinate specific data type (over force, type 13)
+FORM_OF_ORDINATE = {12: "accelerance", 11: "mobility", 8: "receptance"}
+ORDINATE_OF_FORM = {v: k for k, v in FORM_OF_ORDINATE.items()}
+DEFAULT_UNITS = {"accelerance": "m/s^2/N", "mobility": "m/s/N", "receptance": "m/N"}
+_MODEL_TAG = "model:"
+
+
+class FRFFileError(ValueError):
+    """An FRF file that cannot be used; the message names the file and the channel."""
+
+
+@dataclass(frozen=True, eq=False)
+class FRFSet:
+    """Single-reference FRFs: frequency_hz (n_lines,) uniform, frf (n_channels, n_lines) complex
+    in `units` (SI, e.g. m/s^2/N), coordinates: one (node, direction) per channel, reference:
+    the fixed (node, direction), form: accelerance, mobility or receptance."""
+
+    frequency_hz: np.ndarray
+    frf: np.ndarray
+    coordinates: tuple[tuple[int, str], ...]
+    reference: tuple[int, str]
+    form: str = "accelerance"
+    units: str = "m/s^2/N"
+    model: str | None = None
+    sources: tuple[str, ...] = ("<memory>",)
+    channel_sources: tuple[tuple[str, int], ...] = field(default=())  # (file, 1-based channel in it)
+
+    @property
+    def n_channels(self) -> int:
+        return int(self.frf.shape[0])
+
+    def channel_label(self, k: int) -> str:
+        """'FILE: channel k (node dir)' for error messages (k 0-based, shown 1-based)."""
+        src, index = self.channel_sources[k] if self.channel_sources else (self.sources[0], k + 1)
+        node, d = self.coordinates[k]
+        return f"{src}: channel {index} ({node} {d})"
+
+
+# == UFF 58 ===================================================================================
+def write_uff58(frfs: FRFSet, path: str | Path, test: str = "roving-hammer") -> Path:
+    """Write every channel as a UFF dataset 58 (FRF, complex, even abscissa); returns the path.
+
+    test "roving-hammer": response = the fixed coordinate, reference = the channel's (the
+    hammer moves); "shaker": reference = the fixed coordinate, response = the channel's."""
+    if test not in ("roving-hammer", "shaker"):
+        raise ValueError(f"test must be 'roving-hammer' or 'shaker', got {test!r}")
+    import pyuff
+
+    path = Path(path)
+    ordinate = ORDINATE_OF_FORM[frfs.form]
+    id1 = f"{_MODEL_TAG} {frfs.model}" if frfs.model else "NONE"
+    if len(id1) > 80:
+        raise FRFFileError(f"{path}: the model name {frfs.model!r} is longer than UFF ID line 1 can hold "
+                           f"({80 - len(_MODEL_TAG) - 1} characters): name the model with --model when identifying")
+    ref_node, ref_dir = frfs.reference
+    f = np.asarray(frfs.frequency_hz, float)
+    sets = []
+    for k, (node, d) in enumerate(frfs.coordinates):
+        rsp, ref = ((ref_node, ref_dir), (node, d)) if test == "roving-hammer" else ((node, d), (ref_node, ref_dir))
+        sets.append(pyuff.prepare_58(
+            binary=0, id1=id1, id2="femu synthetic test rig" if frfs.sources == ("<memory>",) else "NONE",
+            id3="NONE", id4=f"channel {k + 1}", id5="NONE", func_type=4, ver_num=0, load_case_id=0,
+            rsp_ent_name="frame", rsp_node=int(rsp[0]), rsp_dir=UFF_DIRECTION[rsp[1]], ref_ent_name="frame",
+            ref_node=int(ref[0]), ref_dir=UFF_DIRECTION[ref[1]], abscissa_spacing=1,
+            abscissa_spec_data_type=18, abscissa_axis_units_lab="Hz", ordinate_spec_data_type=ordinate,
+            ordinate_axis_units_lab=frfs.units, orddenom_spec_data_type=13, orddenom_axis_units_lab="N",
+            data=np.asarray(frfs.frf[k], complex), x=f))
+    pyuff.UFF(str(path)).write_sets(sets, mode="overwrite")
+    return path
+
+
+def _uff_channel(ds: dict, where: str):
+    """(response, reference, form, units, x, data) of one dataset 58, checked."""
+    if int(ds.get("func_type", 0)) != 4:
+        raise FRFFileError(f"{where}: function type {ds.get('func_type')} is not 4 (frequency response function)")
+    coords = []
+    for role in ("rsp", "ref"):
+        node, code = int(ds.get(f"{role}_node", 0)), int(ds.get(f"{role}_dir", 0))
+        name = "response" if role == "rsp" else "reference"
+        if node <= 0 or code == 0:
+            raise FRFFileError(f"{where}: missing {name} coordinate (node {node}, direction {code})")
+        if abs(code) not in _DIRECTION_OF:
+            raise FRFFileError(f"{where}: {name} direction {code} is not a DOF of the model's nodes (use {_CODES_TEXT})")
+        coords.append((node, _DIRECTION_OF[abs(code)], -1.0 if code < 0 else 1.0))
+    ordinate = int(ds.get("ordinate_spec_data_type", 12))
+    if ordinate not in FORM_OF_ORDINATE or int(ds.get("orddenom_spec_data_type", 13)) != 13:
+        raise FRFFileError(f"{where}: ordinate type {ordinate} over {ds.get('orddenom_spec_data_type')} is not "
+                           "acceleration (12), velocity (11) or displacement (8) over force (13)")
+    form = FORM_OF_ORDINATE[ordinate]
+    units = str(ds.get("ordinate_axis_units_lab", "") or "").strip() or DEFAULT_UNITS[form]
+    data = np.asarray(ds["data"])
+    if not np.iscomplexobj(data):
+        raise FRFFileError(f"{where}: real ordinate data; an FRF needs complex values")
+    sign = coords[0][2] * coords[1][2]
+    return coords[0][:2], coords[1][:2], form, units, np.asarray(ds["x"], float), sign * data
+
+
+def uff_datasets(path: str | Path, dataset_type: int, what: str, error=FRFFileError):
+    """Yield (k, ds) for the k-th (1-based) dataset of `dataset_type` in a UFF file, read by pyuff.
+
+    `what` describes the type in messages; every failure is `error` naming the file (and the
+    dataset). One reader for any UFF dataset type (uff.py's dataset 55 reader could use it too)."""
+    import pyuff
+
+    path = Path(path)
+    try:
+        uff = pyuff.UFF(str(path))
+        types = [int(t) for t in uff.get_set_types()]
+    except Exception as exc:  # pyuff raises bare Exceptions
+        raise error(f"{path}: not a readable UFF file ({exc})") from None
+    blocks = [i for i, t in enumerate(types) if t == dataset_type]
+    if not blocks:
+        raise error(f"{path}: no dataset {dataset_type} ({what}) in the file; it holds dataset type(s) "
+                    f"{sorted(set(types))}")
+    for k, block in enumerate(blocks, 1):
+        try:
+            yield k, uff.read_sets(block)
+        except Exception as exc:
+            raise error(f"{path}: dataset {dataset_type} #{k}: cannot be read ({exc})") from None
+
+
+def read_uff58(path: str | Path) -> FRFSet:
+    """The FRFs (datasets 58) of one UFF file; other dataset types are ignored."""
+    channels, model = [], None
+    for k, ds in uff_datasets(path, 58, "function at nodal DOF"):
+        where = f"{path}: channel {k} (dataset 58 #{k})"
+        channels.append((where,) + _uff_channel(ds, where))
+        id1 = str(ds.get("id1", "")).strip()
+        if k == 1 and id1.lower().startswith(_MODEL_TAG):
+            model = id1[len(_MODEL_TAG):].strip() or None
+    return _assemble(channels, str(path), model)
+
+
+def _assemble(channels: list, source: str, model: str | None) -> FRFSet:
+    """One FRFSet from checked channels (where, response, reference, form, units, x, data)."""
+    where0, rsp0, ref0, form0, units0, x0, _ = channels[0]
+    for where, rsp, ref, form, units, x, data in channels[1:]:
+        if (form, units) != (form0, units0):
+            raise FRFFileError(f"{where}: mixed units: {form} in {units}, but {where0} is {form0} in {units0}")
+        if x.shape != x0.shape or not np.allclose(x, x0, rtol=1e-9, atol=1e-9):
+            raise FRFFileError(f"{where}: frequency lines differ from those of {where0}")
+    refs = {c[2] for c in channels}
+    rsps = {c[1] for c in channels}
+    if len(refs) == 1 and (len(rsps) > 1 or len(channels) == 1):
+        reference, coords = ref0, [c[1] for c in channels]        # shaker / roving accelerometer
+    elif len(rsps) == 1:
+        reference, coords = rsp0, [c[2] for c in channels]        # roving hammer
+    else:
+        raise FRFFileError(f"{source}: no common reference: channels have {len(refs)} different references and "
+                           f"{len(rsps)} different responses; one coordinate must be fixed in every channel")
+    data = np.stack([c[6] for c in channels])
+    return _checked(FRFSet(x0, data, tuple(coords), reference, form0, units0, model, (source,),
+                           tuple((source, k) for k in range(1, len(channels) + 1))))
+
+
+def _checked(frfs: FRFSet) -> FRFSet:
+    """Uniform ascending axis, finite values, no coordinate twice; errors name file and channel."""
+    f = frfs.frequency_hz
+    src = frfs.sources[0]
+    if f.ndim != 1 or f.size < 3:
+        raise FRFFileError(f"{src}: needs at least 3 frequency lines, got {f.size}")
+    df = np.diff(f)
+    if not (np.all(df > 0) and np.allclose(df, df[0], rtol=1e-6, atol=0)):
+        raise FRFFileError(f"{src}: the frequency lines must be evenly spaced and ascending")
+    if frfs.frf.shape != (len(frfs.coordinates), f.size):
+        raise FRFFileError(f"{src}: FRF array of shape {frfs.frf.shape}, expected "
+                           f"({len(frfs.coordinates)}, {f.size}) (channels, lines)")
+    seen = {}
+    for k, c in enumerate(frfs.coordinates):
+        if not np.all(np.isfinite(frfs.frf[k])):
+            raise FRFFileError(f"{frfs.channel_label(k)}: a value is not a finite number")
+        if c in seen:
+            raise FRFFileError(f"{frfs.channel_label(k)}: the coordinate is measured twice "
+                               f"(also channel {seen[c] + 1})")
+        seen[c] = k
+    return frfs
+
+
+# == .npz and CSV =============================================================================
+def write_npz(frfs: FRFSet, path: str | Path) -> Path:
+    """Write the `.npz` layout of the module docstring; returns the path."""
+    path = Path(path)
+    np.savez(path, frequency_hz=frfs.frequency_hz, frf=frfs.frf,
+             response_node=np.array([c[0] for c in frfs.coordinates]),
+             response_dir=np.array([c[1] for c in frfs.coordinates]), reference_node=frfs.reference[0],
+             reference_dir=frfs.reference[1], form=frfs.form, units=frfs.units, model=frfs.model or "")
+    return path
+
+
+def read_npz(path: str | Path) -> FRFSet:
+    """The FRFs of an `.npz` file in the layout of the module docstring."""
+    path = Path(path)
+    try:
+        z = np.load(path, allow_pickle=False)
+    except Exception as exc:
+        raise FRFFileError(f"{path}: not a readable .npz file ({exc})") from None
+    with z:
+        need = ("frequency_hz", "frf", "response_node", "response_dir", "reference_node", "reference_dir")
+        missing = [k for k in need if k not in z.files]
+        if missing:
+            raise FRFFileError(f"{path}: missing array(s) {missing} (see docs/identify.md)")
+        form = str(z["form"]) if "form" in z.files else "accelerance"
+        if form not in DEFAULT_UNITS:
+            raise FRFFileError(f"{path}: field 'form' {form!r} is not accelerance, mobility or receptance")
+        dirs = [str(d) for d in z["response_dir"]]
+        for k, d in enumerate(dirs):
+            if d not in UFF_DIRECTION:
+                raise FRFFileError(f"{path}: channel {k + 1}: direction {d!r} is not one of {_NAMES_TEXT}")
+        ref = (int(z["reference_node"]), str(z["reference_dir"]))
+        frfs = FRFSet(np.asarray(z["frequency_hz"], float), np.asarray(z["frf"], complex),
+                      tuple((int(n), d) for n, d in zip(z["response_node"], dirs)), ref, form,
+                      str(z["units"]) if "units" in z.files else DEFAULT_UNITS[form],
+                      (str(z["model"]) or None) if "model" in z.files else None, (str(path),))
+    return _checked(frfs)
+
+
+def write_csv(frfs: FRFSet, path: str | Path) -> Path:
+    """Write the CSV layout of the module docstring; returns the path."""
+    path = Path(path)
+    head = [f"# model: {frfs.model or 'NONE'}", f"# form: {frfs.form}", f"# units: {frfs.units}",
+            f"# reference: {frfs.reference[0]} {frfs.reference[1]}"]
+    cols = ["frequency_hz"] + [f"{p} {n} {d}" for n, d in frfs.coordinates for p in ("re", "im")]
+    table = np.empty((frfs.frequency_hz.size, 1 + 2 * frfs.n_channels))
+    table[:, 0] = frfs.frequency_hz
+    table[:, 1::2], table[:, 2::2] = frfs.frf.real.T, frfs.frf.imag.T
+    with path.open("w", newline="") as fh:
+        fh.write("\n".join(head) + "\n" + ",".join(cols) + "\n")
+        np.savetxt(fh, table, delimiter=",", fmt="%.10g")
+    return path
+
+
+def read_csv(path: str | Path) -> FRFSet:
+    """The FRFs of a CSV file in the layout of the module docstring."""
+    path = Path(path)
+    lines = path.read_text().splitlines()
+    meta = {}
+    for line in lines:
+        if line.startswith("#") and ":" in line:
+            key, _, value = line[1:].partition(":")
+            meta[key.strip().lower()] = value.strip()
+    header = next((ln for ln in lines if ln and not ln.startswith("#")), None)
+    if header is None or not header.startswith("frequency_hz"):
+        raise FRFFileError(f"{path}: no header line starting with 'frequency_hz'")
+    cols = next(csv.reader([header]))[1:]
+    if len(cols) % 2 or "reference" not in meta:
+        raise FRFFileError(f"{path}: {'missing reference (a line # reference: NODE DIR)' if 'reference' not in meta else 'columns must come in re/im pairs'}")
+    coords = []
+    for k in range(0, len(cols), 2):
+        parts, parts_im = cols[k].split(), cols[k + 1].split()
+        if len(parts) != 3 or parts[0] != "re" or parts_im != ["im"] + parts[1:] or parts[2] not in UFF_DIRECTION:
+            raise FRFFileError(f"{path}: channel {k // 2 + 1}: columns {cols[k]!r}, {cols[k + 1]!r} are not "
+                               f"'re NODE DIR', 'im NODE DIR' with DIR one of {_NAMES_TEXT}")
+        coords.append((int(parts[1]), parts[2]))
+    ref = meta["reference"].split()
+    form = meta.get("form", "accelerance")
+    if len(ref) != 2 or ref[1] not in UFF_DIRECTION or form not in DEFAULT_UNITS:
+        raise FRFFileError(f"{path}: bad '# reference: {meta['reference']}' or '# form: {form}'")
+    try:
+        table = np.loadtxt(path, delimiter=",", comments="#", skiprows=1 + sum(ln.startswith("#") for ln in lines),
+                           ndmin=2)
+    except ValueError as exc:
+        raise FRFFileError(f"{path}: not numbers ({exc})") from None
+    model = meta.get("model")
+    return _checked(FRFSet(table[:, 0], (table[:, 1::2] + 1j * table[:, 2::2]).T, tuple(coords),
+                           (int(ref[0]), ref[1]), form, meta.get("units", DEFAULT_UNITS[form]),
+                           None if model in (None, "", "NONE") else model, (str(path),)))
+
+
+# == one entry point ==========================================================================
+def read_frf(*paths: str | Path) -> FRFSet:
+    """Read and merge FRF files (UFF 58 `.uff`/`.unv`, `.npz`, `.csv`) into one FRFSet.
+
+    Every file must share the frequency axis, the form and units, and the reference; a
+    coordinate may appear once. Errors are FRFFileError/FileNotFoundError naming file and channel."""
+    if not paths:
+        raise ValueError("no FRF file given")
+    sets = []
+    for p in paths:
+        p = Path(p)
+        if not p.exists():
+            raise FileNotFoundError(f"no FRF file {str(p)!r}")
+        suffix = p.suffix.lower()
+        reader = {".npz": read_npz, ".csv": read_csv}.get(suffix, read_uff58)
+        sets.append(reader(p))
+    return merge(sets)
+
+
+def merge(sets: list[FRFSet]) -> FRFSet:
+    """One FRFSet from several (same axis, form, units, reference, model)."""
+    first = sets[0]
+    for s in sets[1:]:
+        where = s.channel_label(0)
+        if (s.form, s.units) != (first.form, first.units):
+            raise FRFFileError(f"{where}: mixed units: {s.form} in {s.units}, but {first.sources[0]} is "
+                               f"{first.form} in {first.units}")
+        if s.frequency_hz.shape != first.frequency_hz.shape or not np.allclose(s.frequency_hz, first.frequency_hz):
+            raise FRFFileError(f"{where}: frequency lines differ from those of {first.sources[0]}")
+        if s.reference != first.reference:
+            raise FRFFileError(f"{where}: reference {s.reference} differs from {first.reference} in "
+                               f"{first.sources[0]}; identification needs one reference")
+        if s.model and first.model and s.model != first.model:
+            raise FRFFileError(f"{where}: model {s.model!r} differs from {first.model!r} in {first.sources[0]}")
+    if len(sets) == 1:
+        return first
+    channel_sources = tuple(s.channel_sources[k] if s.channel_sources else (s.sources[0], k + 1)
+                            for s in sets for k in range(s.n_channels))
+    return _checked(replace(first, frf=np.concatenate([s.frf for s in sets]),
+                            coordinates=sum((s.coordinates for s in sets), ()),
+                            model=next((s.model for s in sets if s.model), None),
+                            sources=sum((s.sources for s in sets), ()), channel_sources=channel_sources))

@@ -1,0 +1,84 @@
+"""The JSON modal-data file (format ``femu.modal-data/1``, docs/modal-data.md): validation
+of its parsed content and the dictionary written back."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..dofs import SPATIAL
+from ..model.validate import is_number, shown
+from .types import DATA_FORMAT, DataFileError, ModalData
+
+
+def _err(source: str, msg: str) -> DataFileError:
+    return DataFileError(f"{source}: {msg}")
+
+
+def modal_data_from_dict(d: Any, source: str = "<memory>") -> ModalData:
+    """Validate the parsed JSON of a modal-data file; errors name the file and the field."""
+    if not isinstance(d, dict):
+        raise _err(source, "the file must hold a JSON object")
+    for key in ("format", "model", "dofs", "modes"):
+        if key not in d:
+            raise _err(source, f"missing field '{key}'")
+    if d["format"] != DATA_FORMAT:
+        raise _err(source, f"field 'format' must be {DATA_FORMAT!r}, got {d['format']!r}")
+    if not isinstance(d["model"], str) or not d["model"]:
+        raise _err(source, "field 'model' must be a model name or a path")
+    dofs = []
+    if not isinstance(d["dofs"], list) or not d["dofs"]:
+        raise _err(source, "field 'dofs' must be a non-empty list of [node id, direction]")
+    for i, x in enumerate(d["dofs"]):
+        if not (isinstance(x, list) and len(x) == 2 and isinstance(x[0], int) and not isinstance(x[0], bool)):
+            raise _err(source, f"field 'dofs'[{i}]: expected [node id, direction], got {x!r}")
+        if x[1] not in SPATIAL:
+            raise _err(source, f"field 'dofs'[{i}]: unknown direction {x[1]!r}, use one of {list(SPATIAL)}")
+        dofs.append((x[0], x[1]))
+    if len(set(dofs)) != len(dofs):
+        raise _err(source, "field 'dofs' lists a coordinate twice")
+    modes = d["modes"]
+    if not isinstance(modes, list) or not modes:
+        raise _err(source, "field 'modes' must be a non-empty list")
+    freqs = np.empty(len(modes))
+    shapes = np.full((len(dofs), len(modes)), np.nan)
+    for k, mode in enumerate(modes):
+        where = f"field 'modes'[{k}]"
+        if not isinstance(mode, dict) or "frequency_hz" not in mode:
+            raise _err(source, f"{where}: missing 'frequency_hz'")
+        f = mode["frequency_hz"]
+        if not is_number(f) or f <= 0:
+            raise _err(source, f"{where}.frequency_hz: must be a finite number > 0, got {shown(f)}")
+        freqs[k] = f
+        s = mode.get("shape")
+        if s is None:
+            continue
+        if not isinstance(s, list) or len(s) != len(dofs):
+            n = len(s) if isinstance(s, list) else type(s).__name__
+            raise _err(source, f"{where}.shape: needs {len(dofs)} numbers (one per 'dofs' entry), got {n}")
+        for j, v in enumerate(s):
+            if not is_number(v):
+                raise _err(source, f"{where}.shape[{j}]: must be a finite number, got {shown(v)}")
+        if not any(s):
+            raise _err(source, f"{where}.shape: all zeros")
+        shapes[:, k] = s
+    if np.any(np.diff(freqs) < 0):
+        k = int(np.argmax(np.diff(freqs) < 0))
+        raise _err(source, f"field 'modes': frequencies must ascend, mode {k + 1} ({freqs[k + 1]} Hz) "
+                           f"comes after {freqs[k]} Hz")
+    meta = d.get("meta", {})
+    if not isinstance(meta, dict):
+        raise _err(source, "field 'meta' must be an object")
+    return ModalData(d["model"], tuple(dofs), freqs, shapes, meta, source)
+
+
+def modal_data_to_dict(data: ModalData) -> dict:
+    """The JSON-ready dictionary of a modal-data file."""
+    modes = []
+    for k in range(data.n_modes):
+        col = data.shapes[:, k]
+        modes.append({"frequency_hz": float(data.frequencies_hz[k]),
+                      "shape": None if np.isnan(col).any() else [float(v) for v in col]})
+    return {"format": DATA_FORMAT, "model": data.model, "dofs": [list(x) for x in data.dofs],
+            "modes": modes, "meta": data.meta}

@@ -1,0 +1,90 @@
+"""`ModalData`: measured frequencies (Hz), shapes at the measured DOFs (NaN columns where only
+the frequency was measured) and the name of the model the data belong to."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..model import FrameModel, load_model, shipped_models
+
+#: The format tag of a JSON modal-data file.
+DATA_FORMAT = "femu.modal-data/1"
+
+
+class DataFileError(ValueError):
+    """A measured-data file that breaks its format; the message names the file and field."""
+
+
+@dataclass(frozen=True, eq=False)
+class ModalData:
+    """Measured modes of one structure.
+
+    model: a shipped model name or a model file path; dofs: the measured coordinates
+    (node id, direction); frequencies_hz: (m,) ascending; shapes: (len(dofs), m), a column of
+    NaN where only the frequency is known. A shape's sign and scale carry no meaning.
+    """
+
+    model: str
+    dofs: tuple[tuple[int, str], ...]
+    frequencies_hz: np.ndarray
+    shapes: np.ndarray
+    meta: dict = field(default_factory=dict)
+    source: str = "<memory>"
+
+    @property
+    def n_modes(self) -> int:
+        """Number of measured modes."""
+        return int(self.frequencies_hz.shape[0])
+
+    @property
+    def has_shape(self) -> np.ndarray:
+        """(m,) True where the mode's shape was measured."""
+        return ~np.isnan(self.shapes).any(axis=0)
+
+    def subset(self, modes) -> "ModalData":
+        """The data restricted to some modes (indices), e.g. to hold modes out."""
+        modes = np.asarray(modes, dtype=int)
+        return ModalData(self.model, self.dofs, self.frequencies_hz[modes], self.shapes[:, modes],
+                         dict(self.meta), self.source)
+
+    def without_shapes(self) -> "ModalData":
+        """The data with every shape dropped (frequencies only)."""
+        return ModalData(self.model, self.dofs, self.frequencies_hz.copy(),
+                         np.full_like(self.shapes, np.nan), dict(self.meta), self.source)
+
+    def load_model(self) -> FrameModel:
+        """The model this data belongs to (name, or path relative to the data file)."""
+        if self.model in shipped_models():
+            return load_model(self.model)
+        path = Path(self.model)
+        if not path.is_absolute() and self.source not in ("<memory>", ""):
+            path = Path(self.source).parent / path
+        return load_model(path)
+
+    def is_for(self, model: FrameModel) -> bool:
+        """Whether this data names `model`: by its name, or as the model file `model` was read
+        from (a path relative to the data file)."""
+        if self.model == model.name:
+            return True
+        if self.model in shipped_models():
+            return False
+        path = Path(self.model)
+        if not path.is_absolute() and self.source not in ("<memory>", ""):
+            path = Path(self.source).parent / path
+        try:
+            return bool(model.source) and path.resolve() == Path(model.source).resolve()
+        except OSError:
+            return False
+
+    def check_model(self, model: FrameModel) -> None:
+        """Raise DataFileError if a measured DOF does not exist in `model`."""
+        ids = set(model.node_ids)
+        for i, (node, d) in enumerate(self.dofs):
+            if node not in ids:
+                raise DataFileError(f"{self.source}: field 'dofs'[{i}]: node {node} is not in model {model.name!r}")
+            if d not in model.layout.names:
+                raise DataFileError(f"{self.source}: field 'dofs'[{i}]: unknown direction {d!r}; the nodes of model "
+                                    f"{model.name!r} have {list(model.layout.names)}")

@@ -1,0 +1,184 @@
+"""Model files (format ``femu.model/1``, docs/model-format.md): reading, writing, and the
+models that ship with the project (``hframe``), loaded by name."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Any
+
+from ..jsonutil import dumps, read_json_file
+from ..shipped import resolve, shipped_names
+from .types import Element, FrameModel, LumpedMass, Material, Node, Section, Spring, Support
+from .validate import ModelFileError, is_number, shown
+
+MODEL_FORMAT = "femu.model/1"
+MODEL_SUFFIX = ".model.json"
+
+
+def _dof(value: Any, where: str) -> tuple[int, str]:
+    if not (isinstance(value, (list, tuple)) and len(value) == 2 and isinstance(value[0], int)
+            and isinstance(value[1], str)):
+        raise ModelFileError(f"{where}: a DOF is [node id, direction], got {value!r}")
+    return (int(value[0]), str(value[1]))
+
+
+def _int(value: Any, where: str) -> int:
+    """An id read from a file: a JSON integer (not a bool, not 3.5)."""
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise ModelFileError(f"{where}: must be an integer id, got {value!r}")
+    return value
+
+
+def _number(value: Any, where: str) -> float:
+    if not is_number(value):
+        raise ModelFileError(f"{where}: must be a finite number, got {shown(value)}")
+    return float(value)
+
+
+def _objects(d: dict, key: str, source: str, kind: type) -> dict:
+    """The 'materials' or 'sections' table: name -> object of the dataclass `kind`'s fields."""
+    table = _get(d, key, source)
+    if not isinstance(table, dict):
+        raise ModelFileError(f"{source}: field '{key}' must be an object of name -> properties")
+    out = {}
+    for name, v in table.items():
+        if not isinstance(v, dict):
+            raise ModelFileError(f"{source}: field '{key}' entry {name!r} must be an object")
+        try:
+            out[name] = kind(**v)
+        except TypeError as exc:
+            raise ModelFileError(f"{source}: field '{key}' entry {name!r}: {exc}") from None
+    return out
+
+
+def _get(obj: dict, key: str, where: str, default: Any = ...) -> Any:
+    if not isinstance(obj, dict):
+        raise ModelFileError(f"{where}: expected an object, got {type(obj).__name__}")
+    if key in obj:
+        return obj[key]
+    if default is ...:
+        raise ModelFileError(f"{where}: missing field '{key}'")
+    return default
+
+
+def _name(value: Any, where: str) -> str:
+    """`value` if it is a string (a key of the sections or materials table)."""
+    if not isinstance(value, str):
+        raise ModelFileError(f"{where}: must be the name (a string) of an entry of the table, got {shown(value)}")
+    return value
+
+
+def model_from_dict(d: dict, source: str = "<memory>") -> FrameModel:
+    """Build a model from the parsed JSON of a model file; errors name `source` and the field."""
+    if _get(d, "format", source) != MODEL_FORMAT:
+        raise ModelFileError(f"{source}: field 'format' must be {MODEL_FORMAT!r}, got {d.get('format')!r}")
+    materials = _objects(d, "materials", source, Material)
+    sections = _objects(d, "sections", source, Section)
+    for key in ("nodes", "elements"):
+        if not isinstance(_get(d, key, source), list):
+            raise ModelFileError(f"{source}: field '{key}' must be a list")
+    for key in ("masses", "springs", "supports", "measured_dofs"):
+        if not isinstance(d.get(key, []), list):
+            raise ModelFileError(f"{source}: field '{key}' must be a list, got {shown(d[key])}")
+    for key in ("nodes", "elements", "masses", "springs", "supports"):
+        for i, item in enumerate(d.get(key, [])):
+            if not isinstance(item, dict):
+                raise ModelFileError(f"{source}: {key}[{i}] must be an object, got {shown(item)}")
+    nodes = []
+    for i, n in enumerate(d["nodes"]):
+        where = f"{source}: nodes[{i}]"
+        nodes.append(Node(_int(_get(n, "id", where), f"{where} field 'id'"),
+                          _number(_get(n, "x", where), f"{where} field 'x'"),
+                          _number(_get(n, "y", where), f"{where} field 'y'")))
+    elements = []
+    for i, e in enumerate(_get(d, "elements", source)):
+        where = f"{source}: elements[{i}]"
+        ends = _get(e, "nodes", where)
+        if not (isinstance(ends, list) and len(ends) == 2):
+            raise ModelFileError(f"{where}: field 'nodes' must be [node_i, node_j]")
+        elements.append(Element(
+            id=_int(_get(e, "id", where), f"{where} field 'id'"), node_i=_int(ends[0], f"{where} field 'nodes'"),
+            node_j=_int(ends[1], f"{where} field 'nodes'"),
+            section=_name(_get(e, "section", where), f"{where} field 'section'"),
+            material=_name(_get(e, "material", where), f"{where} field 'material'"),
+            formulation=_get(e, "formulation", where, "euler-bernoulli"),
+            release_i=_get(e, "release_i", where, None), release_j=_get(e, "release_j", where, None),
+            youngs_modulus_pa=_get(e, "youngs_modulus_pa", where, None),
+            crack_position=_get(e, "crack_position", where, None),
+            crack_stiffness=_get(e, "crack_stiffness", where, None)))
+    masses = []
+    for i, m in enumerate(d.get("masses", [])):
+        where = f"{source}: masses[{i}]"
+        masses.append(LumpedMass(_int(_get(m, "node", where), f"{where} field 'node'"), _get(m, "mass_kg", where),
+                                 _get(m, "inertia_kg_m2", where, 0.0)))
+    springs = []
+    for i, s in enumerate(d.get("springs", [])):
+        where = f"{source}: springs[{i}]"
+        dofs = _get(s, "dofs", where)
+        if not (isinstance(dofs, list) and len(dofs) in (1, 2)):
+            raise ModelFileError(f"{where}: field 'dofs' must list one DOF (to ground) or two")
+        springs.append(Spring(_int(_get(s, "id", where, i + 1), f"{where} field 'id'"), _dof(dofs[0], where),
+                              _dof(dofs[1], where) if len(dofs) == 2 else None, _get(s, "stiffness", where)))
+    supports = []
+    for i, s in enumerate(d.get("supports", [])):
+        where = f"{source}: supports[{i}]"
+        directions = _get(s, "directions", where)
+        if not isinstance(directions, list):
+            raise ModelFileError(f"{where}: field 'directions' must be a list such as [\"x\", \"y\"], "
+                                 f"got {directions!r}")
+        supports.append(Support(_int(_get(s, "node", where), f"{where} field 'node'"), tuple(directions)))
+    measured = tuple(_dof(x, f"{source}: measured_dofs[{i}]") for i, x in enumerate(d.get("measured_dofs", [])))
+    exc = d.get("excitation")
+    return FrameModel(
+        name=str(d.get("name", Path(source).stem)), nodes=tuple(nodes), materials=materials, sections=sections,
+        elements=tuple(elements), masses=tuple(masses), springs=tuple(springs), supports=tuple(supports),
+        measured_dofs=measured, excitation=_dof(exc, f"{source}: excitation") if exc is not None else None,
+        description=str(d.get("description", "")), source=source)
+
+
+def model_to_dict(model: FrameModel) -> dict:
+    """The JSON-ready dictionary of a model file."""
+    def element(e: Element) -> dict:
+        out: dict[str, Any] = {"id": e.id, "nodes": [e.node_i, e.node_j], "section": e.section,
+                               "material": e.material, "formulation": e.formulation}
+        for k in ("release_i", "release_j", "youngs_modulus_pa", "crack_position", "crack_stiffness"):
+            if getattr(e, k) is not None:
+                out[k] = getattr(e, k)
+        return out
+
+    return {
+        "format": MODEL_FORMAT,
+        "name": model.name,
+        "description": model.description,
+        "materials": {k: dataclasses.asdict(v) for k, v in model.materials.items()},
+        "sections": {k: dataclasses.asdict(v) for k, v in model.sections.items()},
+        "nodes": [{"id": n.id, "x": n.x, "y": n.y} for n in model.nodes],
+        "elements": [element(e) for e in model.elements],
+        "masses": [dataclasses.asdict(m) for m in model.masses],
+        "springs": [{"id": s.id, "dofs": [list(s.dof_a)] + ([list(s.dof_b)] if s.dof_b else []),
+                     "stiffness": s.stiffness} for s in model.springs],
+        "supports": [{"node": s.node, "directions": list(s.directions)} for s in model.supports],
+        "measured_dofs": [list(d) for d in model.measured_dofs],
+        "excitation": list(model.excitation) if model.excitation else None,
+    }
+
+
+def shipped_models() -> tuple[str, ...]:
+    """Names of the models that ship with the project."""
+    return shipped_names(MODEL_SUFFIX)
+
+
+def load_model(name_or_path: str | Path) -> FrameModel:
+    """Load a shipped model by name (``"hframe"``) or a model file by path."""
+    if isinstance(name_or_path, FrameModel):
+        return name_or_path
+    path = resolve(name_or_path, MODEL_SUFFIX, "model")
+    return model_from_dict(read_json_file(path, ModelFileError), source=str(path))
+
+
+def save_model(model: FrameModel, path: str | Path) -> Path:
+    """Write `model` as a model file; returns the path."""
+    path = Path(path)
+    path.write_text(dumps(model_to_dict(model)) + "\n")
+    return path

@@ -1,0 +1,226 @@
+"""The model types: nodes, elements, sections, materials, masses, springs, supports, and
+the `FrameModel` that holds them.
+
+A `FrameModel` is a frozen value, validated when built (validate.py). Its nodal DOFs are
+described by its `layout` (dofs.py); file I/O is in io.py, edits in edits.py.
+
+Units are SI throughout: metres, pascals, kilograms, newtons per metre (translational
+springs) and newton-metres per radian (rotational springs).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+from ..dofs import DEFAULT_LAYOUT, DofLayout
+from .validate import validate
+
+#: The DOF names of a node of the default layout, in their order (``DEFAULT_LAYOUT.names``).
+DIRECTIONS = DEFAULT_LAYOUT.names
+
+@dataclass(frozen=True)
+class Node:
+    """A node of the planar frame, coordinates in metres."""
+
+    id: int
+    x: float
+    y: float
+
+
+@dataclass(frozen=True)
+class Material:
+    """Isotropic linear elastic material: modulus (Pa), density (kg/m^3), Poisson's ratio."""
+
+    youngs_modulus_pa: float
+    density_kg_m3: float
+    poisson_ratio: float = 0.3
+
+
+@dataclass(frozen=True)
+class Section:
+    """Beam cross-section: area (m^2), second moment of area in the frame plane (m^4),
+    and the shear coefficient kappa (shear area = kappa * area, Timoshenko elements only)."""
+
+    area_m2: float
+    inertia_m4: float
+    shear_coefficient: float = 5.0 / 6.0
+
+
+@dataclass(frozen=True)
+class Element:
+    """A 2-node frame element from node_i to node_j.
+
+    ``release_i`` / ``release_j``: None for a rigid connection of the element end's rotation
+    to its node; otherwise the element end gets a rotation of its own, tied to the node's
+    rotation by a rotational spring of that stiffness (N m/rad; 0 is a pin).
+    ``youngs_modulus_pa`` overrides the material's modulus for this element (an updated model).
+    ``crack_position`` / ``crack_stiffness``: a crack as a rotational spring (N m/rad) at that
+    fraction of the length from node_i, inside the element (flexibility formulation, no new
+    node; Euler-Bernoulli only). The crack's stiffness scales with the element's modulus
+    when that is updated, as a fracture-mechanics crack compliance (proportional to 1/E) does.
+    """
+
+    id: int
+    node_i: int
+    node_j: int
+    section: str
+    material: str
+    formulation: str = "euler-bernoulli"
+    release_i: float | None = None
+    release_j: float | None = None
+    youngs_modulus_pa: float | None = None
+    crack_position: float | None = None
+    crack_stiffness: float | None = None
+
+
+@dataclass(frozen=True)
+class LumpedMass:
+    """A lumped mass (kg, acting in every translation) and rotary inertia (kg m^2, on the
+    node's hinge rotation) at a node."""
+
+    node: int
+    mass_kg: float
+    inertia_kg_m2: float = 0.0
+
+
+@dataclass(frozen=True)
+class Spring:
+    """A linear spring between two nodal DOFs, or from one DOF to ground (dof_b None).
+
+    Stiffness in N/m between translations, N m/rad between rotations.
+    """
+
+    id: int
+    dof_a: tuple[int, str]
+    dof_b: tuple[int, str] | None
+    stiffness: float
+
+
+@dataclass(frozen=True)
+class Support:
+    """Directions fixed to ground at a node."""
+
+    node: int
+    directions: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class FrameModel:
+    """A frame model. Nodal DOFs are node-major, each node with the DOFs of `layout`
+    (the planar frame: x, y, rz)."""
+
+    name: str
+    nodes: tuple[Node, ...]
+    materials: dict[str, Material]
+    sections: dict[str, Section]
+    elements: tuple[Element, ...]
+    masses: tuple[LumpedMass, ...] = ()
+    springs: tuple[Spring, ...] = ()
+    supports: tuple[Support, ...] = ()
+    measured_dofs: tuple[tuple[int, str], ...] = ()
+    excitation: tuple[int, str] | None = None
+    description: str = ""
+    source: str = field(default="<memory>", compare=False)
+    layout: DofLayout = field(default=DEFAULT_LAYOUT, repr=False)
+
+    def __post_init__(self) -> None:
+        validate(self)
+
+    # -- lookups ---------------------------------------------------------------------
+    @property
+    def node_ids(self) -> tuple[int, ...]:
+        """Node ids in model order."""
+        return tuple(n.id for n in self.nodes)
+
+    @property
+    def element_ids(self) -> tuple[int, ...]:
+        """Element ids in model order."""
+        return tuple(e.id for e in self.elements)
+
+    def node(self, node_id: int) -> Node:
+        """The node with this id (KeyError if none)."""
+        for n in self.nodes:
+            if n.id == node_id:
+                return n
+        raise KeyError(f"model {self.name!r} has no node {node_id}")
+
+    def element(self, element_id: int) -> Element:
+        """The element with this id (KeyError if none)."""
+        for e in self.elements:
+            if e.id == element_id:
+                return e
+        raise KeyError(f"model {self.name!r} has no element {element_id}")
+
+    @property
+    def dofs(self) -> tuple[tuple[int, str], ...]:
+        """All nodal DOFs in node-major order, one (node id, direction) per DOF."""
+        return tuple((n.id, d) for n in self.nodes for d in self.layout.names)
+
+    @property
+    def n_dof(self) -> int:
+        """Number of nodal DOFs."""
+        return self.layout.n_dof(len(self.nodes))
+
+    def node_position(self, node_id: int) -> int:
+        """Position of a node in `nodes` (0-based); KeyError if the model has no such node."""
+        ids = self.node_ids
+        if node_id not in ids:
+            raise KeyError(f"model {self.name!r} has no node {node_id}")
+        return ids.index(node_id)
+
+    def dof_index(self, node_id: int, direction: str) -> int:
+        """Position of a nodal DOF in `dofs`."""
+        self.layout.position(direction)
+        return self.layout.index(self.node_position(node_id), direction)
+
+    def node_dof_indices(self, node_id: int, names=None) -> tuple[int, ...]:
+        """Positions in `dofs` of a node's DOFs `names` (default: all of them, layout order)."""
+        pos = self.node_position(node_id)
+        return tuple(self.layout.index(pos, d) for d in (self.layout.names if names is None else names))
+
+    def element_length_m(self, element_id: int) -> float:
+        """Length of an element (m)."""
+        e = self.element(element_id)
+        a, b = self.node(e.node_i), self.node(e.node_j)
+        return math.hypot(b.x - a.x, b.y - a.y)
+
+    def element_modulus_pa(self, element_id: int) -> float:
+        """Young's modulus of an element (Pa): its own if updated, else its material's."""
+        e = self.element(element_id)
+        if e.youngs_modulus_pa is not None:
+            return e.youngs_modulus_pa
+        return self.materials[e.material].youngs_modulus_pa
+
+    def total_mass_kg(self) -> float:
+        """Mass of all elements and lumped masses (kg)."""
+        m = 0.0
+        for e in self.elements:
+            m += (self.materials[e.material].density_kg_m3 * self.sections[e.section].area_m2
+                  * self.element_length_m(e.id))
+        return m + sum(lm.mass_kg for lm in self.masses)
+
+    def joints(self) -> tuple[int, ...]:
+        """Nodes where more than two element ends meet (where members join)."""
+        count: dict[int, int] = {}
+        for e in self.elements:
+            for n in (e.node_i, e.node_j):
+                count[n] = count.get(n, 0) + 1
+        return tuple(n for n, c in count.items() if c > 2)
+
+    def replace(self, **changes: Any) -> "FrameModel":
+        """A copy with some fields changed (validated again)."""
+        return dataclasses.replace(self, **changes)
+
+    def with_element_moduli(self, moduli_pa: dict[int, float]) -> "FrameModel":
+        """A copy whose listed elements have their own modulus (an updated model)."""
+        elements = tuple(
+            dataclasses.replace(e, youngs_modulus_pa=float(moduli_pa[e.id])) if e.id in moduli_pa else e
+            for e in self.elements
+        )
+        unknown = set(moduli_pa) - set(self.element_ids)
+        if unknown:
+            raise KeyError(f"model {self.name!r} has no element(s) {sorted(unknown)}")
+        return self.replace(elements=elements)

@@ -1,0 +1,183 @@
+"""Validation of a model: every rule a model file must obey, with messages that name the
+file, the item and the field."""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any
+
+from ..elements import formulation, formulations
+
+if TYPE_CHECKING:
+    from .types import FrameModel
+
+
+class ModelFileError(ValueError):
+    """A model file or model definition that breaks the format; the message names where."""
+
+
+def is_number(value: Any) -> bool:
+    """A finite int or float that is not a bool (an integer too large for a float is not)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return False
+    try:
+        return math.isfinite(value)
+    except OverflowError:  # an int of more than ~308 digits
+        return False
+
+
+def shown(value: Any, limit: int = 60) -> str:
+    """`repr(value)` cut to `limit` characters, for one-line error messages."""
+    text = repr(value) if not isinstance(value, int) or abs(value) < 10**limit else f"an integer of {len(str(abs(value)))} digits"
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def _duplicates(ids: list) -> list:
+    return sorted({i for i in ids if ids.count(i) > 1})
+
+
+#: The physical ranges a model's values must lie in (SI units): a value outside is a typo or a
+#: unit error, and would leave the matrices too ill-conditioned to solve in double precision.
+RANGES = {
+    "coordinate": 1e6,                      # |x|, |y| in m
+    "youngs_modulus_pa": (1e3, 1e13), "density_kg_m3": (1e-3, 1e6),
+    "area_m2": (1e-12, 1e3), "inertia_m4": (1e-24, 1e6), "shear_coefficient": (1e-3, 1e3),
+    "mass_kg": 1e9, "inertia_kg_m2": 1e9, "stiffness": 1e15, "release": 1e15,
+}
+
+
+def _positive(value: Any, where: str, allow_zero: bool = False, field: str | None = None) -> None:
+    """ModelFileError unless `value` is a finite number > 0 (>= 0 with `allow_zero`) within the
+    range RANGES[field] (a (low, high) pair, or a high bound)."""
+    ok = is_number(value) and (value >= 0 if allow_zero else value > 0)
+    if not ok:
+        need = "a finite number >= 0" if allow_zero else "a finite number > 0"
+        raise ModelFileError(f"{where}: must be {need}, got {shown(value)}")
+    bounds = RANGES.get(field)
+    if bounds is not None:
+        lo, hi = bounds if isinstance(bounds, tuple) else (0.0, bounds)
+        if not (lo <= value <= hi) and not (allow_zero and value == 0):
+            raise ModelFileError(f"{where}: {shown(value)} is outside the physical range [{lo:g}, {hi:g}] "
+                                 "(SI units: Pa, kg/m^3, m^2, m^4, kg, N/m)")
+
+
+def validate(m: FrameModel) -> None:
+    """Raise ModelFileError (naming `m.source`, the item and the field) if `m` breaks a rule."""
+    src = m.source
+    _check_ids(src, "nodes", [n.id for n in m.nodes])
+    for n in m.nodes:
+        for v, name in ((n.x, "x"), (n.y, "y")):
+            if not (is_number(v) and abs(v) <= RANGES["coordinate"]):
+                raise ModelFileError(f"{src}: node {n.id} field '{name}' must be a finite number of metres within "
+                                     f"+-{RANGES['coordinate']:g}, got {shown(v)}")
+    _validate_tables(m)
+    _check_ids(src, "elements", [e.id for e in m.elements])
+    for e in m.elements:
+        _validate_element(m, e)
+    _validate_nodal(m)
+    _check_connected(m)
+
+
+def _check_connected(m: FrameModel) -> None:
+    """Raise ModelFileError naming the first node that no element and no spring touches: it
+    could only float freely (a typo in an element's nodes, a leftover node)."""
+    used = {n for e in m.elements for n in (e.node_i, e.node_j)}
+    used |= {d[0] for s in m.springs for d in (s.dof_a, s.dof_b) if d is not None}
+    loose = [n for n in m.node_ids if n not in used]
+    if loose:
+        raise ModelFileError(f"{m.source}: node {loose[0]} is connected to no element and no spring"
+                             + (f" (nor are nodes {loose[1:6]})" if len(loose) > 1 else "")
+                             + ": remove it or connect it")
+
+
+def _check_ids(src, field: str, ids: list) -> None:
+    """Raise ModelFileError if the list `field` is empty or repeats an id."""
+    if not ids:
+        raise ModelFileError(f"{src}: '{field}' is empty")
+    if len(set(ids)) != len(ids):
+        raise ModelFileError(f"{src}: '{field}' has duplicate ids {_duplicates(ids)}")
+
+
+def _validate_tables(m: FrameModel) -> None:
+    src = m.source
+    for name, mat in m.materials.items():
+        _positive(mat.youngs_modulus_pa, f"{src}: material {name!r} 'youngs_modulus_pa'", field="youngs_modulus_pa")
+        _positive(mat.density_kg_m3, f"{src}: material {name!r} 'density_kg_m3'", field="density_kg_m3")
+        if not (is_number(mat.poisson_ratio) and -1.0 < mat.poisson_ratio < 0.5):
+            raise ModelFileError(f"{src}: material {name!r} 'poisson_ratio' must be a number in (-1, 0.5), "
+                                 f"got {mat.poisson_ratio!r}")
+    for name, sec in m.sections.items():
+        _positive(sec.area_m2, f"{src}: section {name!r} 'area_m2'", field="area_m2")
+        _positive(sec.inertia_m4, f"{src}: section {name!r} 'inertia_m4'", field="inertia_m4")
+        _positive(sec.shear_coefficient, f"{src}: section {name!r} 'shear_coefficient'", field="shear_coefficient")
+
+
+def _validate_element(m: FrameModel, e) -> None:
+    where = f"{m.source}: element {e.id}"
+    idset = set(m.node_ids)
+    for n in (e.node_i, e.node_j):
+        if n not in idset:
+            raise ModelFileError(f"{where}: field 'nodes': unknown node {n}")
+    if e.node_i == e.node_j:
+        raise ModelFileError(f"{where}: both ends at node {e.node_i}")
+    if e.section not in m.sections:
+        raise ModelFileError(f"{where}: field 'section': unknown section {e.section!r} "
+                             f"(sections: {sorted(m.sections)})")
+    if e.material not in m.materials:
+        raise ModelFileError(f"{where}: field 'material': unknown material {e.material!r} "
+                             f"(materials: {sorted(m.materials)})")
+    if e.formulation not in formulations():
+        raise ModelFileError(f"{where}: 'formulation' must be one of {formulations()}, got {e.formulation!r}")
+    for r, name in ((e.release_i, "release_i"), (e.release_j, "release_j")):
+        if r is not None:
+            _positive(r, f"{where} '{name}'", allow_zero=True, field="release")
+    if e.youngs_modulus_pa is not None:
+        _positive(e.youngs_modulus_pa, f"{where} 'youngs_modulus_pa'", field="youngs_modulus_pa")
+    if (e.crack_position is None) != (e.crack_stiffness is None):
+        raise ModelFileError(f"{where}: 'crack_position' and 'crack_stiffness' go together")
+    if e.crack_position is not None:
+        if not (isinstance(e.crack_position, (int, float)) and 0.0 < e.crack_position < 1.0):
+            raise ModelFileError(f"{where} 'crack_position': must be inside (0, 1), got {e.crack_position!r}")
+        _positive(e.crack_stiffness, f"{where} 'crack_stiffness'", field="release")
+        if not formulation(e.formulation).supports_crack:
+            cracked = [f for f in formulations() if formulation(f).supports_crack]
+            raise ModelFileError(f"{where}: a crack needs formulation {' or '.join(map(repr, cracked))}")
+    a, b = m.node(e.node_i), m.node(e.node_j)
+    if math.hypot(b.x - a.x, b.y - a.y) <= 0:
+        raise ModelFileError(f"{where}: zero length (nodes {e.node_i} and {e.node_j} coincide)")
+
+
+def _check_dof(m: FrameModel, dof: Any, where: str) -> None:
+    if not (isinstance(dof, tuple) and len(dof) == 2):
+        raise ModelFileError(f"{where}: a DOF is [node id, direction], got {dof!r}")
+    if dof[0] not in m.node_ids:
+        raise ModelFileError(f"{where}: unknown node {dof[0]!r}")
+    if dof[1] not in m.layout.names:
+        raise ModelFileError(f"{where}: unknown direction {dof[1]!r}; use one of {m.layout.names}")
+
+
+def _validate_nodal(m: FrameModel) -> None:
+    """Masses, springs, supports, measured DOFs and the excitation."""
+    src, idset = m.source, set(m.node_ids)
+    for lm in m.masses:
+        if lm.node not in idset:
+            raise ModelFileError(f"{src}: mass at unknown node {lm.node}")
+        _positive(lm.mass_kg, f"{src}: mass at node {lm.node} 'mass_kg'", allow_zero=True, field="mass_kg")
+        _positive(lm.inertia_kg_m2, f"{src}: mass at node {lm.node} 'inertia_kg_m2'", allow_zero=True, field="inertia_kg_m2")
+    for s in m.springs:
+        _check_dof(m, s.dof_a, f"{src}: spring {s.id}")
+        if s.dof_b is not None:
+            _check_dof(m, s.dof_b, f"{src}: spring {s.id}")
+        _positive(s.stiffness, f"{src}: spring {s.id} 'stiffness'", allow_zero=True, field="stiffness")
+    for sup in m.supports:
+        if sup.node not in idset:
+            raise ModelFileError(f"{src}: support at unknown node {sup.node}")
+        for d in sup.directions:
+            if d not in m.layout.names:
+                raise ModelFileError(f"{src}: support at node {sup.node}: unknown direction {d!r}")
+    for i, dof in enumerate(m.measured_dofs):
+        _check_dof(m, dof, f"{src}: measured_dofs[{i}]")
+    if len(set(m.measured_dofs)) != len(m.measured_dofs):
+        raise ModelFileError(f"{src}: 'measured_dofs' lists a DOF twice")
+    if m.excitation is not None:
+        _check_dof(m, m.excitation, f"{src}: excitation")

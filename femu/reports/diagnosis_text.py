@@ -1,0 +1,217 @@
+"""A diagnosis in words: the number formats and sentences shared by the terminal summary
+(`femu diagnose`) and the Markdown report (`femu diagnose --out`), and the report's Markdown.
+
+Everything here reads a `fe_problem.Diagnosis` by its attributes and computes nothing new.
+"""
+
+from __future__ import annotations
+
+import math
+
+from fe_problem.diagnosis import Cause, Diagnosis, Selection
+
+from .render import markdown_table
+
+
+def fmt(v, digits: int = 4) -> str:
+    """A number with `digits` significant digits; '-' for a missing one (None/NaN)."""
+    if v is None or (isinstance(v, float) and not math.isfinite(v)):
+        return "-"
+    if isinstance(v, (int, float)):
+        return f"{v:.{digits}g}"
+    return str(v)
+
+
+def _missing(v) -> bool:
+    return v is None or not math.isfinite(v)
+
+
+def hz(v) -> str:
+    """A frequency in Hz with two decimals; '-' for a missing one (None/NaN)."""
+    return "-" if _missing(v) else f"{v:.2f}"
+
+
+def pct(v) -> str:
+    """A signed percentage with two decimals; '-' for a missing one (None/NaN)."""
+    return "-" if _missing(v) else f"{v:+.2f}"
+
+
+def location_text(location: dict | None) -> str:
+    """'node 9', 'node 8, element 11'; 'whole frame' for an effect without a place."""
+    if not location:
+        return "whole frame"
+    return ", ".join(f"{k} {v}" for k, v in location.items())
+
+
+def estimate_text(estimate: dict | None) -> str:
+    """'mass_kg 0.03896, mass_ratio 0.02198' (keys as in the record, with their units)."""
+    if not estimate:
+        return "-"
+    parts = []
+    for k, v in estimate.items():
+        if isinstance(v, dict):
+            v = "{" + ", ".join(f"{kk}: {fmt(vv)}" for kk, vv in v.items()) + "}"
+        parts.append(f"{k} {fmt(v)}")
+    return ", ".join(parts)
+
+
+def coordinate_labels(diag: Diagnosis) -> list[str]:
+    """'1x', '11y', ... one per measured coordinate, in the data's order."""
+    return [f"{node}{d}" for node, d in diag.residuals.measured_dofs]
+
+
+def cause_text(cause: Cause) -> str:
+    """One line: the kind and place with its estimate, 'none', or 'cannot tell apart: ...'."""
+    if cause.is_none:
+        return "none: " + (cause.explanation or "no candidate is significant")
+    if not cause.identifiable:
+        agreed = []
+        if cause.kind != "undetermined":
+            agreed.append(f"all {cause.kind}")
+        if cause.location:
+            agreed.append(f"all at {location_text(cause.location)}")
+        tail = f" ({'; '.join(agreed)})" if agreed else ""
+        return "cannot tell apart: " + ", ".join(cause.indistinguishable) + tail
+    return f"{cause.kind} at {location_text(cause.location)}: {estimate_text(cause.estimate)}"
+
+
+def threshold_chi2_drop(selection: Selection) -> float | None:
+    """The chi^2 drop the best candidate needs to be significant, as the record states it."""
+    value = selection.threshold_chi2_drop
+    return None if _missing(value) else float(value)
+
+
+def best_label(diag: Diagnosis) -> str | None:
+    """The label of the candidate with the lowest chi^2 (the one the test was applied to)."""
+    best = diag.best
+    return None if best is None else best.label
+
+
+def mode_ranges(modes) -> str:
+    """Mode numbers as ranges: [1, 2, 3, 5] -> '1-3, 5'."""
+    modes = sorted(int(m) for m in modes)
+    out, k = [], 0
+    while k < len(modes):
+        j = k
+        while j + 1 < len(modes) and modes[j + 1] == modes[j] + 1:
+            j += 1
+        out.append(str(modes[k]) if j == k else f"{modes[k]}-{modes[j]}")
+        k = j + 1
+    return ", ".join(out) or "-"
+
+
+# == Markdown ==================================================================================
+def _table(header: list[str], rows: list[list]) -> list[str]:
+    """A Markdown table followed by a blank line (sections are joined line by line)."""
+    return markdown_table(header, rows) + [""]
+
+
+def render_markdown(diag: Diagnosis, figures: dict, data_source: str, model_name: str,
+                    extended_file: str | None) -> str:
+    """The report's Markdown from the record; `figures` maps a figure's role to its file name."""
+    sel = diag.selection
+    md = [f"# Diagnosis of model `{model_name}` against `{data_source}`", "",
+          f"{len(diag.residuals.correlation.measured_hz)} measured modes, {len(diag.residuals.measured_dofs)} "
+          f"measured coordinates. Noise model: frequencies {fmt(100 * sel.freq_noise, 3)} %, shape entries "
+          f"{fmt(100 * sel.shape_noise, 3)} % of the mode's RMS.", ""]
+    md += _cause_section(diag, extended_file)
+    md += _residuals_section(diag, figures)
+    md += _gain_section(diag)
+    md += ["## Candidates", "",
+           f"{sel.n_candidates} candidates screened by their first-order chi^2 drop, the {sel.n_fitted} "
+           "most promising fitted (grid over the effect size, then a bounded refinement).", ""]
+    if "candidates" in figures:
+        md += [f"![candidates]({figures['candidates']})", ""]
+    md += _table(["candidate", "screened drop", "fitted drop", "distance to best", "estimate"],
+                 [[c.label, fmt(c.screen_chi2_drop), fmt(c.chi2_drop), fmt(c.delta_to_best),
+                   estimate_text(c.estimate)] for c in diag.candidates if c.fitted])
+    md += ["### Selection", "", f"{sel.method}.", ""]
+    md += _table(["alpha", "statistic", "p (single)", "p (adjusted)", "dispersion", "ambiguity chi^2"],
+                 [[fmt(sel.alpha, 2), fmt(sel.statistic), fmt(sel.p_value, 3), fmt(sel.p_adjusted, 3),
+                   fmt(sel.dispersion), fmt(sel.ambiguity_chi2, 3)]])
+    if diag.warnings:
+        md += ["## Warnings", ""] + [f"- {w}" for w in diag.warnings] + [""]
+    md += ["The full record is in [`diagnosis.json`](diagnosis.json).", ""]
+    return "\n".join(md)
+
+
+def _cause_section(diag: Diagnosis, extended_file: str | None) -> list[str]:
+    cause, sel = diag.cause, diag.selection
+    md = ["## Cause", "", f"**{cause_text(cause)}**", "",
+          f"- adjusted p-value {fmt(cause.p_adjusted, 3)} (likelihood ratio against the calibrated model, "
+          f"Bonferroni over {sel.n_candidates} candidates; significant below {fmt(sel.alpha, 2)})"]
+    best, needed = diag.best, threshold_chi2_drop(sel)
+    if best is not None and needed is not None:
+        md.append(f"- the best candidate, {best.label}, lowers chi^2 by {fmt(best.chi2_drop)}; significance needs "
+                  f"{fmt(needed, 3)}")
+    if cause.explanation and not cause.is_none:
+        md.append(f"- {cause.explanation}")
+    if extended_file:
+        md.append(f"- extended model: [`{extended_file}`]({extended_file}) (calibrated, with the effect"
+                  + ("; the best of the candidates that cannot be told apart" if not cause.identifiable else "")
+                  + ")")
+    md += [""]
+    if diag.alternatives:
+        md += ["### " + ("Closest candidates (none significant)" if cause.is_none else "Alternatives"), "",
+               f"chi^2 distance to the best (scaled by the dispersion {fmt(sel.dispersion, 3)}); below "
+               f"{fmt(sel.ambiguity_chi2, 3)} the data cannot tell a candidate from the best.", ""]
+        md += _table(["candidate", "kind", "place", "estimate", "chi^2 drop", "distance to best"],
+                     [[a.label, a.kind, location_text(a.location), estimate_text(a.estimate), fmt(a.chi2_drop),
+                       fmt(a.delta_to_best)] for a in diag.alternatives])
+    return md
+
+
+def _residuals_section(diag: Diagnosis, figures: dict) -> list[str]:
+    res = diag.residuals
+    c = res.correlation
+    md = ["## What the calibrated model gets wrong", "",
+          f"Global stiffness-to-mass scale {fmt(res.global_scale, 6)}; chi^2 {fmt(res.chi2)} over "
+          f"{res.n_residuals} residuals (reduced {fmt(res.reduced_chi2)}); mean |frequency error| "
+          f"{fmt(c.mean_abs_error_pct, 3)} %" + (f", mean MAC {fmt(c.mean_mac, 4)}, mean COMAC "
+                                                 f"{fmt(c.mean_comac, 4)}" if c.mean_mac else "") + ".", ""]
+    md += _table(["measured mode", "measured (Hz)", "model (Hz)", "error (%)", "MAC", "model mode"],
+                 [[k + 1, hz(c.measured_hz[k]), hz(c.model_hz[k]), pct(c.error_pct[k]), fmt(c.mac[k], 4),
+                   p if p > 0 else "none"] for k, p in enumerate(c.paired_model_mode)])
+    if "frequency_errors" in figures:
+        md += [f"![frequency errors]({figures['frequency_errors']})", ""]
+    if c.comac is not None:
+        md += ["COMAC per measured coordinate:", ""]
+        md += _table(coordinate_labels(diag), [[fmt(v, 4) for v in c.comac]])
+    if "correlation" in figures:
+        md += [f"![COMAC and MAC matrix]({figures['correlation']})", ""]
+    md += ["Element moduli that a bounded update (+-1/7 around the calibrated value) drives to a bound: "
+           + (", ".join(f"{p.parameter} ({p.bound}, {fmt(p.value_pa)} Pa)" for p in res.pinned_parameters)
+              or "none") + ".", ""]
+    if res.unpaired_modes:
+        md += [f"Measured modes that pair with no model mode: {list(res.unpaired_modes)}.", ""]
+    if "shapes" in figures:
+        md += [f"![mode shapes]({figures['shapes']})", ""]
+    return md
+
+
+def _gain_section(diag: Diagnosis) -> list[str]:
+    gain = diag.gain
+    md = ["## Gain on held-out modes", ""]
+    if not gain.held_out_modes:
+        return md + [(gain.note or "no modes held out") + ".", ""]
+    md += [f"Held out: mode(s) {mode_ranges(gain.held_out_modes)}; both models refitted on modes "
+           f"{mode_ranges(gain.fit_modes)} and predict them.", ""]
+    b, a = gain.before, gain.after
+    header = ["held-out mode", "measured (Hz)", "calibrated (Hz)", "error (%)", "MAC"]
+    if a:
+        header += ["extended (Hz)", "error (%)", "MAC"]
+    rows = []
+    for k, m in enumerate(gain.held_out_modes):
+        row = [m, hz(b.measured_hz[k]), hz(b.model_hz[k]), pct(b.error_pct[k]), fmt(b.mac[k], 4)]
+        if a:
+            row += [hz(a.model_hz[k]), pct(a.error_pct[k]), fmt(a.mac[k], 4)]
+        rows.append(row)
+    md += _table(header, rows)
+    md += _table(["", "calibrated (before)", "extended (after)"],
+                 [[q, fmt(getattr(b, key), 4), fmt(getattr(a, key), 4) if a else "-"]
+                  for q, key in (("mean abs frequency error (%)", "mean_abs_error_pct"),
+                                 ("mean MAC", "mean_mac"), ("mean COMAC", "mean_comac"))
+                  if getattr(b, key) is not None])
+    if gain.estimate_from_fit_modes:
+        md += [f"Estimate from the fit modes alone: {estimate_text(gain.estimate_from_fit_modes)}.", ""]
+    return md

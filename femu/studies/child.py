@@ -1,0 +1,140 @@
+"""The Dask executor and the child-process entry of a run.
+
+On Dask each run goes through `dask_task` in a worker; a run with a time limit runs in a fresh
+interpreter (``python -m femu.studies.child --run-task TASK_JSON OUT STARTED``), because Dask
+worker processes may not fork, and is killed at its hard deadline.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from dataclasses import asdict
+from pathlib import Path
+from typing import Callable, Iterator
+
+from fe_problem.jsonutil import dumps
+
+from .kill import kill_tree
+from .tasks import STARTUP_LIMIT_S, Task, hard_deadline_s, hard_timeout_error, lost_record, run_task, startup_error
+
+#: Runs in one Dask worker process go one at a time (process-global random generators).
+_DASK_RUN_LOCK = threading.Lock()
+
+
+def dask_task(task: Task) -> dict:
+    """What a Dask worker runs for one task: in the worker when there is no time limit, else in
+    a child interpreter killed at the hard deadline."""
+    with _DASK_RUN_LOCK:
+        if task.time_limit_s is None:
+            return run_task(task)
+        return run_task_in_child(task)
+
+
+def run_task_in_child(task: Task) -> dict:
+    """Run a task in a fresh interpreter (``python -m femu.studies.child --run-task``), killed at
+    the hard deadline: a ``timeout`` record then, a ``failed`` one if it dies."""
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
+    with tempfile.TemporaryDirectory(prefix="femu-run-") as tmp:
+        out, started, log = Path(tmp) / "record.json", Path(tmp) / "started", Path(tmp) / "stderr.txt"
+        with open(log, "w") as err:
+            proc = subprocess.Popen([sys.executable, "-m", "femu.studies.child", "--run-task",
+                                     dumps(asdict(task), indent=None), str(out), str(started)],
+                                    env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=err)
+        launched, t_start, record = time.perf_counter(), None, None
+        try:
+            while proc.poll() is None:
+                time.sleep(0.02)
+                now = time.perf_counter()
+                if t_start is None and started.exists():
+                    t_start = now
+                if t_start is None and now - launched > STARTUP_LIMIT_S:
+                    record = lost_record(task, "failed", startup_error(task), 0.0)
+                elif t_start is not None and now - t_start > hard_deadline_s(task.time_limit_s):
+                    record = lost_record(task, "timeout", hard_timeout_error(task, now - t_start), now - t_start)
+                if record is not None:
+                    return record
+        finally:
+            if proc.poll() is None:
+                kill_tree(proc.pid)
+                proc.wait()
+        if proc.returncode != 0 or not out.exists():
+            return lost_record(task, "failed", f"the run's process exited with code {proc.returncode}: "
+                                f"{log.read_text()[-2000:]}", time.perf_counter() - launched)
+        return json.loads(out.read_text())
+
+
+def check_scheduler_address(address: str) -> None:
+    """ValueError unless `address` is a Dask scheduler address (tcp://host:port and the like)
+    of a scheme distributed knows; nothing is contacted."""
+    from distributed.comm import parse_address
+    from distributed.comm.registry import get_backend
+
+    scheme, location = parse_address(address)
+    if not location or (scheme in ("tcp", "tls", "ws", "wss") and not re.fullmatch(r".+:\d{1,5}", location)):
+        raise ValueError(f"--scheduler {address!r}: not a scheduler address (tcp://host:port)")
+    try:  # a bad scheme, checked before a Client exists (a failed Client lingers on exit)
+        get_backend(scheme)
+    except ValueError as exc:
+        raise ValueError(f"--scheduler {address}: {exc}") from None
+
+
+class DaskCluster:
+    """Submits every task to the Dask scheduler at `address` and yields them as they finish.
+
+    `running` is an estimate: the unfinished runs, at most the cluster's thread count."""
+
+    def __init__(self, address: str):
+        from dask.distributed import Client
+
+        check_scheduler_address(address)
+        try:
+            self.client = Client(address, timeout=10, set_as_default=False)
+        except Exception as exc:  # OSError, TimeoutError, ValueError for a malformed address
+            raise ValueError(f"--scheduler {address}: cannot connect to a Dask scheduler "
+                             f"({type(exc).__name__}: {exc})") from None
+        self.name = f"Dask scheduler {address}"
+
+    def run(self, tasks: list[Task], running: Callable[[int], None]) -> Iterator[tuple[Task, dict]]:
+        from dask.distributed import as_completed
+
+        futures = {}
+        try:
+            futures = {self.client.submit(dask_task, t, pure=False): t for t in tasks}
+            slots = max(1, sum(self.client.nthreads().values()))
+            left = len(futures)
+            running(min(left, slots))
+            for fut in as_completed(futures, loop=self.client.loop):  # our client is not the default
+                task = futures[fut]
+                try:
+                    record = fut.result()
+                except Exception as exc:  # the worker died (KilledWorker) or lost the task
+                    record = lost_record(task, "failed", f"the Dask task failed: {type(exc).__name__}: {exc}", 0.0)
+                left -= 1
+                running(min(left, slots))
+                yield task, record
+        finally:
+            self.client.cancel([f for f in futures if not f.done()])
+            self.client.close()
+
+
+
+def _run_task_main(argv: list[str]) -> int:
+    """``python -m femu.studies.child --run-task TASK_JSON OUT STARTED``: one run, its record to
+    the file OUT; the file STARTED is created when the run starts."""
+    task = Task(**json.loads(argv[1]))
+    record = run_task(task, on_start=Path(argv[3]).touch)
+    Path(argv[2]).write_text(dumps(record, indent=None))
+    return 0
+
+
+if __name__ == "__main__":
+    if len(sys.argv) == 5 and sys.argv[1] == "--run-task":
+        sys.exit(_run_task_main(sys.argv[1:]))
+    sys.exit("usage: python -m femu.studies.child --run-task TASK_JSON OUT STARTED (used on Dask workers)")

@@ -1,0 +1,93 @@
+"""One run of a study as a task: a pure function of (optimizer, variant, budget, seed, options).
+
+The worker builds the problem itself (`adapters.variants.make_problem`) and calls
+`adapters.harness.run`, so a seed gives the same record (apart from times, host) in this
+process, in a worker process and on a Dask cluster. Also here: the record of a run whose process
+returned nothing, and the hard deadline after which such a process is killed.
+"""
+
+from __future__ import annotations
+
+import platform
+import time
+import traceback
+from dataclasses import dataclass, field
+from functools import lru_cache
+from typing import Callable
+
+from adapters.harness import RunResult, run
+from adapters.variants import make_problem
+
+from .store import run_key
+
+@dataclass(frozen=True)
+class Task:
+    """One run of the grid. time_limit_s in seconds (None: no limit)."""
+
+    optimizer: str
+    variant: str
+    budget: int
+    seed: int
+    options: dict = field(default_factory=dict)
+    time_limit_s: float | None = None
+
+    @property
+    def key(self) -> str:
+        """The run's key in the store."""
+        return run_key(self.variant, self.optimizer, self.budget, self.seed)
+
+
+def run_task(task: Task, on_start: Callable[[], None] | None = None) -> dict:
+    """Run one task and return its record as a dict (RunResult.to_dict()).
+
+    Pure: builds the problem from the variant name and runs the optimizer with the task's
+    seed. A failing optimizer gives a ``failed`` record (harness.run); so does a failure while
+    building the problem, so that a worker always returns a record. `on_start` is called once
+    the problem is built, when the run (and its time limit) starts.
+    """
+    t0 = time.perf_counter()
+    try:
+        problem = make_problem(task.variant)
+        if on_start is not None:
+            on_start()
+        return run(task.optimizer, problem, task.budget, task.seed, time_limit_s=task.time_limit_s,
+                   variant=task.variant, **task.options).to_dict()
+    except Exception as exc:
+        return lost_record(task, "failed", f"{type(exc).__name__}: {exc}\n{traceback.format_exc(limit=6)}",
+                            time.perf_counter() - t0)
+
+
+@lru_cache(maxsize=None)
+def _problem_name(variant: str) -> str:
+    """The problem name of a variant (for records of runs that returned nothing)."""
+    return make_problem(variant).name
+
+
+def lost_record(task: Task, status: str, error: str, wall_s: float) -> dict:
+    """The record of a run whose process returned nothing (hard timeout, crash)."""
+    return RunResult(optimizer=task.optimizer, problem=_problem_name(task.variant), seed=task.seed,
+                     budget=task.budget, options=dict(task.options), wall_s=wall_s, status=status,
+                     error=error, variant=task.variant, host=platform.node()).to_dict()
+
+
+def hard_deadline_s(time_limit_s: float | None) -> float | None:
+    """Seconds after a run's start (problem built) at which its process is killed: the limit
+    plus a grace of 1 s + 10 % for the cooperative stop to land."""
+    return None if time_limit_s is None else time_limit_s + 1.0 + 0.1 * time_limit_s
+
+
+#: Seconds a run with a time limit may take to start (process, imports, problem build) before
+#: it is given up as failed: generous, a loaded machine can be slow to start a Python process.
+STARTUP_LIMIT_S = 300.0
+
+
+def hard_timeout_error(task: Task, elapsed_s: float) -> str:
+    """The error of a run killed at its hard deadline."""
+    return (f"terminated after {elapsed_s:.1f} s: the run passed its time limit of {task.time_limit_s} s "
+            f"without returning (the optimizer stopped calling the objective); its evaluations are lost")
+
+
+def startup_error(task: Task) -> str:
+    """The error of a run whose process did not start in time."""
+    return f"the run's process did not start within {STARTUP_LIMIT_S:.0f} s; it was terminated"
+

@@ -1,0 +1,209 @@
+"""Bad command lines: every one ends in exit code 2 and one error line on stderr that names the
+flag, file or name at fault, never a traceback, and writes nothing it was not asked to.
+
+Each case runs `femu.cli.main` in this process (argparse's own usage errors included); a
+sample also runs the installed `femu` program, to see what a user's terminal shows."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from femu.cli import main
+
+# (arguments, a fragment the error line must contain). In the arguments, FILE is a plain
+# text file, DIR an empty directory, LATIN a file of latin-1 bytes, LIST a JSON list, EMPTY
+# the JSON object {}, DEEP JSON nested 100,000 deep, BIGINT a model whose node x is a
+# 400-digit integer, STORE a store with one run, S a fresh store path.
+CASES = [
+    # femu model
+    (["model"], "required: model"),
+    (["model", "nosuch"], "no model file 'nosuch'"),
+    (["model", "hframe", "--modes", "0"], "--modes: must be at least 1"),
+    (["model", "hframe", "--modes", "-3"], "--modes: must be at least 1"),
+    (["model", "hframe", "--modes", "abc"], "--modes: expected a whole number"),
+    (["model", "FILE"], "FILE: not valid JSON"),
+    (["model", "EMPTY"], "EMPTY: missing field 'format'"),
+    (["model", "LIST"], "LIST: expected an object"),
+    (["model", "DIR"], "DIR: is a directory"),
+    (["model", "LATIN"], "LATIN: not UTF-8 text (byte 0xe9 at offset 0)"),
+    (["model", "DEEP"], "DEEP: JSON nested too deeply"),
+    (["model", "/"], "/: is a directory"),
+    # femu study
+    (["study", "--optimizers", "nosuch", "--seeds", "0", "--budget", "10", "--store", "S"], "unknown optimizer 'nosuch'"),
+    (["study", "--optimizers", "../../etc:passwd", "--seeds", "0", "--budget", "10", "--store", "S"],
+     "'../../etc:passwd': not a registry name or an import path"),
+    (["study", "--optimizers", "::", "--seeds", "0", "--budget", "10", "--store", "S"], "'::': not a registry name"),
+    (["study", "--optimizers", "os:system", "--seeds", "0", "--budget", "10", "--store", "S"],
+     "'os:system' is not an optimizer class"),
+    (["study", "--optimizers", "nosuchmodule:Cls", "--seeds", "0", "--budget", "10", "--store", "S"],
+     "cannot import 'Cls' from module 'nosuchmodule'"),
+    (["study", "--optimizers", "adapters.random_search:Nope", "--seeds", "0", "--budget", "10", "--store", "S"],
+     "cannot import 'Nope'"),
+    (["study", "--optimizers", "", "--seeds", "0", "--budget", "10", "--store", "S"], "--optimizers '': empty name"),
+    (["study", "--optimizers", "random-search,random-search", "--seeds", "0", "--budget", "10", "--store", "S"],
+     "--optimizers: 'random-search' is given twice"),
+    (["study", "--optimizers", "random-search", "--seeds", "-1", "--budget", "10", "--store", "S"], "--seeds '-1'"),
+    (["study", "--optimizers", "random-search", "--seeds", "", "--budget", "10", "--store", "S"], "--seeds '': empty"),
+    (["study", "--optimizers", "random-search", "--seeds", "0,,1", "--budget", "10", "--store", "S"], "empty seed"),
+    (["study", "--optimizers", "random-search", "--seeds", "0-3-4", "--budget", "10", "--store", "S"],
+     "'0-3-4' is not a seed or a range"),
+    (["study", "--optimizers", "random-search", "--seeds", "5-3", "--budget", "10", "--store", "S"], "runs backwards"),
+    (["study", "--optimizers", "random-search", "--seeds", "1,1", "--budget", "10", "--store", "S"], "seed 1 is given twice"),
+    (["study", "--optimizers", "random-search", "--seeds", "0-99999999999", "--budget", "10", "--store", "S"],
+     "seed 99999999999 is above the largest seed"),
+    (["study", "--optimizers", "random-search", "--seeds", "0-100000", "--budget", "10", "--store", "S"],
+     "100001 seeds is more than the 100000"),
+    (["study", "--optimizers", "random-search", "--seeds", "9" * 400, "--budget", "10", "--store", "S"],
+     "is not a seed or a range"),
+    (["study", "--optimizers", "random-search", "--seeds", "0", "--budget", "0", "--store", "S"],
+     "--budget: must be an integer >= 1"),
+    (["study", "--optimizers", "random-search", "--seeds", "0", "--budget", "-5", "--store", "S"],
+     "--budget: must be an integer >= 1"),
+    (["study", "--optimizers", "random-search", "--seeds", "0", "--budget", "1.5", "--store", "S"],
+     "--budget: invalid int value"),
+    (["study", "--optimizers", "random-search", "--seeds", "0", "--budget", "9" * 20, "--store", "S"],
+     "--budget: must be at most 1000000000"),
+    (["study", "--optimizers", "pymoo-ga", "--seeds", "0", "--budget", "5", "--store", "S"],
+     "'pymoo-ga' needs a budget of at least"),
+    (["study", "--optimizers", "random-search", "--seeds", "0", "--budget", "10", "--store", ""], "--store: an empty path"),
+    (["study", "--optimizers", "random-search", "--seeds", "0", "--budget", "10", "--store", "FILE"],
+     "FILE: a store is a directory, this is a file"),
+    (["study", "--optimizers", "random-search", "--seeds", "0", "--budget", "10", "--store", "S", "--workers", "-1"],
+     "--workers: must be an integer >= 0"),
+    (["study", "--optimizers", "random-search", "--seeds", "0", "--budget", "10", "--store", "S", "--workers", "x"],
+     "--workers: invalid int value"),
+    (["study", "--optimizers", "random-search", "--seeds", "0", "--budget", "10", "--store", "S", "--workers", "0",
+      "--time-limit", "5"], "--time-limit needs worker processes"),
+    (["study", "--optimizers", "random-search", "--seeds", "0", "--budget", "10", "--store", "S", "--time-limit", "-1"],
+     "--time-limit: must be a positive number"),
+    (["study", "--optimizers", "random-search", "--seeds", "0", "--budget", "10", "--store", "S", "--time-limit", "nan"],
+     "--time-limit: must be a positive number"),
+    (["study", "--optimizers", "random-search", "--seeds", "0", "--budget", "10", "--store", "S", "--time-limit", "inf"],
+     "--time-limit: must be a positive number"),
+    (["study", "--optimizers", "random-search", "--seeds", "0", "--budget", "10", "--store", "S", "--variants", "nosuch"],
+     "--variants: unknown problem variant 'nosuch'"),
+    (["study", "--optimizers", "random-search", "--seeds", "0", "--budget", "10", "--store", "S", "--variants",
+      "paper,paper"], "--variants: 'paper' is given twice"),
+    (["study", "--optimizers", "random-search", "--seeds", "0", "--budget", "10", "--store", "S", "--scheduler",
+      "notaurl"], "--scheduler 'notaurl': not a scheduler address"),
+    (["study", "--optimizers", "random-search", "--seeds", "0", "--budget", "10", "--store", "S", "--scheduler",
+      "tcp://host"], "--scheduler 'tcp://host': not a scheduler address"),
+    (["study", "--optimizers", "random-search", "--seeds", "0", "--budget", "10", "--store", "S", "--scheduler",
+      "ftp://h:1"], "unknown address scheme 'ftp'"),
+    (["study", "--optimizers", "random-search", "--seeds", "0", "--budget", "10", "--store", "S", "--workers", "1",
+      "--scheduler", "tcp://h:1"], "--workers and --scheduler exclude each other"),
+    (["study", "--seeds", "0", "--budget", "10", "--store", "S"], "required: --optimizers"),
+    # femu results / report
+    (["results"], "required: store"),
+    (["results", "nosuch"], "nosuch: no such store"),
+    (["results", "FILE"], "FILE: a store is a directory"),
+    (["report", "nosuch", "--out", "R"], "nosuch: no such store"),
+    (["report", "STORE"], "required: --out"),
+    (["report", "STORE", "--out", "FILE"], "--out: FILE exists and is not a directory"),
+    (["report", "DIR", "--out", "R"], "no finished runs to report on"),
+    # femu reproduce
+    (["reproduce", "--seeds", "0"], "a count of seeds must be >= 1"),
+    (["reproduce", "--seeds", "abc"], "--seeds 'abc'"),
+    (["reproduce", "--seeds", "99999999999999"], "more than the 100000 seeds"),
+    (["reproduce", "--budget", "0"], "--budget: must be an integer >= 1"),
+    (["reproduce", "--workers", "-2"], "--workers: must be an integer >= 0"),
+    (["reproduce", "--out", "FILE"], "--out: FILE exists and is not a directory"),
+    (["reproduce", "--out", ""], "--out: an empty path"),
+    # femu diagnose
+    (["diagnose", "nosuch.json"], "no data file 'nosuch.json'"),
+    (["diagnose", "FILE"], "FILE: not valid JSON"),
+    (["diagnose", "EMPTY"], "EMPTY: missing field 'format'"),
+    (["diagnose", "DIR"], "DIR: is a directory"),
+    (["diagnose", "LATIN"], "LATIN: not UTF-8 text"),
+    (["diagnose", "paper", "--model", "nosuch"], "no model file 'nosuch'"),
+    (["diagnose", "paper", "--shape-noise", "-1"], "--shape-noise must be a number > 0"),
+    (["diagnose", "paper", "--freq-noise", "abc"], "--freq-noise: invalid float value"),
+    (["diagnose", "paper", "--out", "FILE"], "exists and is not a directory"),
+    # femu identify, femu suite, no command
+    (["identify", "nosuch.uff"], "no FRF file 'nosuch.uff'"),
+    (["identify", "FILE"], "FILE: no dataset 58"),
+    (["identify", "FILE", "--modes", "0"], "--modes: must be at least 1"),
+    (["identify", "FILE", "--out", "FILE"], "--out: FILE exists and is not a directory"),
+    (["suite", "nosuch"], "suite selection 'nosuch' matches no problem"),
+    (["suite", "paper/99"], "suite selection 'paper/99' matches no problem"),
+    (["nosuchcommand"], "invalid choice: 'nosuchcommand'"),
+]
+
+
+@pytest.fixture(scope="module")
+def place(tmp_path_factory):
+    """A directory with the files the cases name, and a store with one finished run."""
+    d = tmp_path_factory.mktemp("bad")
+    (d / "file.txt").write_text("not json\n")
+    (d / "dir").mkdir()
+    (d / "latin.json").write_bytes(b"\xe9t\xe9")
+    (d / "list.json").write_text("[1, 2]")
+    (d / "empty.json").write_text("{}")
+    (d / "deep.json").write_text("[" * 100_000 + "]" * 100_000)
+    assert main(["study", "--optimizers", "random-search", "--seeds", "0", "--budget", "10",
+                 "--store", str(d / "store"), "--no-progress", "--workers", "0"]) == 0
+    return d
+
+
+def _args(args: list[str], d: Path) -> list[str]:
+    names = {"FILE": "file.txt", "DIR": "dir", "LATIN": "latin.json", "LIST": "list.json", "EMPTY": "empty.json",
+             "DEEP": "deep.json", "STORE": "store", "S": "new-store", "R": "report"}
+    return [str(d / names[a]) if a in names else a for a in args]
+
+
+def _expected(fragment: str, d: Path) -> str:
+    for token, name in (("FILE", "file.txt"), ("DIR", "dir"), ("LATIN", "latin.json"), ("LIST", "list.json"),
+                        ("EMPTY", "empty.json"), ("DEEP", "deep.json")):
+        fragment = fragment.replace(token, str(d / name))
+    return fragment
+
+
+@pytest.mark.parametrize("args,says", CASES, ids=[" ".join(a)[:70] for a, _ in CASES])
+def test_bad_command_line_is_one_error_line_and_exit_2(place, capsys, monkeypatch, args, says):
+    monkeypatch.chdir(place)
+    before = sorted(p.name for p in place.iterdir())
+    try:
+        code = main(_args(args, place))
+    except SystemExit as exc:  # argparse's own usage errors
+        code = exc.code
+    out, err = capsys.readouterr()
+    assert code == 2, (out, err)
+    assert "Traceback" not in err + out
+    last = err.strip().splitlines()[-1]
+    # argparse puts its usage lines before the error; the error itself is one line
+    assert [ln for ln in err.splitlines() if ln.startswith("femu")] == [last], err
+    assert last.startswith("femu") and "error:" in last and _expected(says, place) in last, last
+    assert sorted(p.name for p in place.iterdir()) == before, "a refused command wrote something"
+
+
+def test_there_are_at_least_60_cases():
+    assert len(CASES) >= 60
+
+
+@pytest.mark.parametrize("args", [["model", "/"], ["study", "--optimizers", "../../etc:passwd", "--seeds", "0",
+                                                   "--budget", "10", "--store", "s"],
+                                  ["study", "--optimizers", "random-search", "--seeds", "0-99999999999", "--budget",
+                                   "10", "--store", "s"]])
+def test_the_installed_program_shows_one_line(tmp_path, args):
+    p = subprocess.run([sys.executable, "-m", "femu", *args], cwd=tmp_path, capture_output=True, text=True,
+                       timeout=120)
+    assert p.returncode == 2 and "Traceback" not in p.stderr and len(p.stderr.strip().splitlines()) == 1, p.stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_model_with_a_400_digit_coordinate_is_refused_in_one_line(tmp_path, capsys):
+    from fe_problem import load_model
+    from fe_problem.model import model_to_dict
+
+    d = model_to_dict(load_model("hframe"))
+    d["nodes"][0]["x"] = int("9" * 400)
+    f = tmp_path / "big.model.json"
+    f.write_text(json.dumps(d))
+    assert main(["model", str(f)]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and str(f) in err and "x" in err and "Traceback" not in err
