@@ -1,5 +1,6 @@
 """Figures of the benchmark statistics (femu.reports.stats): fixed-target ECDFs, ERT against the
-target precision, fixed-budget box plots and the critical-difference diagram.
+target precision, fixed-budget box plots, convergence per problem and the critical-difference
+diagram.
 
 Each function draws records that `stats` computed (nothing is computed here but positions) on
 a `render.figure` and writes it with `render.save_figure`; one panel per group
@@ -140,4 +141,22 @@ def plot_cd(c: Comparison, path) -> Path:
     ax.set_title(f"Mean ranks on {c.n_blocks} (problem, seed) blocks, metric '{c.metric}'"
                  + (f", Friedman p = {c.friedman_p:.2g}" if c.friedman_p is not None else "")
                  + f"; red: not separated (Wilcoxon-Holm, alpha {c.alpha})", fontsize=9)
+    return save_figure(fig, path)
+
+
+def plot_convergence(curves: list[dict], path) -> Path:
+    """Median (line) and quartiles (band) of J - f_opt against FE evaluations, one panel per
+    problem, one colour per solver; `curves` as femu.reports.benchmark.convergence gives them."""
+    problems = sorted({c["problem"] for c in curves})
+    colors = solver_colors(sorted({c["solver"] for c in curves}))
+    fig, axes = _panels(problems, height=3.2)
+    for c in curves:
+        ax = axes[c["problem"]]
+        ax.plot(c["evals"], c["median"], color=colors[c["solver"]], lw=1.8)
+        ax.fill_between(c["evals"], c["q1"], c["q3"], color=colors[c["solver"]], alpha=0.18, lw=0)
+    for p, ax in axes.items():
+        ax.set(xscale="log", yscale="log", title=p, xlabel="FE evaluations", ylabel="J - f_opt (floored)")
+        ax.grid(True, which="both", alpha=0.25)
+    fig.suptitle("Convergence per problem: median and quartiles over seeds", fontsize=11)
+    _legend(fig, colors)
     return save_figure(fig, path)
