@@ -118,7 +118,7 @@ def plot_cd(c: Comparison, path) -> Path:
     top = 0.35 + 0.3 * n_bars                      # the clique bars sit between the axis and the labels
     fig, axes = figure(width=8.0, height=1.4 + 0.3 * (half + n_bars))
     ax = axes[0, 0]
-    ax.set_xlim(0.4, k + 0.6)
+    ax.set_xlim(-1.2, k + 2.2)                    # room for the solver names on both sides
     ax.set_ylim(-(top + 0.6 * half + 0.4), 1.7)
     ax.axis("off")
     ax.hlines(0, 1, k, color="black", lw=1.2)
@@ -140,7 +140,7 @@ def plot_cd(c: Comparison, path) -> Path:
         ax.hlines(-0.25 - 0.3 * j, lo - 0.05, hi + 0.05, color="tab:red", lw=4, alpha=0.8)
     ax.set_title(f"Mean ranks on {c.n_blocks} (problem, seed) blocks, metric '{c.metric}'"
                  + (f", Friedman p = {c.friedman_p:.2g}" if c.friedman_p is not None else "")
-                 + f"; red: not separated (Wilcoxon-Holm, alpha {c.alpha})", fontsize=9)
+                 + f"\nred: not separated (Wilcoxon-Holm, alpha {c.alpha})", fontsize=9)
     return save_figure(fig, path)
 
 
