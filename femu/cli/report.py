@@ -21,9 +21,10 @@ def run(args) -> int:
     from femu.reports.study import write_report
 
     if args.out is None and not args.json:
-        raise ValueError("femu report: give --out DIR (the report) or --json (the statistics on stdout)")
+        raise ValueError("the following arguments are required: --out DIR (the report), or --json (the "
+                         "benchmark statistics on stdout)")
     if args.out is None and args.ioh:
-        raise ValueError("femu report: --ioh writes to OUT/ioh and needs --out DIR")
+        raise ValueError("--ioh writes to OUT/ioh and needs --out DIR")
     store, runs = stored_runs(args, "report")
     if args.json:
         from fe_problem.jsonutil import dumps
