@@ -19,8 +19,25 @@ is physically a joint, and its name would be a matter of taste). Effects stay ph
 crack no deeper than 3/4 of the section (rotational stiffness >= CRACK_MIN_STIFFNESS) and a
 mass of at most MAX_MASS_KG; a place where such an effect cannot reach the target size
 (a crack next to a free end, a mass on a node that hardly moves) is drawn again.
-Measurements: 8 modes, the 15 measured coordinates, 0.2 % frequency noise, 2 % shape noise,
-random sign and scale.
+Measurements: 8 modes, the 15 measured coordinates, 0.2 % frequency noise, 2 % shape noise
+(of each mode's largest entry, the diagnosis's convention), random sign and scale.
+
+The further classes (`MORE`, built the same way, each truth unlike its candidate):
+
+- two_effects: a crack (as above) and a lumped mass with rotary inertia at a node at least
+  0.3 m away, each sized to its own random shift in [1.5 %, 6 %].
+- soft_support: the free frame hung on a soft rod: a new grounded node 5 cm away tied to a
+  node by an axial bar of stiffness k (the candidate is a spring to ground); the suspension
+  modes this creates are measured too, as a test would.
+- spread_mass: the element split in four with a lumped mass (and rotary inertia) at each of
+  its three inner points and half a share at its ends (the candidate scales its density).
+- stiffer_member: one element's section inertia larger (a section drawn too thin; the
+  candidate scales its modulus, axial stiffness too).
+- sparse: a crack, mass or joint case measured at 8 of the 15 coordinates; sparse_none: no
+  effect at 8 coordinates.
+- portal: a user-written portal frame (two fixed columns, a beam, 4 elements per member)
+  saved as a model file, data naming that file, a crack, mass or stiffer member in it;
+  portal_none: no effect.
 """
 
 from __future__ import annotations
@@ -32,7 +49,7 @@ import numpy as np
 from scipy.optimize import brentq
 
 import fe_problem as fp
-from fe_problem.model import Node, Spring
+from fe_problem.model import Element, FrameModel, Material, Node, Section, Spring, Support
 
 N_MODES = 8
 FREQ_NOISE = 0.002
@@ -50,21 +67,42 @@ NOMINAL_HZ = fp.modal_analysis(HFRAME, N_MODES).frequencies_hz
 
 @dataclass(frozen=True)
 class Case:
-    """A hidden effect: what it is, where, how big, and the data it gives."""
+    """A hidden effect: what it is, where, how big, and the data it gives. `effects` lists every
+    (kind, location) when there are several; `cls` is the table's class; `nominal` the model
+    the diagnosis is given (None: the H-frame); `dofs` the measured coordinates (None: all)."""
 
     kind: str                 # one of the diagnosis kinds, or "none"
     location: dict | None     # {"element": id} or {"node": id} or None
     size_pct: float           # largest frequency shift from the nominal model, %
     truth: fp.FrameModel
     seed: int
+    effects: tuple = ()
+    cls: str = ""
+    nominal: FrameModel | None = None
+    dofs: tuple | None = None
 
-    def data(self) -> fp.ModalData:
-        return fp.synthetic_measurement(self.truth, N_MODES, freq_noise=FREQ_NOISE, shape_noise=SHAPE_NOISE,
-                                        seed=self.seed, model_name="hframe")
+    @property
+    def truths(self) -> tuple:
+        """Every hidden (kind, location)."""
+        return self.effects or (() if self.kind == "none" else ((self.kind, self.location),))
+
+    def data(self, model_name: str = "hframe") -> fp.ModalData:
+        """8 modes with 0.2 % frequency noise and shape noise of 2 % of each mode's largest entry."""
+        d = fp.synthetic_measurement(self.truth, N_MODES, dofs=self.dofs or (self.nominal or HFRAME).measured_dofs,
+                                     freq_noise=FREQ_NOISE, seed=self.seed, model_name=model_name)
+        rng = np.random.default_rng(self.seed + 1)
+        shapes = d.shapes + SHAPE_NOISE * np.abs(d.shapes).max(axis=0) * rng.standard_normal(d.shapes.shape)
+        return fp.ModalData(d.model, d.dofs, d.frequencies_hz, shapes, d.meta)
 
 
-def max_shift_pct(model: fp.FrameModel) -> float:
-    return 100.0 * float(np.max(np.abs(fp.modal_analysis(model, N_MODES).frequencies_hz / NOMINAL_HZ - 1.0)))
+def max_shift_pct(model: fp.FrameModel, nominal: FrameModel | None = None) -> float:
+    """Largest shift (%) of the nominal model's first 8 modes, each paired by MAC (all of the
+    nominal's measured coordinates) with the truth's modes (suspension modes pair with none)."""
+    nominal = nominal or HFRAME
+    ref = fp.modal_analysis(nominal, N_MODES)
+    got = fp.modal_analysis(model, N_MODES + 3)
+    mac = fp.mac(ref.at(nominal.measured_dofs), got.at(nominal.measured_dofs))
+    return 100.0 * float(np.max(np.abs(got.frequencies_hz[mac.argmax(axis=1)] / ref.frequencies_hz - 1.0)))
 
 
 def crack_truth(element: int, position: float, stiffness: float) -> fp.FrameModel:
@@ -92,9 +130,9 @@ def shear_truth(shear_coefficient: float) -> fp.FrameModel:
     return fp.with_formulation(HFRAME, "timoshenko").replace(sections=sections)
 
 
-def _sized(build, target_pct: float, lo: float, hi: float):
+def _sized(build, target_pct: float, lo: float, hi: float, nominal: FrameModel | None = None):
     """The magnitude (searched in log space between lo and hi) giving the target shift."""
-    g = lambda t: max_shift_pct(build(np.exp(t))) - target_pct  # noqa: E731
+    g = lambda t: max_shift_pct(build(np.exp(t)), nominal) - target_pct  # noqa: E731
     t = brentq(g, np.log(lo), np.log(hi), xtol=1e-6)
     return build(np.exp(t))
 
@@ -135,17 +173,144 @@ def make_case(kind: str, rng: np.random.Generator, seed: int) -> Case:
     raise ValueError(kind)
 
 
+def soft_support_truth(node: int, direction: str, stiffness: float) -> fp.FrameModel:
+    """The frame hung at `node` on an axial rod (length 5 cm, stiffness `stiffness` N/m, nearly
+    massless, no bending stiffness to speak of) from a grounded node."""
+    n = HFRAME.node(node)
+    ground = Node(max(HFRAME.node_ids) + 1, n.x - (0.05 if direction == "x" else 0.0),
+                  n.y - (0.05 if direction == "y" else 0.0))
+    area = 1e-4
+    rod = Material(stiffness * 0.05 / area, 1.0)
+    eid = max(HFRAME.element_ids) + 1
+    return HFRAME.replace(nodes=HFRAME.nodes + (ground,), materials={**HFRAME.materials, "rod": rod},
+                          sections={**HFRAME.sections, "rod": Section(area, 1e-14)},
+                          elements=HFRAME.elements + (Element(eid, ground.id, node, "rod", "rod"),),
+                          supports=(Support(ground.id, ("x", "y", "rz")),))
+
+
+def spread_mass_truth(model: FrameModel, element: int, mass_kg: float) -> fp.FrameModel:
+    """`mass_kg` as lumped masses along the element: 1/4 at each of three inner points (the
+    element split in four), 1/8 at each end, each with the rotary inertia of a 2 cm block."""
+    e = model.element(element)
+    out, ids = model, [element]
+    for k in range(3):
+        out = fp.split_element(out, ids[-1], 1.0 / (4 - k))
+        ids.append(max(out.element_ids))
+    inner = [out.element(i).node_j for i in ids[:-1]]
+    for node, share in [(e.node_i, 0.125), (e.node_j, 0.125)] + [(n, 0.25) for n in inner]:
+        out = fp.add_mass(out, node, share * mass_kg, inertia_kg_m2=share * mass_kg * 0.02**2 / 6.0)
+    return out
+
+
+def stiffer_truth(model: FrameModel, element: int, factor: float) -> fp.FrameModel:
+    """One element's section inertia times `factor` (its area, so its mass, unchanged)."""
+    e = model.element(element)
+    sec = dataclasses.replace(model.sections[e.section], inertia_m4=factor * model.sections[e.section].inertia_m4)
+    return model.replace(sections={**model.sections, f"thick{element}": sec},
+                         elements=tuple(dataclasses.replace(x, section=f"thick{element}") if x.id == element else x
+                                        for x in model.elements))
+
+
+def portal_frame() -> FrameModel:
+    """A portal frame a user might write: two 0.6 m columns fixed at the base, a 0.8 m beam,
+    four elements per member, the H-frame's bar section, x and y measured at every free node."""
+    pts = [(0.0, 0.15 * k) for k in range(5)] + [(0.2 * k, 0.6) for k in range(1, 5)] + \
+          [(0.8, 0.6 - 0.15 * k) for k in range(1, 5)]
+    nodes = tuple(Node(i + 1, x, y) for i, (x, y) in enumerate(pts))
+    elements = tuple(Element(i + 1, i + 1, i + 2, "bar", "aluminium") for i in range(len(nodes) - 1))
+    free = [n.id for n in nodes if n.id not in (1, len(nodes))]
+    return FrameModel("portal", nodes, dict(HFRAME.materials), dict(HFRAME.sections), elements,
+                      supports=(Support(1, ("x", "y", "rz")), Support(len(nodes), ("x", "y", "rz"))),
+                      measured_dofs=tuple((n, d) for n in free for d in ("x", "y")),
+                      description="a portal frame written for the diagnosis tests")
+
+
+PORTAL = portal_frame()
+
+
+def _crack(rng, model: FrameModel, target: float) -> tuple[FrameModel, dict]:
+    while True:
+        element = int(rng.choice(model.element_ids))
+        pos = float(rng.uniform(0.15, 0.85))
+        if max_shift_pct(fp.crack_element(model, element, pos, CRACK_MIN_STIFFNESS), model) >= target:
+            break
+    build = lambda k: fp.crack_element(model, element, pos, k)  # noqa: E731
+    return _sized(build, target, CRACK_MIN_STIFFNESS, 1e8, model), {"element": element}
+
+
+def _mass(rng, model: FrameModel, target: float, base: FrameModel | None = None, far_from=None):
+    base = base or model
+    while True:
+        node = int(rng.choice(model.node_ids))
+        if far_from is not None and np.hypot(model.node(node).x - far_from[0], model.node(node).y - far_from[1]) < 0.3:
+            continue
+        if max_shift_pct(fp.add_mass(base, node, MAX_MASS_KG, MAX_MASS_KG * 0.02**2 / 6), base) >= target:
+            break
+    build = lambda m: fp.add_mass(base, node, m, inertia_kg_m2=m * 0.02**2 / 6.0)  # noqa: E731
+    return _sized(build, target, 1e-4, MAX_MASS_KG, base), {"node": node}  # its own shift, from `base`
+
+
+def _stiffer(rng, model: FrameModel, target: float):
+    while True:
+        element = int(rng.choice(model.element_ids))
+        if max_shift_pct(stiffer_truth(model, element, 4.0), model) >= target:
+            break
+    return _sized(lambda f: stiffer_truth(model, element, f), target, 1.0001, 4.0, model), {"element": element}
+
+
+def make_more(cls: str, rng: np.random.Generator, seed: int) -> Case:
+    """One random case of a further class (see the module docstring)."""
+    target = float(rng.uniform(1.5, 6.0))
+    if cls == "two_effects":
+        cracked, place = _crack(rng, HFRAME, target)
+        mid = HFRAME.node(cracked.element(place["element"]).node_i)
+        both, node = _mass(rng, HFRAME, float(rng.uniform(1.5, 6.0)), base=cracked, far_from=(mid.x, mid.y))
+        return Case("stiffness_loss", place, target, both, seed, (("stiffness_loss", place), ("added_mass", node)), cls)
+    if cls == "soft_support":
+        node, direction = int(rng.choice(HFRAME.node_ids)), str(rng.choice(["x", "y"]))
+        truth = _sized(lambda k: soft_support_truth(node, direction, k), target, 1.0, 1e7)
+        return Case("boundary_stiffness", {"node": node}, target, truth, seed, cls=cls)
+    if cls == "spread_mass":
+        while True:
+            element = int(rng.choice(HFRAME.element_ids))
+            if max_shift_pct(spread_mass_truth(HFRAME, element, MAX_MASS_KG)) >= target:
+                break
+        truth = _sized(lambda m: spread_mass_truth(HFRAME, element, m), target, 1e-4, MAX_MASS_KG)
+        return Case("distributed_mass", {"element": element}, target, truth, seed, cls=cls)
+    if cls == "stiffer_member":
+        truth, place = _stiffer(rng, HFRAME, target)
+        return Case("stiffness_gain", place, target, truth, seed, cls=cls)
+    if cls in ("sparse", "sparse_none"):
+        base = make_case(str(rng.choice(["stiffness_loss", "added_mass", "joint_flexibility"])) if cls == "sparse"
+                         else "none", rng, seed)
+        dofs = tuple(HFRAME.measured_dofs[i] for i in sorted(rng.choice(len(HFRAME.measured_dofs), 8, replace=False)))
+        return dataclasses.replace(base, cls=cls, dofs=dofs)
+    if cls == "portal":
+        pick = str(rng.choice(["stiffness_loss", "added_mass", "stiffness_gain"]))
+        build = {"stiffness_loss": _crack, "added_mass": _mass, "stiffness_gain": _stiffer}[pick]
+        truth, place = build(rng, PORTAL, target)
+        return Case(pick, place, target, truth, seed, cls=cls, nominal=PORTAL)
+    if cls == "portal_none":
+        return Case("none", None, 0.0, PORTAL, seed, cls=cls, nominal=PORTAL)
+    raise ValueError(cls)
+
+
 #: How many cases of each kind the suite runs (40 with an effect, 20 without).
 PLAN = {"stiffness_loss": 12, "added_mass": 10, "joint_flexibility": 10, "shear_deformation": 8,
         "none": 10, "global": 10}
+#: The further classes and how many cases of each the README's tables use.
+MORE = {"two_effects": 10, "soft_support": 8, "spread_mass": 8, "stiffer_member": 8, "sparse": 10,
+        "sparse_none": 20, "portal": 8, "portal_none": 4}
 
 
 def cases(seed: int = 2026, plan: dict | None = None) -> list[Case]:
+    """The cases of a seed: `plan` maps a kind of `PLAN` or a class of `MORE` to a count."""
     rng = np.random.default_rng(seed)
     out = []
     for kind, n in (plan or PLAN).items():
         for _ in range(n):
-            out.append(make_case(kind, rng, seed=int(rng.integers(2**31))))
+            sub = int(rng.integers(2**31))
+            out.append(make_more(kind, rng, sub) if kind in MORE else make_case(kind, rng, seed=sub))
     return out
 
 
@@ -159,8 +324,45 @@ def named_correctly(case: Case, cause: dict) -> bool:
     return all(loc.get(k) == v for k, v in case.location.items())
 
 
-def diagnose_through_cli(case: Case, directory) -> dict:
-    """Write the case's data file and run `femu diagnose FILE --json` on it, as a user would."""
+def _matches(truth: tuple, kind: str, location: dict | None) -> bool:
+    """A found (kind, location) names the truth (kind, location): same kind, the truth's keys equal."""
+    if kind != truth[0]:
+        return False
+    return truth[1] is None if location is None else all((location or {}).get(k) == v for k, v in truth[1].items())
+
+
+def _from_label(label: str) -> tuple[str, dict | None]:
+    """('added_mass', {'node': 4}) from 'added_mass@node=4'; profiles ignored."""
+    kind, _, where = label.partition("@")
+    where = where.split("(")[0]
+    return kind, ({k: (int(v) if v.isdigit() else v) for k, v in (p.split("=") for p in where.split(","))}
+                  if where else None)
+
+
+def classify(case: Case, record: dict) -> str:
+    """'right' (every hidden effect named with its place, nothing else), 'honest' (undetermined,
+    none or not adequate, every hidden effect among the causes, the tied or the alternatives),
+    'missed' (none with an adequate fit: nothing claimed) or 'wrong' (a confident claim that is
+    not the truth)."""
+    named = [(c["kind"], c["location"]) for c in record["causes"] if c["identifiable"]]
+    if not case.truths:
+        return "right" if record["cause"]["kind"] == "none" and not named else "wrong"
+    every = all(any(_matches(t, *n) for n in named) for t in case.truths)
+    if every and all(any(_matches(t, *n) for t in case.truths) for n in named):
+        return "right"
+    unsure = record["cause"]["kind"] in ("none", "undetermined") or not record["cause"]["identifiable"] \
+        or not record["adequate"] or any(not c["identifiable"] for c in record["causes"])
+    listed = named + [_from_label(lab) for c in record["causes"] for lab in c.get("indistinguishable", [])] \
+        + [_from_label(lab) for lab in record["cause"].get("indistinguishable", [])] \
+        + [(a["kind"], a["location"]) for a in record["alternatives"][:5]]
+    if unsure and all(any(_matches(t, *n) for n in listed) for t in case.truths):
+        return "honest"
+    return "missed" if record["cause"]["kind"] == "none" and record["adequate"] else "wrong"
+
+
+def diagnose_through_cli(case: Case, directory, extra=()) -> dict:
+    """Write the case's data file and run `femu diagnose FILE --json` on it, as a user would; a
+    case on a user's model writes that model file too and passes it with --model."""
     import contextlib
     import io
     import json
@@ -168,11 +370,17 @@ def diagnose_through_cli(case: Case, directory) -> dict:
 
     from femu.cli import main
 
-    path = Path(directory) / f"case-{case.kind}-{case.seed}.json"
-    fp.save_modal_data(case.data(), path)
+    directory = Path(directory)
+    argv = []
+    name = "hframe"
+    if case.nominal is not None:
+        model_file = fp.save_model(case.nominal, directory / f"{case.nominal.name}.model.json")
+        name, argv = model_file.name, ["--model", str(model_file)]
+    path = directory / f"case-{case.cls or case.kind}-{case.seed}.json"
+    fp.save_modal_data(case.data(name), path)
     out = io.StringIO()
     with contextlib.redirect_stdout(out):
-        code = main(["diagnose", str(path), "--json"])
+        code = main(["diagnose", str(path), "--json", *argv, *map(str, extra)])
     assert code == 0, f"femu diagnose {path} exited {code}"
     return json.loads(out.getvalue())
 
@@ -193,48 +401,76 @@ def confusion(pairs) -> str:
     return "\n".join(rows)
 
 
-def run_cases(seed: int) -> tuple[list[tuple[str, str]], int]:
-    """Diagnose every case of a seed through the CLI, with a progress bar on stderr; returns the
-    (true kind, answered kind) pairs and how many had the right kind but the wrong place."""
+OUTCOMES = ("right", "honest", "missed", "wrong")
+
+
+def outcome_table(rows) -> str:
+    """Markdown table of (class, outcome, adequate) triples: counts per class and outcome, and
+    how many wrong answers came with adequate: true."""
+    classes = list(dict.fromkeys(c for c, _, _ in rows))
+    out = ["| class | cases | " + " | ".join(OUTCOMES) + " | wrong with adequate: true | adequate |",
+           "|---" * (len(OUTCOMES) + 4) + "|"]
+    for cls in classes:
+        mine = [(o, a) for c, o, a in rows if c == cls]
+        out.append(f"| {cls} | {len(mine)} | " + " | ".join(str(sum(o == k for o, _ in mine)) for k in OUTCOMES)
+                   + f" | {sum(o == 'wrong' and a for o, a in mine)} | {sum(bool(a) for _, a in mine)} |")
+    return "\n".join(out)
+
+
+def run_cases(seed: int, plan: dict | None = None) -> list[tuple[Case, dict]]:
+    """Diagnose every case of a seed through the CLI, with a progress bar on stderr (one line
+    per case when stderr is not a terminal); returns (case, record) pairs."""
     import tempfile
 
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
-    pairs, places_wrong = [], 0
+    done = []
     columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn())
     console = Console(stderr=True)
     with tempfile.TemporaryDirectory() as tmp, Progress(*columns, console=console) as progress:
         task = progress.add_task("building cases", total=None)
-        all_cases = cases(seed)
+        all_cases = cases(seed, plan)
         progress.update(task, total=len(all_cases), description=f"diagnosing (seed {seed})")
         for k, c in enumerate(all_cases, 1):
-            cause = diagnose_through_cli(c, tmp)["cause"]
-            pairs.append((c.kind, cause["kind"]))
-            places_wrong += cause["kind"] == c.kind and not named_correctly(c, cause)
+            record = diagnose_through_cli(c, tmp)
+            done.append((c, record))
             progress.advance(task)
-            if not console.is_terminal:  # a log gets one line per case instead of a bar
-                console.print(f"{k}/{len(all_cases)}: {c.kind} -> {cause['kind']}", highlight=False)
-    return pairs, places_wrong
+            if not console.is_terminal:
+                console.print(f"{k}/{len(all_cases)}: {c.cls or c.kind} {c.truths} -> {classify(c, record)} "
+                              f"{[(x['kind'], x['location']) for x in record['causes']] or record['cause']['kind']} "
+                              f"adequate={record['adequate']}", highlight=False)
+    return done
 
 
 def main(argv=None) -> int:
-    """python tests/diagnosis_cases.py [SEED] [--markdown]: the README's confusion matrix."""
+    """python tests/diagnosis_cases.py [SEED] [--markdown]: the README's confusion tables."""
     import argparse
     import sys
     import time
 
     parser = argparse.ArgumentParser(description="Diagnose the hidden-effect cases of a seed and print the "
-                                                 "confusion matrix (progress on stderr).")
+                                                 "confusion tables (progress on stderr).")
     parser.add_argument("seed", nargs="?", type=int, default=2026, help="the cases' seed (default: %(default)s)")
     parser.add_argument("--markdown", action="store_true",
-                        help="print only the Markdown table on stdout, exactly as in the README (the rest on stderr)")
+                        help="print only the Markdown tables on stdout, exactly as in the README (the rest on stderr)")
+    parser.add_argument("--only", choices=["standard", "more"], default=None, help="run one group of classes")
     args = parser.parse_args(argv)
     t0 = time.perf_counter()
-    pairs, places_wrong = run_cases(args.seed)
-    tail = (f"{len(pairs)} cases (seed {args.seed}); right kind but wrong place: {places_wrong}; "
-            f"{time.perf_counter() - t0:.0f} s")
-    print(confusion(pairs))
+    tables = []
+    if args.only != "more":
+        done = run_cases(args.seed, PLAN)
+        pairs = [(c.kind, r["cause"]["kind"]) for c, r in done]
+        wrong_place = sum(r["cause"]["kind"] == c.kind and not named_correctly(c, r["cause"]) for c, r in done)
+        rows = [("standard: " + (c.kind if c.kind != "none" else "none"), classify(c, r), r["adequate"])
+                for c, r in done]
+        tables += [confusion(pairs), outcome_table(rows)]
+        print(f"standard: right kind but wrong place: {wrong_place}", file=sys.stderr)
+    if args.only != "standard":
+        done = run_cases(args.seed, MORE)
+        tables.append(outcome_table([(c.cls, classify(c, r), r["adequate"]) for c, r in done]))
+    tail = f"seed {args.seed}; {time.perf_counter() - t0:.0f} s"
+    print("\n\n".join(tables))
     print(tail if args.markdown else "\n" + tail, file=sys.stderr if args.markdown else sys.stdout)
     return 0
 

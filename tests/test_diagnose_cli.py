@@ -52,7 +52,12 @@ def files(tmp_path_factory):
 CORRELATION_KEYS = ["measured_hz", "model_hz", "error_pct", "mean_abs_error_pct", "mac", "mean_mac", "comac",
                     "mean_comac", "paired_model_mode"]
 RECORD_KEYS = {
-    "record": ["cause", "alternatives", "residuals", "gain", "selection", "candidates", "warnings", "extended_model"],
+    "record": ["cause", "alternatives", "residuals", "gain", "selection", "candidates", "warnings", "extended_model",
+               "causes", "adequate", "goodness_of_fit", "noise"],
+    "found": ["kind", "location", "estimate", "interval", "label", "p_adjusted", "identifiable"],
+    "goodness_of_fit": ["adequate", "chi2", "dof", "reduced_chi2", "p_value", "alpha", "implied_freq_noise",
+                        "implied_shape_noise", "explanation"],
+    "noise": ["freq_noise", "shape_noise", "source", "shape_convention"],
     "cause": {"identified": ["kind", "location", "estimate", "identifiable", "p_adjusted", "label"],
               "none": ["kind", "location", "estimate", "identifiable", "p_adjusted", "explanation"],
               "undetermined": ["kind", "location", "estimate", "identifiable", "p_adjusted", "label",
@@ -63,9 +68,9 @@ RECORD_KEYS = {
     "pinned": ["parameter", "element", "bound", "value_pa"],
     "gain": {"none": ["held_out_modes", "fit_modes", "before"],
              "extended": ["held_out_modes", "fit_modes", "before", "after", "estimate_from_fit_modes",
-                          "mean_abs_error_pct_reduction", "mean_mac_gain"],
+                          "mean_abs_error_pct_reduction", "mean_mac_gain", "prediction_interval_hz"],
              "frequencies only": ["held_out_modes", "fit_modes", "before", "after", "estimate_from_fit_modes",
-                                  "mean_abs_error_pct_reduction"]},
+                                  "mean_abs_error_pct_reduction", "prediction_interval_hz"]},
     "selection": ["method", "alpha", "n_candidates", "threshold_chi2_drop", "n_fitted", "statistic", "p_value",
                   "p_adjusted", "dispersion", "ambiguity_chi2", "freq_noise", "shape_noise"],
     "candidate": {False: ["label", "kind", "location", "screen_chi2_drop", "fitted"],
@@ -89,6 +94,10 @@ def assert_record_keys(record: dict, cause: str, gain: str) -> None:
     assert {c["fitted"] for c in record["candidates"]} == {True, False}
     assert all(list(c) == RECORD_KEYS["candidate"][c["fitted"]] for c in record["candidates"])
     assert isinstance(record["warnings"], list)
+    assert all(list(c)[:7] == RECORD_KEYS["found"] for c in record["causes"])
+    assert isinstance(record["adequate"], bool) and record["adequate"] == record["goodness_of_fit"]["adequate"]
+    assert list(record["goodness_of_fit"]) == RECORD_KEYS["goodness_of_fit"]
+    assert list(record["noise"]) == RECORD_KEYS["noise"]
 
 
 def test_json_names_the_added_mass_and_out_writes_a_usable_extended_model(files, capsys, tmp_path):
@@ -155,19 +164,22 @@ def test_summary_shows_the_cause_and_leaves_out_a_mode_that_pairs_with_nothing(f
     assert (tmp_path / "shapes.png").read_bytes()[:8] == PNG_MAGIC
 
 
-def test_paper_data_cannot_tell_the_candidates_apart(capsys):
+def test_paper_data_get_an_honest_answer_with_the_verdict(capsys):
+    """Five frequencies, no shapes: with the 118 candidates no single effect is significant
+    after the correction (it was 'cannot tell apart' among 68), and the calibrated model
+    misses the frequencies far beyond 0.2 % noise: the answer says both."""
     code, out, err = femu(capsys, "diagnose", "paper", "--json")
     assert code == 0, err
     record = json.loads(out)
-    assert_record_keys(record, "undetermined", "frequencies only")
+    assert_record_keys(record, "none", "none")
     assert record["residuals"]["pinned_parameters"]  # the paper's data pin moduli at a bound
     cause = record["cause"]
-    assert cause["identifiable"] is False
-    assert len(cause["indistinguishable"]) >= 2
-    assert cause["estimate"] == {}
+    assert cause["kind"] == "none" and cause["estimate"] == {} and record["causes"] == []
+    assert record["adequate"] is False and record["goodness_of_fit"]["p_value"] < 1e-100
+    assert record["goodness_of_fit"]["implied_freq_noise"] > 5 * record["noise"]["freq_noise"]
     assert record["residuals"]["mac_matrix"] is None  # the paper gives frequencies only
     summary = summary_text(fp.diagnose(None, "paper"), "paper", "hframe")  # the record the CLI printed
-    assert "CAUSE: cannot tell apart: " + ", ".join(cause["indistinguishable"]) in summary
+    assert "CAUSE: none: " in summary and "VERDICT: NOT ADEQUATE: the calibrated model" in summary
     assert "COMAC: - (no measured shapes)" in summary
 
 

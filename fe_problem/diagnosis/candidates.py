@@ -14,6 +14,16 @@ Kinds (the set is open: add a function to `CANDIDATE_KINDS` that yields Candidat
   relative to the element's own bending compliance).
 - ``shear_deformation`` (no place): every element Timoshenko, with shear parameter
   phi = a * phi_nominal (a = 1: the section's own shear coefficient).
+- ``stiffness_gain`` at an element: its modulus times (1 + a), a in [0, 3] (a member stiffer
+  than its model; the estimate gives the modulus ratio 1 + a).
+- ``boundary_stiffness`` at a node and direction (x or y): a spring to ground of stiffness
+  a * k_ref, k_ref = total mass * (2 pi f_1)^2 of the nominal model (a soft support, a
+  suspension, a base that is not rigid).
+- ``distributed_mass`` along an element: the element's density times (1 + a) (mass spread
+  over it; the estimate gives the added mass in kg).
+
+Joints are found from the model's topology (`joint_nodes`): every node where three or more
+element ends meet, or two that are not in line (a corner), so any frame has its joints.
 """
 
 from __future__ import annotations
@@ -26,11 +36,12 @@ import numpy as np
 
 from ..elements import PROFILES
 from ..modal import frequencies_hz
-from ..model import FrameModel, add_mass, release_element_end, split_element, with_formulation
+from ..model import FrameModel, Spring, add_mass, release_element_end, split_element, with_formulation
 from ..assembly import AffineModel
 from ..parameters import Parameter
 
-KINDS = ("stiffness_loss", "added_mass", "joint_flexibility", "shear_deformation")
+KINDS = ("stiffness_loss", "added_mass", "joint_flexibility", "shear_deformation", "stiffness_gain",
+         "boundary_stiffness", "distributed_mass")
 
 
 @dataclass(frozen=True)
@@ -153,9 +164,22 @@ def added_mass(st: Setting) -> Iterator[Candidate]:
                         forward, estimate, extend, step=0.005 * total)
 
 
+def joint_nodes(model: FrameModel) -> tuple[int, ...]:
+    """Nodes where members join: three or more element ends, or two ends not in line (cosine
+    of the angle between the members, seen from the node, above -0.999: a corner)."""
+    ends: dict[int, list[np.ndarray]] = {}
+    xy = {n.id: np.array([n.x, n.y], dtype=float) for n in model.nodes}
+    for e in model.elements:
+        for a, b in ((e.node_i, e.node_j), (e.node_j, e.node_i)):
+            d = xy[b] - xy[a]
+            ends.setdefault(a, []).append(d / np.linalg.norm(d))
+    return tuple(n for n, ds in ends.items()
+                 if len(ds) > 2 or (len(ds) == 2 and float(ds[0] @ ds[1]) > -0.999))
+
+
 def joint_flexibility(st: Setting) -> Iterator[Candidate]:
     baseline = AffineModel(st.model)
-    for node in st.model.joints():
+    for node in joint_nodes(st.model):
         for e in st.model.elements:
             if node not in (e.node_i, e.node_j):
                 continue
@@ -210,12 +234,92 @@ def shear_deformation(st: Setting) -> Iterator[Candidate]:
                     forward, estimate, lambda a: model_at(a) if a > 0 else st.model, step=0.05)
 
 
+def stiffness_gain(st: Setting) -> Iterator[Candidate]:
+    """A member stiffer than its model: its modulus times (1 + a), uniform over the element."""
+    for e in st.model.elements:
+        e0 = st.model.element_modulus_pa(e.id)
+        system = AffineModel(st.model, (Parameter("modulus", (e.id,), 1e-3 * e0, 10 * e0, e0),))
+
+        def forward(a, system=system, e0=e0):
+            return solve(system, (e0 * (1.0 + np.asarray(a)))[:, None], st.coords, st.n_modes)
+
+        def estimate(a, s, e0=e0):
+            return {"stiffness_gain_pct": 100.0 * a, "modulus_ratio": 1.0 + a, "modulus_pa": s * e0 * (1.0 + a)}
+
+        yield Candidate("stiffness_gain", {"element": e.id}, 3.0,
+                        np.array([0.0, 0.01, 0.02, 0.05, 0.1, 0.2, 0.35, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0]),
+                        forward, estimate, lambda a, e=e, e0=e0: st.model.with_element_moduli({e.id: e0 * (1 + a)}),
+                        step=0.01)
+
+
+def _reference_stiffness(st: Setting) -> float:
+    """total mass * (2 pi f_1)^2 (N/m): a spring this stiff moves the first mode by about its size."""
+    f1 = float(solve(AffineModel(st.model), np.zeros((1, 0)), st.coords, 1)[0][0, 0])
+    return st.model.total_mass_kg() * (2.0 * np.pi * f1) ** 2
+
+
+def boundary_stiffness(st: Setting) -> Iterator[Candidate]:
+    """A spring to ground at a node, in x or in y: soft supports, suspensions, bases."""
+    k_ref = _reference_stiffness(st)
+    sid = max((sp.id for sp in st.model.springs), default=0) + 1
+    fixed = {(sup.node, d) for sup in st.model.supports for d in sup.directions}
+    for node in st.model.node_ids:
+        for direction in ("x", "y"):
+            if (node, direction) in fixed:
+                continue
+            with_spring = st.model.replace(springs=st.model.springs + (Spring(sid, (node, direction), None, 0.0),))
+            system = AffineModel(with_spring, (Parameter("spring", (sid,), 0.0, 1e3 * k_ref, 0.0),))
+
+            def forward(a, system=system):
+                return solve(system, (k_ref * np.asarray(a, dtype=float))[:, None], st.coords, st.n_modes)
+
+            def estimate(a, s):
+                return {"stiffness_n_per_m": s * k_ref * a, "stiffness_ratio": a}
+
+            def extend(a, node=node, direction=direction):
+                return st.model.replace(springs=st.model.springs + (Spring(sid, (node, direction), None, k_ref * a),))
+
+            yield Candidate("boundary_stiffness", {"node": node, "direction": direction}, 100.0,
+                            np.concatenate([[0.0], np.geomspace(1e-4, 100.0, 16)]), forward, estimate, extend,
+                            step=1e-3)
+
+
+def distributed_mass(st: Setting) -> Iterator[Candidate]:
+    """Mass spread evenly along an element: its density times (1 + a)."""
+    for e in st.model.elements:
+        rho0 = st.model.materials[e.material].density_kg_m3
+        m_e = rho0 * st.model.sections[e.section].area_m2 * st.model.element_length_m(e.id)
+        upper = max(0.5 * st.model.total_mass_kg() / m_e, 0.1)
+        system = AffineModel(st.model, (Parameter("density", (e.id,), 0.0, rho0 * (1 + upper), rho0),))
+
+        def forward(a, system=system, rho0=rho0):
+            return solve(system, (rho0 * (1.0 + np.asarray(a)))[:, None], st.coords, st.n_modes)
+
+        def estimate(a, s, m_e=m_e, e=e):
+            return {"mass_kg": a * m_e, "mass_per_length_kg_m": a * m_e / st.model.element_length_m(e.id),
+                    "mass_ratio": a}
+
+        def extend(a, e=e, rho0=rho0):
+            name = f"{e.material}+mass@{e.id}"
+            material = dataclasses.replace(st.model.materials[e.material], density_kg_m3=rho0 * (1.0 + a))
+            return st.model.replace(materials={**st.model.materials, name: material},
+                                    elements=tuple(dataclasses.replace(x, material=name) if x.id == e.id else x
+                                                   for x in st.model.elements))
+
+        yield Candidate("distributed_mass", {"element": e.id}, upper,
+                        np.concatenate([[0.0], upper * np.geomspace(1e-3, 1.0, 14)]), forward, estimate, extend,
+                        step=0.01 * upper)
+
+
 #: kind -> function(Setting) yielding Candidates. Extend this to add a kind.
 CANDIDATE_KINDS: dict[str, Callable[[Setting], Iterator[Candidate]]] = {
     "stiffness_loss": stiffness_loss,
     "added_mass": added_mass,
     "joint_flexibility": joint_flexibility,
     "shear_deformation": shear_deformation,
+    "stiffness_gain": stiffness_gain,
+    "boundary_stiffness": boundary_stiffness,
+    "distributed_mass": distributed_mass,
 }
 
 

@@ -20,12 +20,21 @@ Steps
    kind (and place) given only where all of them agree.
 4. The extended model (calibrated, with the effect) as a model file.
 5. Gain: the highest quarter of the modes (at least one) is held out; the calibrated model
-   and the extended model are refitted without them and both predict them. (The choice of
-   candidate saw every mode; the parameters that make the prediction did not.)
+   and the extended model are refitted without them and both predict them, the extended
+   model's prediction with the range its effect's profile-likelihood interval gives. (The
+   choice of candidate saw every mode; the parameters that make the prediction did not; with
+   several causes the last is refitted, the others kept at their sizes.)
+6. Further causes (rounds.py), then the final model's goodness of fit against the stated
+   noise and each estimate's interval (verdict.py).
+
+Noise convention: `shape_noise` is the std of a shape entry as a fraction of the largest
+|entry| of its mode; the defaults are 0.2 % and 2 %. The record states what was used (`noise`)
+and what the final model's misfit implies (`goodness_of_fit`).
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -38,29 +47,41 @@ from ..modal_data import DataFileError, ModalData, load_modal_data
 from ..model import FrameModel, load_model
 from ..parameters import element_moduli
 from .candidates import Candidate, Setting, all_candidates, scale_stiffness, solve
-from .fit import Fit, fit, profiled, screen
-from .record import Cause, CandidateFit, Diagnosis, Gain, PinnedParameter, Residuals, Selection
+from .fit import Fit, chi2_batch, fit, profiled, screen
+from .record import Cause, CandidateFit, Diagnosis, Gain, Noise, PinnedParameter, Residuals, Selection
+from .verdict import profile_interval, verdict
 from .residuals import Observations
 
 ALPHA = 0.01
+DEFAULT_FREQ_NOISE = 0.002
+DEFAULT_SHAPE_NOISE = 0.02
+#: Screened candidates fitted besides those always fitted (see `screen_and_fit`).
+N_FIT = 12
+MAX_CAUSES = 4
 AMBIGUITY_CHI2 = 2.0 * np.log(20.0)
 MIN_MODES = 3
 #: How the cause is selected, as the record states it.
 METHOD = "likelihood ratio vs the calibrated model, Bonferroni over candidates, quasi-likelihood dispersion"
 
 
-def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: float = 0.002,
-             shape_noise: float = 0.02, kinds=None, n_fit: int = 8, alpha: float = ALPHA) -> Diagnosis:
+def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: float | None = None,
+             shape_noise: float | None = None, kinds=None, n_fit: int | None = N_FIT, alpha: float = ALPHA,
+             max_causes: int = MAX_CAUSES) -> Diagnosis:
     """Diagnose what `model` misses in `data` (see the module docstring for the method).
 
-    freq_noise: std of a measured frequency, relative (0.002 = 0.2 %); shape_noise: std of a
-    measured shape entry relative to the mode's RMS (0.02 = 2 %). kinds: candidate kinds to
-    try (default all); n_fit: how many screened candidates are fitted properly.
+    freq_noise: std of a measured frequency, relative (default 0.002 = 0.2 %); shape_noise: std
+    of a measured shape entry as a fraction of the largest |entry| of its mode (default 0.02 =
+    2 %). kinds: candidate kinds to try (default all); n_fit: how many screened candidates are
+    fitted properly besides the ones always fitted (None: all); max_causes: at most this many
+    causes are added one after another.
     """
     data = load_modal_data(data)
     model = data.load_model() if model is None else load_model(model)
     _check(model, data)
-    cal = calibrate(model, data, freq_noise, shape_noise)
+    noise = Noise(DEFAULT_FREQ_NOISE if freq_noise is None else float(freq_noise),
+                  DEFAULT_SHAPE_NOISE if shape_noise is None else float(shape_noise),
+                  "default" if freq_noise is None and shape_noise is None else "stated")
+    cal = calibrate(model, data, noise.freq_noise, noise.shape_noise)
     found = screen_and_fit(cal, kinds, n_fit)
     sel = select(cal, found, alpha)
     warnings = list(cal.warnings)
@@ -68,13 +89,26 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
         cause = Cause("none", None, {}, True, sel.selection.p_adjusted, explanation="no candidate explains the "
                       "residuals significantly better than the calibrated model")
         alternatives = tuple(sel.rows[i] for i in found.order[:3] if i in found.fitted)
+        v = verdict(cal.obs, cal.base, 1, alpha, what="the calibrated model (no candidate significant)")
+        if not v.adequate:
+            warnings.append(v.explanation)
         return Diagnosis(cause, alternatives, residuals_of(cal), gain(cal, None), tuple(sel.rows.values()),
-                         sel.selection, None, tuple(warnings))
+                         sel.selection, None, tuple(warnings), (), v, noise)
     cause, alternatives, extended = extend(cal, found, sel)
     if cause.explanation:
         warnings.append(cause.explanation)
-    return Diagnosis(cause, alternatives, residuals_of(cal), gain(cal, found.candidates[sel.best]),
-                     tuple(sel.rows.values()), sel.selection, extended, tuple(warnings))
+    from .rounds import further_causes  # it uses this module's steps
+
+    rounds = further_causes(cal, found, sel, cause, kinds, n_fit, alpha, max_causes)
+    v = verdict(cal.obs, rounds.final, 1 + len(rounds.causes), alpha)
+    if not v.adequate:
+        warnings.append(v.explanation)
+    if len(rounds.causes) > 1:
+        extended = rounds.model
+        if cause.identifiable:  # the first cause's size refitted jointly with the others
+            cause = dataclasses.replace(cause, estimate=rounds.causes[0].estimate)
+    return Diagnosis(cause, alternatives, residuals_of(cal), rounds.gain, tuple(sel.rows.values()), sel.selection,
+                     extended, tuple(warnings), rounds.causes, v, noise)
 
 
 def _check(model: FrameModel, data: ModalData) -> None:
@@ -174,12 +208,20 @@ class Screening:
     fitted: dict[int, Fit]
 
 
-def screen_and_fit(cal: Calibration, kinds, n_fit: int) -> Screening:
-    """Screen every candidate by its first-order chi^2 drop; fit the `n_fit` most promising."""
-    cands = all_candidates(cal.setting, kinds)
+def screen_and_fit(cal: Calibration, kinds, n_fit: int | None, keep=None) -> Screening:
+    """Screen every candidate (those `keep` accepts) by its first-order chi^2 drop; fit the
+    `n_fit` most promising (None: all), and always the global candidates (no place: a
+    first-order screen misjudges them, being far from linear) and the two best screened
+    of every kind (a kind is never judged by another's linearisation)."""
+    cands = [c for c in all_candidates(cal.setting, kinds) if keep is None or keep(c)]
     screened = [screen(cal.obs, c, cal.base) for c in cands]
     order = sorted(range(len(cands)), key=lambda i: -screened[i][0])
-    fitted = {i: fit(cal.obs, cands[i], screened[i][1]) for i in order[:n_fit]}
+    chosen = set(order if n_fit is None else order[:n_fit])
+    chosen |= {i for i in order if cands[i].location is None}
+    for kind in {c.kind for c in cands}:
+        chosen |= set([i for i in order if cands[i].kind == kind][:2])
+    fitted = {i: fit(cal.obs, cands[i], screened[i][1]) for i in order if i in chosen}
+    order = [i for i in order if i in fitted] + [i for i in order if i not in fitted]
     return Screening(cands, screened, order, fitted)
 
 
@@ -275,4 +317,17 @@ def gain(cal: Calibration, cand: Candidate | None) -> Gain:
     f = fit(obs_fit, cand)
     hz, sh = cand.forward(np.array([f.a]))
     after = correlate(hz[0] * np.sqrt(f.s), sh[0], obs_hold)
-    return Gain(*modes, before, after, cand.estimate(f.a, f.s))
+    return Gain(*modes, before, after, cand.estimate(f.a, f.s), prediction_interval_hz=_predicted(
+        obs_fit, obs_hold, cand, f, after.model_hz))
+
+
+def _predicted(obs_fit: Observations, obs_hold: Observations, cand: Candidate, f: Fit, at_best) -> tuple:
+    """The held-out frequencies (Hz) predicted at both ends of the effect's profile interval
+    (fitted on the other modes) and at its best: per held-out mode, [lowest, highest]."""
+    low, high = profile_interval(obs_fit, cand, f, max(1.0, f.chi2 / obs_fit.dof(2)))
+    preds = [np.asarray(at_best, dtype=float)]
+    for end in chi2_batch(obs_fit, cand, np.array([v for v in (low, high) if v is not None])):
+        hz, sh = cand.forward(np.array([end.a]))
+        preds.append(correlate(hz[0] * np.sqrt(end.s), sh[0], obs_hold).model_hz)
+    stacked = np.vstack(preds)
+    return tuple((float(np.nanmin(c)), float(np.nanmax(c))) for c in stacked.T)

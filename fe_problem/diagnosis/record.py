@@ -60,6 +60,71 @@ class Cause:
 
 
 @dataclass(frozen=True)
+class Found:
+    """One cause of a diagnosis with several: kind, location (as in `Cause`), estimate, and its
+    interval: for each numeric estimate a [low, high] pair at `level` (profile likelihood of the
+    effect size, the other causes and the global scale at their best values; `None` where the
+    bound was not reached inside the candidate's range). p_adjusted: the Bonferroni-adjusted
+    p-value of its round; identifiable, indistinguishable: as in `Cause`."""
+
+    kind: str
+    location: dict | None
+    estimate: dict
+    interval: dict
+    label: str | None
+    p_adjusted: float
+    identifiable: bool = True
+    indistinguishable: tuple[str, ...] = ()
+
+    def to_dict(self) -> dict:
+        out = {"kind": self.kind, "location": self.location, "estimate": self.estimate, "interval": self.interval,
+               "label": self.label, "p_adjusted": self.p_adjusted, "identifiable": self.identifiable}
+        if not self.identifiable:
+            out["indistinguishable"] = list(self.indistinguishable)
+        return out
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """Goodness of fit of the final model (calibrated, with every cause found) against the
+    stated noise: chi^2 over `dof` degrees of freedom (residuals less one per measured shape,
+    less the fitted parameters), reduced_chi2 = chi2 / dof and the p-value P(chi^2_dof >= chi2).
+    adequate: p_value >= alpha (the misfit is what the noise explains). implied_freq_noise,
+    implied_shape_noise: the noise levels (same convention as the stated ones) at which the
+    final model's frequency and shape residuals would be exactly typical, i.e. the noise the
+    data imply if the final model is right (None without such residuals). explanation: a
+    sentence for the user."""
+
+    adequate: bool
+    chi2: float
+    dof: int
+    reduced_chi2: float
+    p_value: float
+    alpha: float
+    implied_freq_noise: float | None
+    implied_shape_noise: float | None
+    explanation: str
+
+    def to_dict(self) -> dict:
+        return {k: getattr(self, k) for k in self.__dataclass_fields__}
+
+
+@dataclass(frozen=True)
+class Noise:
+    """The noise model the residuals were weighted with: relative frequency std, shape std as a
+    fraction of the largest |entry| of each mode (`shape_convention`), and where they came from
+    (`source`: "stated" by the caller or "default")."""
+
+    freq_noise: float
+    shape_noise: float
+    source: str
+    shape_convention: str = "fraction of the largest |entry| of each measured mode"
+
+    def to_dict(self) -> dict:
+        return {k: getattr(self, k) for k in self.__dataclass_fields__}
+
+
+@dataclass(frozen=True)
 class PinnedParameter:
     """An element modulus that a bounded update (+-1/7 of the calibrated value) drives to a bound."""
 
@@ -163,7 +228,9 @@ class Gain:
     """The held-out test: the highest quarter of the paired modes predicted by models refitted
     on the rest. held_out_modes, fit_modes: 1-based; before: the calibrated model's prediction;
     after: the extended model's (None without a cause); estimate_from_fit_modes: the effect
-    refitted on the fit modes alone; note: why nothing was held out (then the rest is empty)."""
+    refitted on the fit modes alone; note: why nothing was held out (then the rest is empty);
+    prediction_interval_hz: per held-out mode the [low, high] frequency (Hz) the extended model
+    predicts over its effect's 95 % profile-likelihood interval."""
 
     held_out_modes: tuple[int, ...] = ()
     fit_modes: tuple[int, ...] = ()
@@ -171,6 +238,7 @@ class Gain:
     after: Correlation | None = None
     estimate_from_fit_modes: dict | None = None
     note: str | None = None
+    prediction_interval_hz: tuple = ()
 
     @property
     def mean_abs_error_pct_reduction(self) -> float | None:
@@ -195,6 +263,7 @@ class Gain:
             for key in ("mean_abs_error_pct_reduction", "mean_mac_gain"):
                 if getattr(self, key) is not None:
                     out[key] = getattr(self, key)
+            out["prediction_interval_hz"] = [list(p) for p in self.prediction_interval_hz]
         return out
 
 
@@ -207,8 +276,10 @@ class Diagnosis:
     """The answer of a diagnosis; `to_dict()` is the JSON `femu diagnose --json` prints.
 
     candidates: every candidate in screening order (fitted ones first); alternatives: the
-    fitted candidates shown beside the cause; extended_model: the calibrated model with the
-    cause's effect (None when the cause is none); warnings: sentences for the user.
+    fitted candidates shown beside the cause; extended_model: the calibrated model with every
+    cause's effect (None when the cause is none); warnings: sentences for the user; causes:
+    every cause found, in order of evidence (`cause` is the first); verdict: the final model's
+    goodness of fit; noise: the noise model used.
     """
 
     cause: Cause
@@ -219,6 +290,14 @@ class Diagnosis:
     selection: Selection
     extended_model: FrameModel | None
     warnings: tuple[str, ...] = field(default_factory=tuple)
+    causes: tuple[Found, ...] = ()
+    verdict: Verdict | None = None
+    noise: Noise | None = None
+
+    @property
+    def adequate(self) -> bool | None:
+        """Whether the final model fits within the noise (None if not tested)."""
+        return None if self.verdict is None else self.verdict.adequate
 
     @property
     def best(self) -> CandidateFit | None:
@@ -232,4 +311,6 @@ class Diagnosis:
                          "residuals": self.residuals, "gain": self.gain, "selection": self.selection,
                          "candidates": list(self.candidates), "warnings": list(self.warnings),
                          "extended_model": None if self.extended_model is None
-                         else model_to_dict(self.extended_model)})
+                         else model_to_dict(self.extended_model),
+                         "causes": list(self.causes), "adequate": self.adequate,
+                         "goodness_of_fit": self.verdict, "noise": self.noise})

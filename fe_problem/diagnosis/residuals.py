@@ -1,14 +1,17 @@
 """Residuals between measured modes and a model's modes, weighted by a noise model.
 
 The noise model is the one a modal test states: relative frequency error `freq_noise`
-(std, e.g. 0.002 for 0.2 %) and shape error `shape_noise` (std of each measured entry as a
-fraction of the mode's RMS at the measured coordinates). Under it the weighted residuals
+(std, e.g. 0.002 for 0.2 %) and shape error `shape_noise`: the std of each measured shape
+entry as a fraction of the largest |entry| of that mode at the measured coordinates (the
+usual convention of test rigs: "2 % shape noise" is 2 % of the peak of the mode). Under it the weighted residuals
 are standard normal, so chi^2 = ||r||^2 is a log-likelihood and differences of chi^2 are
 likelihood-ratio statistics.
 
 Residuals of one mode pair: (f_model - f_meas) / (f_meas freq_noise) and, where a shape was
 measured, the difference of the two shapes at the measured coordinates, each scaled to unit
-length and signed to agree, divided by shape_noise / sqrt(n_coordinates).
+length and signed to agree, divided by shape_noise * max|entry| of the unit measured shape.
+A shape has one fewer degree of freedom than coordinates (its scale is free), which the
+goodness-of-fit count (`dof`) takes into account.
 """
 
 from __future__ import annotations
@@ -45,6 +48,21 @@ class Observations:
         return int(self.frequencies_hz.shape[0])
 
     @property
+    def n_shape_modes(self) -> int:
+        """How many of the modes carry a measured shape."""
+        return int(self.has_shape.sum())
+
+    @property
+    def n_frequency_residuals(self) -> int:
+        """The first `n_modes` residuals are frequencies, the rest shape entries."""
+        return self.n_modes
+
+    def dof(self, n_params: int) -> int:
+        """Degrees of freedom of chi^2 for a model with `n_params` fitted parameters: every
+        frequency, every shape entry less one per shape (its scale is free), less the parameters."""
+        return max(self.n_residuals - self.n_shape_modes - n_params, 1)
+
+    @property
     def n_residuals(self) -> int:
         return self.n_modes + int(self.has_shape.sum()) * self.shapes.shape[0]
 
@@ -71,5 +89,5 @@ class Observations:
         u_m = self.shapes[:, sel]
         u_a = u_a * np.where(np.sum(u_a * u_m, axis=0) < 0, -1.0, 1.0)
         u_a = np.where(ok[sel][None, :], u_a, 0.0)
-        sigma = self.shape_noise / np.sqrt(u_m.shape[0])
+        sigma = self.shape_noise * np.max(np.abs(u_m), axis=0)  # (n_shape_modes,): of the mode's peak
         return np.concatenate([r_f, ((u_a - u_m) / sigma).ravel(order="F")]), idx

@@ -41,7 +41,7 @@ def _duplicates(ids: list) -> list:
 RANGES = {
     "coordinate": 1e6,                      # |x|, |y| in m
     "youngs_modulus_pa": (1e3, 1e13), "density_kg_m3": (1e-3, 1e6),
-    "area_m2": (1e-12, 1e3), "inertia_m4": (1e-24, 1e6), "shear_coefficient": (1e-3, 1e3),
+    "area_m2": (1e-12, 1e3), "inertia_m4": (1e-24, 1e6),
     "mass_kg": 1e9, "inertia_kg_m2": 1e9, "stiffness": 1e15, "release": 1e15,
 }
 
@@ -109,7 +109,7 @@ def _validate_tables(m: FrameModel) -> None:
     for name, sec in m.sections.items():
         _positive(sec.area_m2, f"{src}: section {name!r} 'area_m2'", field="area_m2")
         _positive(sec.inertia_m4, f"{src}: section {name!r} 'inertia_m4'", field="inertia_m4")
-        _positive(sec.shear_coefficient, f"{src}: section {name!r} 'shear_coefficient'", field="shear_coefficient")
+        _positive(sec.shear_coefficient, f"{src}: section {name!r} 'shear_coefficient'")
 
 
 def _validate_element(m: FrameModel, e) -> None:

@@ -21,8 +21,8 @@ from pathlib import Path
 from fe_problem.diagnosis import Diagnosis
 from fe_problem.jsonutil import dumps
 from femu.reports.diagnosis import write_json, write_report
-from femu.reports.diagnosis_text import (cause_text, coordinate_labels, estimate_text, fmt, hz, mode_ranges, pct,
-                                         threshold_chi2_drop)
+from femu.reports.diagnosis_text import (cause_text, causes_lines, coordinate_labels, estimate_text, fmt, hz,
+                                         mode_ranges, noise_text, pct, threshold_chi2_drop, verdict_lines)
 
 #: How many alternatives and COMAC coordinates the terminal summary lists.
 N_ALTERNATIVES = 5
@@ -67,18 +67,21 @@ def add_arguments(d) -> None:
     d.add_argument("--out", default=None, metavar="DIR",
                    help="directory for the extended model, diagnosis.json, report.md and its figures")
     d.add_argument("--json", action="store_true", help="print the diagnosis record as JSON on stdout")
-    d.add_argument("--freq-noise", type=float, default=0.002,
+    d.add_argument("--freq-noise", type=float, default=None,
                    help="std of a measured frequency, relative (default 0.002 = 0.2 %%)")
-    d.add_argument("--shape-noise", type=float, default=0.02,
-                   help="std of a measured shape entry, relative to the mode's RMS (default 0.02 = 2 %%)")
+    d.add_argument("--shape-noise", type=float, default=None,
+                   help="std of a measured shape entry as a fraction of the largest |entry| of its mode, the "
+                        "usual convention (default 0.02 = 2 %% of the peak); the record's goodness_of_fit gives "
+                        "the noise the data imply")
 
 
 def run(args) -> int:
     """Entry point of `femu diagnose` (args: data, model, out, json, freq_noise, shape_noise)."""
     from fe_problem import diagnose, load_modal_data, load_model, save_model
 
-    freq_noise = _positive(getattr(args, "freq_noise", 0.002), "--freq-noise")
-    shape_noise = _positive(getattr(args, "shape_noise", 0.02), "--shape-noise")
+    freq_noise, shape_noise = getattr(args, "freq_noise", None), getattr(args, "shape_noise", None)
+    freq_noise = None if freq_noise is None else _positive(freq_noise, "--freq-noise")
+    shape_noise = None if shape_noise is None else _positive(shape_noise, "--shape-noise")
     data = load_modal_data(args.data)
     model = data.load_model() if args.model is None else load_model(args.model)
     out = _check_out(args.out) if args.out else None  # before the work: a bad --out fails at once
@@ -119,9 +122,9 @@ def summary_text(diag: Diagnosis, data_source: str, model_name: str) -> str:
     res, sel = diag.residuals, diag.selection
     lines = [f"Diagnosis of model {model_name} against {data_source}",
              f"  {len(res.correlation.measured_hz)} measured modes at {len(res.measured_dofs)} coordinates; noise: "
-             f"frequencies {fmt(100 * sel.freq_noise, 3)} %, shapes {fmt(100 * sel.shape_noise, 3)} % of the mode "
-             "RMS", ""]
-    lines += _cause_lines(diag) + _residual_lines(diag) + _alternative_lines(diag) + _gain_lines(diag)
+             + noise_text(diag), ""]
+    found = causes_lines(diag)
+    lines += _cause_lines(diag) + verdict_lines(diag) + [""] + (found + [""] if found else []) + _residual_lines(diag) + _alternative_lines(diag) + _gain_lines(diag)
     if diag.warnings:
         lines += ["", "Warnings:"] + [f"  - {w}" for w in diag.warnings]
     return "\n".join(lines)
@@ -129,7 +132,8 @@ def summary_text(diag: Diagnosis, data_source: str, model_name: str) -> str:
 
 def _cause_lines(diag: Diagnosis) -> list[str]:
     cause, sel = diag.cause, diag.selection
-    lines = [f"CAUSE: {cause_text(cause)}",
+    head = "CAUSE" if diag.adequate is not False or cause.is_none else "CAUSE (best explanation, NOT an adequate fit)"
+    lines = [f"{head}: {cause_text(cause)}",
              f"  p {_p_text(cause.p_adjusted)} (adjusted over {sel.n_candidates} candidates; "
              f"significant below {fmt(sel.alpha, 2)})"]
     best, needed = diag.best, threshold_chi2_drop(sel)
@@ -190,5 +194,10 @@ def _gain_lines(diag: Diagnosis) -> list[str]:
         if getattr(b, key) is not None:
             lines.append(f"  {q:<25} {fmt(getattr(b, key), d)}" + (f" -> {fmt(getattr(a, key), d)}" if a else ""))
     for k, m in enumerate(gain.held_out_modes):
-        lines.append(f"  mode {m}: error {pct(b.error_pct[k])} %" + (f" -> {pct(a.error_pct[k])} %" if a else ""))
+        ranged = ""
+        if a and len(gain.prediction_interval_hz) > k:
+            lo, hi = gain.prediction_interval_hz[k]
+            ranged = f" (predicted {hz(a.model_hz[k])} Hz, 95 % range {hz(lo)}-{hz(hi)}; measured {hz(b.measured_hz[k])})"
+        lines.append(f"  mode {m}: error {pct(b.error_pct[k])} %" + (f" -> {pct(a.error_pct[k])} %" if a else "")
+                     + ranged)
     return lines

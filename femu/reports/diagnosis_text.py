@@ -75,6 +75,44 @@ def cause_text(cause: Cause) -> str:
     return f"{cause.kind} at {location_text(cause.location)}: {estimate_text(cause.estimate)}"
 
 
+def noise_text(diag: Diagnosis) -> str:
+    """'frequencies 0.2 %, shape entries 2 % of each mode's largest entry (default)'."""
+    sel, source = diag.selection, (diag.noise.source if diag.noise else "stated")
+    return (f"frequencies {fmt(100 * sel.freq_noise, 3)} %, shape entries {fmt(100 * sel.shape_noise, 3)} % of "
+            f"each mode's largest entry ({source})")
+
+
+def verdict_lines(diag: Diagnosis) -> list[str]:
+    """The goodness-of-fit verdict, plainly: adequate or not, and the noise the misfit implies."""
+    v = diag.verdict
+    if v is None:
+        return []
+    head = "VERDICT: adequate" if v.adequate else "VERDICT: NOT ADEQUATE"
+    lines = [f"{head}: {v.explanation}"]
+    implied = [f"frequencies {fmt(100 * v.implied_freq_noise, 3)} %"] if v.implied_freq_noise is not None else []
+    if v.implied_shape_noise is not None:
+        implied.append(f"shapes {fmt(100 * v.implied_shape_noise, 3)} %")
+    if implied:
+        lines.append("  noise the final model's misfit implies: " + ", ".join(implied))
+    return lines
+
+
+def causes_lines(diag: Diagnosis) -> list[str]:
+    """Every cause found, in order of evidence, with its estimate's interval."""
+    if len(diag.causes) < 2 and not any(c.interval for c in diag.causes):
+        return []
+    lines = [f"Causes found, in order of evidence ({len(diag.causes)}):"]
+    for k, c in enumerate(diag.causes, 1):
+        if not c.identifiable:
+            lines.append(f"  {k}. cannot tell apart: {', '.join(c.indistinguishable)}")
+            continue
+        ranges = [f"{key} {fmt(v[0], 4)} to {fmt(v[1], 4)}" for key, v in c.interval.items()
+                  if key != "level" and isinstance(v, list) and None not in v]
+        level = f" ({fmt(100 * c.interval.get('level', 0.95), 2)} % interval: {'; '.join(ranges[:2])})" if ranges else ""
+        lines.append(f"  {k}. {c.kind} at {location_text(c.location)}: {estimate_text(c.estimate)}{level}")
+    return lines
+
+
 def threshold_chi2_drop(selection: Selection) -> float | None:
     """The chi^2 drop the best candidate needs to be significant, as the record states it."""
     value = selection.threshold_chi2_drop
@@ -112,9 +150,10 @@ def render_markdown(diag: Diagnosis, figures: dict, data_source: str, model_name
     sel = diag.selection
     md = [f"# Diagnosis of model `{model_name}` against `{data_source}`", "",
           f"{len(diag.residuals.correlation.measured_hz)} measured modes, {len(diag.residuals.measured_dofs)} "
-          f"measured coordinates. Noise model: frequencies {fmt(100 * sel.freq_noise, 3)} %, shape entries "
-          f"{fmt(100 * sel.shape_noise, 3)} % of the mode's RMS.", ""]
+          f"measured coordinates. Noise model: {noise_text(diag)}.", ""]
     md += _cause_section(diag, extended_file)
+    md += [line.replace("VERDICT:", "**Verdict:**", 1) for line in verdict_lines(diag)] + [""]
+    md += causes_lines(diag) + [""]
     md += _residuals_section(diag, figures)
     md += _gain_section(diag)
     md += ["## Candidates", "",
