@@ -47,6 +47,7 @@ class RunResult:
     ``failed`` (it raised, or produced NaN), ``timeout`` (time limit).
     Times in seconds: wall_s, cpu_s (this process), fe_s (inside FE evaluations).
     versions: Python's and every run library's version (adapters.provenance.library_versions).
+    f_opt: the problem's known optimum J (suite problems, set by studies), None if unknown.
     """
 
     optimizer: str
@@ -67,6 +68,7 @@ class RunResult:
     host: str = ""
     versions: dict = field(default_factory=dict)
     format: str = RECORD_FORMAT
+    f_opt: float | None = None
 
     @property
     def overhead_s(self) -> float:

@@ -8,8 +8,9 @@ import struct
 import numpy as np
 import pytest
 
+from fe_problem.suite import PAPER_F_OPT
 from femu import cli
-from femu.reports.ioh import (PREFIX, check_export, export_runs, improvements, objective_scale, read_ioh,
+from femu.reports.ioh import (FUNCTION_IDS, PREFIX, check_export, export_runs, improvements, ioh_terms, read_ioh,
                                  run_logged)
 from femu.reports.study import summarize, write_report
 from femu.studies.store import Store
@@ -197,21 +198,32 @@ def test_ioh_export_round_trips(study, tmp_path):
     out = export_runs(study, tmp_path / "ioh")
     back = read_ioh(out)
     assert len(back) == len(runs)
-    scale = objective_scale("paper")
+    terms = ioh_terms("paper")  # raw_y = (J - f_opt) / scale, f_opt the paper's best known J
+    p = make_problem("paper")
+    gap = p.evaluate(p.x0)[0] - PAPER_F_OPT
+    assert terms.f_opt == PAPER_F_OPT and terms.scale / 10 < gap <= terms.scale == 10.0 ** round(np.log10(terms.scale))
     by_key = {(r.algorithm, r.attributes["seed"]): r for r in back}
     for run in runs:
         r = by_key[(run.optimizer, run.seed)]
         assert r.function_name == PREFIX + "paper" and r.dimension == 12
+        assert r.function_id == FUNCTION_IDS["paper"] == 1 and r.instance == 1
         assert r.evals == run.n_evals
-        assert r.best_y * scale == pytest.approx(run.best_f, rel=1e-9)
+        assert terms.objective(r.best_y) == pytest.approx(run.best_f, rel=1e-9)
+        assert r.best_y == pytest.approx((run.best_f - PAPER_F_OPT) / terms.scale, rel=1e-9)
         # the logged points are the trace's improvements, then ioh's last-evaluation line
         imp = improvements(run)
         np.testing.assert_array_equal(r.points[: len(imp), 0], [k for k, _ in imp])
-        np.testing.assert_allclose(r.points[: len(imp), 1] * scale, [f for _, f in imp], rtol=1e-6)
+        np.testing.assert_allclose(r.points[: len(imp), 1], terms.raw([f for _, f in imp]), rtol=0, atol=1e-10)
         assert r.points[-1, 0] == run.n_evals
     meta = json.loads(next((out / "random-search").glob("IOHprofiler_*.json")).read_text())
     assert meta["maximization"] is False and meta["algorithm"]["name"] == "random-search"
     assert [run["seed"] for run in meta["scenarios"][0]["runs"]] == SEEDS
+    # best x in the declared search space [0, 1]: (x - xl) / (xu - xl)
+    rs = {r.seed: r for r in runs if r.optimizer == "random-search"}
+    for entry in meta["scenarios"][0]["runs"]:
+        x = np.asarray(entry["best"]["x"])
+        assert np.all((x >= 0) & (x <= 1))
+        np.testing.assert_allclose(x, terms.unit(rs[entry["seed"]].best_x), atol=1e-6)
 
 
 def test_ioh_check_catches_a_changed_file(study, tmp_path):
@@ -252,7 +264,7 @@ def test_live_ioh_logging_matches_the_replayed_export(tmp_path):
     (replay,) = read_ioh(tmp_path / "replay")
     assert (live.function_id, live.function_name, live.evals) == (replay.function_id, replay.function_name, 250)
     assert live.best_y == pytest.approx(replay.best_y, rel=1e-12)
-    assert live.best_y * objective_scale("paper") == pytest.approx(result.best_f, rel=1e-12)
+    assert ioh_terms("paper").objective(live.best_y) == pytest.approx(result.best_f, rel=1e-12)
     # every improvement the harness recorded is what ioh saw live; only the last line differs:
     # live logging writes that evaluation's raw value, the replay its best-so-far
     np.testing.assert_array_equal(live.points[:-1], replay.points[:-1])

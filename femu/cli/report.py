@@ -8,15 +8,33 @@ from ._args import add_store_argument, directory, stored_runs
 def add_arguments(rp) -> None:
     """The arguments of `femu report`."""
     add_store_argument(rp)
-    rp.add_argument("--out", required=True, type=directory, help="output directory: report.md, summary.json and PNG figures")
+    rp.add_argument("--out", type=directory, default=None,
+                    help="output directory: report.md, summary.json (stats.json for suite runs) and PNG figures")
+    rp.add_argument("--json", action="store_true",
+                    help="print the benchmark statistics of the suite runs as JSON (targets, ERT, mean ranks, "
+                         "Friedman, pairwise tests); with --out, also write the report")
     rp.add_argument("--ioh", action="store_true", help="also export IOHprofiler files to OUT/ioh")
 
 
 def run(args) -> int:
-    """`femu report STORE --out DIR [--ioh]`."""
+    """`femu report STORE --out DIR [--ioh]`, `femu report STORE --json [--out DIR]`."""
     from femu.reports.study import write_report
 
+    if args.out is None and not args.json:
+        raise ValueError("the following arguments are required: --out DIR (the report), or --json (the "
+                         "benchmark statistics on stdout)")
+    if args.out is None and args.ioh:
+        raise ValueError("--ioh writes to OUT/ioh and needs --out DIR")
     store, runs = stored_runs(args, "report")
+    if args.json:
+        from fe_problem.jsonutil import dumps
+        from femu.reports.benchmark import benchmark_statistics
+
+        stats = benchmark_statistics(runs)
+        if args.out is not None:
+            write_report(runs, args.out, ioh=args.ioh, source=f"store `{store.path}`")
+        print(dumps(stats))
+        return 0
     path = write_report(runs, args.out, ioh=args.ioh, source=f"store `{store.path}`")
     print(f"report written to {path}")
     if args.ioh:

@@ -19,7 +19,11 @@ def add_arguments(s) -> None:
     s.add_argument("--store", required=True, help="directory of the result store")
     s.add_argument("--workers", type=int, default=None, help="local worker processes (0: run in this process; default: every core)")
     s.add_argument("--scheduler", default=None, help="address of a Dask scheduler (tcp://host:port) to run on instead of local processes")
-    s.add_argument("--variants", default="paper", help="problem variants, comma-separated: paper, synthetic")
+    s.add_argument("--variants", default=None,
+                   help="problem variants, comma-separated: paper, synthetic (default: paper, unless --suite)")
+    s.add_argument("--suite", default=None,
+                   help="suite problems, comma-separated ids or prefixes: hframe-freq/12, paper, frame-shape/24/1 "
+                        "(`femu suite` lists them)")
     s.add_argument("--time-limit", type=float, default=None, help="seconds per run before it is stopped (default: no limit)")
     s.add_argument("--no-progress", action="store_true", help="no progress bar (there is one only when stdout is a terminal)")
     s.add_argument("--retry-failed", action="store_true",
@@ -32,7 +36,7 @@ def run(args) -> int:
 
     try:
         result = run_study(args.optimizers, args.seeds, args.budget, args.store, variants=args.variants,
-                           workers=args.workers, scheduler=args.scheduler, time_limit_s=args.time_limit,
+                           workers=args.workers, scheduler=args.scheduler, time_limit_s=args.time_limit, suite=args.suite,
                            progress=not args.no_progress, retry_failed=getattr(args, "retry_failed", False))
     except KeyboardInterrupt:
         print(f"femu study: interrupted; the finished runs are in {args.store}: the same command resumes the study",

@@ -12,14 +12,22 @@ Two ways in, one file format:
   live logging writes its raw value. Within a batch of evaluations the harness keeps only the
   batch's best, so an improvement is dated at that best's evaluation, never earlier.
 
-raw_y is the objective divided by its value at the initial parameters, J(x) / J(x0): ioh
-writes raw_y with 10 fixed decimals, which would keep only a few digits of J itself (about
-1e-5 on the paper's data). The scale is in each JSON's experiment attributes.
+raw_y is the precision J - f_opt, as ioh's own Analyzer logs its BBOB problems (f - f_opt,
+0 at the optimum), in units of the problem's top target (`IOHTerms.scale`, the power of ten at
+or above J(x0) - f_opt, femu.reports.stats.fixed_targets): ioh writes raw_y with 10 fixed
+decimals, which in these units keep the 10 decades of targets. f_opt is the suite's (the
+paper's best known J for ``paper``); a problem without a known optimum (the ``synthetic``
+variant) logs J itself in the same kind of units, f_opt 0. f_opt, the scale and how f_opt is
+known are in OUT/femu-ioh.json. The ioh problem's optimum is (x*, 0) where x* is known.
 
-Layout (ioh's): OUT/<algorithm>/IOHprofiler_f<id>_femu_<variant>.json and
-OUT/<algorithm>/data_f<id>_femu_<variant>/IOHprofiler_f<id>_DIM<n>.dat; one folder per
+x is in the problem's declared search space [0, 1]^n: (x - xl) / (xu - xl), xl and xu the
+parameter bounds (Pa). Function ids are ours (`FUNCTION_IDS`, never ioh's registration order),
+one per problem family; the instance is the suite instance (1 for a variant).
+
+Layout (ioh's): OUT/<algorithm>/IOHprofiler_f<id>_femu_<family>.json and
+OUT/<algorithm>/data_f<id>_femu_<family>/IOHprofiler_f<id>_DIM<n>.dat; one folder per
 optimizer (per optimizer and budget, named <optimizer>_b<budget>, when the runs have several
-budgets), one ioh function per problem variant, one ioh run per seed (a run attribute).
+budgets), one ioh function per family, one ioh run per seed (a run attribute).
 `read_ioh` reads the files back, and the export checks what it wrote against the runs.
 """
 
@@ -37,43 +45,111 @@ import numpy as np
 from adapters.harness import RunResult
 from fe_problem.jsonutil import dumps
 
-#: Prefix of the ioh function names: femu_paper, femu_synthetic, ...
+#: Prefix of the ioh function names: femu_paper, femu_hframe-freq, ...
 PREFIX = "femu_"
 MARKER = "femu-ioh.json"
 
-# ioh assigns function ids in registration order; registering every known variant first, in
-# one fixed order, gives each variant the same id in every process using one ioh version.
+#: Our IOHprofiler function ids, one per problem family (a variant is its own family; the
+#: ``paper`` variant is the suite's ``paper`` problem). Stable: never renumber, only add.
+FUNCTION_IDS = {"paper": 1, "synthetic": 2, "hframe-freq": 11, "hframe-shape": 12, "hframe-freq-noisy": 13,
+                "hframe-shape-noisy": 14, "frame-shape": 15}
+
 _FEEDS: dict[str, object] = {}
+#: The optimum (x in [0, 1]^n, raw_y) ioh reports per (family, instance, n_var): x NaN where
+#: not known, raw_y 0 where f_opt is known (NaN otherwise).
+_OPTIMA: dict[tuple, tuple] = {}
+_KEEP: dict[str, tuple] = {}
 
 
-def _register(variant: str) -> None:
-    import ioh
+@dataclass(frozen=True, eq=False)
+class IOHTerms:
+    """How one problem is written for ioh: function id, name and instance; f_opt (J units, 0
+    where unknown) and how it is known; scale (raw_y = (J - f_opt) / scale); the bounds xl, xu
+    (Pa) of x's normalisation; x_opt, the optimum in [0, 1]^n where known (else None)."""
 
-    from adapters.variants import VARIANTS
+    function_id: int
+    family: str
+    instance: int
+    n_var: int
+    f_opt: float
+    f_opt_kind: str
+    scale: float
+    xl: np.ndarray
+    xu: np.ndarray
+    x_opt: np.ndarray | None
 
-    for v in (*VARIANTS, variant):
-        if v not in _FEEDS:
-            _FEEDS[v] = None
-            ioh.wrap_problem(lambda x, v=v: _FEEDS[v](x), name=PREFIX + v, dimension=1)
+    def raw(self, J):
+        """raw_y of objective values J."""
+        return (np.asarray(J, dtype=float) - self.f_opt) / self.scale
 
+    def objective(self, raw_y):
+        """J of raw_y values (the inverse of `raw`)."""
+        return np.asarray(raw_y, dtype=float) * self.scale + self.f_opt
 
-def ioh_problem(variant: str, n_var: int, feed):
-    """An ioh RealSingleObjective (minimisation) named femu_<variant> in `n_var` dimensions
-    whose value at each call is `feed(x)`; one feed per variant at a time."""
-    import ioh
+    def unit(self, x):
+        """Points (Pa) in the declared search space [0, 1]^n."""
+        return (np.asarray(x, dtype=float) - self.xl) / (self.xu - self.xl)
 
-    _register(variant)
-    _FEEDS[variant] = feed
-    return ioh.get_problem(PREFIX + variant, 1, int(n_var), ioh.ProblemClass.REAL)
+    def to_dict(self) -> dict:
+        return {"function_id": self.function_id, "function_name": PREFIX + self.family, "instance": self.instance,
+                "n_var": self.n_var, "f_opt": self.f_opt, "f_opt_kind": self.f_opt_kind, "raw_y_scale": self.scale}
 
 
 @lru_cache(maxsize=None)
-def objective_scale(variant: str) -> float:
-    """J(x0) of a problem variant: raw_y = J / J(x0)."""
-    from adapters.variants import make_problem
+def ioh_terms(variant: str) -> IOHTerms:
+    """The IOHTerms of a problem variant or suite id (builds the problem once)."""
+    from fe_problem.suite import PAPER_F_OPT
+    from femu.studies.tasks import is_suite_id, problem_of
 
-    p = make_problem(variant)
-    return float(p.evaluate(p.x0)[0])
+    p = problem_of(variant)
+    family, instance = (variant.split("/")[0], int(variant.split("/")[2])) if is_suite_id(variant) else (variant, 1)
+    f_opt = getattr(p, "f_opt", PAPER_F_OPT if variant == "paper" else None)
+    kind = getattr(p, "f_opt_kind", "best known" if variant == "paper" else "unknown")
+    gap = float(p.evaluate(p.x0)[0]) - (f_opt or 0.0)
+    xl, xu = np.asarray(p.xl, float), np.asarray(p.xu, float)
+    truth = getattr(p, "truth", None)
+    return IOHTerms(FUNCTION_IDS[family], family, instance, int(p.n_var), float(f_opt or 0.0), kind,
+                    10.0 ** math.ceil(math.log10(gap) - 1e-12), xl, xu,
+                    None if truth is None or f_opt is None else (np.asarray(truth, float) - xl) / (xu - xl))
+
+
+def _register(family: str) -> None:
+    import ioh
+
+    # every family registered at once, before any problem is made: ioh 0.3 crashes making a
+    # problem of a family wrapped after another family's problem was made
+    for family in (*FUNCTION_IDS, family):
+        if family in _FEEDS:
+            continue
+        _FEEDS[family] = None
+        feed, optimum = _KEEP[family] = _family_functions(family)  # ioh does not hold them: freed, they crash
+        ioh.wrap_problem(feed, name=PREFIX + family, dimension=1, lb=0.0, ub=1.0, calculate_objective=optimum)
+
+
+def _family_functions(family: str):
+    """The objective (one argument: x) and optimum (instance, dimension) of a family for ioh."""
+    def feed(x):
+        return _FEEDS[family](x)
+
+    def optimum(instance, dimension):
+        return _OPTIMA.get((family, instance, dimension), ([math.nan] * dimension, math.nan))
+
+    return feed, optimum
+
+
+def ioh_problem(terms: IOHTerms, feed):
+    """An ioh RealSingleObjective (minimisation) named femu_<family>, with our function id and
+    the problem's instance and dimension, bounds [0, 1], whose value at each call is `feed(x)`
+    (one feed per family at a time); its optimum (x*, 0) where x* is known."""
+    import ioh
+
+    _register(terms.family)
+    _FEEDS[terms.family] = feed
+    x_opt = [math.nan] * terms.n_var if terms.x_opt is None else terms.x_opt.tolist()
+    _OPTIMA[(terms.family, terms.instance, terms.n_var)] = (x_opt, 0.0 if terms.f_opt_kind != "unknown" else math.nan)
+    p = ioh.get_problem(PREFIX + terms.family, terms.instance, terms.n_var, ioh.ProblemClass.REAL)
+    p.set_id(terms.function_id)
+    return p
 
 
 def _analyzer(root: Path, algorithm: str, info: str, triggers: list):
@@ -84,7 +160,8 @@ def _analyzer(root: Path, algorithm: str, info: str, triggers: list):
     lg = ioh.logger.Analyzer(triggers=triggers, root=str(root), folder_name=algorithm, algorithm_name=algorithm,
                              algorithm_info=info, store_positions=False)
     lg.add_run_attribute("seed", 0.0)
-    lg.add_experiment_attribute("raw_y", "J(x) / J(x0), J the objective (eq. 4)")
+    lg.add_experiment_attribute("raw_y", "(J - f_opt) / scale, J the objective; f_opt and scale per function "
+                                         "and instance in femu-ioh.json")
     return lg
 
 
@@ -95,17 +172,17 @@ class IOHLoggedProblem:
 
     def __init__(self, problem, variant: str, logger):
         self.problem = problem
-        self.scale = objective_scale(variant)
+        self.terms = ioh_terms(variant)
         self._values: list[float] = []
-        self.ioh = ioh_problem(variant, problem.n_var, lambda x: self._values.pop())
+        self.ioh = ioh_problem(self.terms, lambda x: self._values.pop())
         self.ioh.attach_logger(logger)
 
     def __getattr__(self, name):  # n_var, xl, xu, name, jacobian_cost_evals ... of the problem
         return getattr(self.problem, name)
 
     def _log(self, X: np.ndarray, f: np.ndarray) -> None:
-        self._values = list(np.asarray(f, float)[::-1] / self.scale)
-        self.ioh(np.atleast_2d(X))
+        self._values = list(self.terms.raw(f)[::-1])
+        self.ioh(self.terms.unit(np.atleast_2d(X)))
 
     def evaluate(self, X) -> np.ndarray:
         """The problem's objective values (n,) for X (n, n_var), each logged by ioh."""
@@ -129,12 +206,12 @@ def run_logged(name: str, variant: str, budget: int, seed: int, out_dir, **optio
     import ioh
 
     from adapters.harness import run
-    from adapters.variants import make_problem
+    from femu.studies.tasks import problem_of
 
     triggers = [ioh.logger.trigger.ON_IMPROVEMENT]
     logger = _analyzer(Path(out_dir), name, f"femu-bench {name}, variant {variant}", triggers)
     logger.set_run_attribute("seed", float(seed))
-    wrapped = IOHLoggedProblem(make_problem(variant), variant, logger)
+    wrapped = IOHLoggedProblem(problem_of(variant), variant, logger)
     result = run(name, wrapped, budget, seed, variant=variant, **options)
     wrapped.ioh.reset()
     logger.close()
@@ -152,12 +229,12 @@ def improvements(run: RunResult) -> list[tuple[int, float]]:
     return out
 
 
-def _replay_values(run: RunResult, scale: float) -> np.ndarray:
-    """What the replay answers at evaluations 1..n_evals (scaled)."""
+def _replay_values(run: RunResult, terms: IOHTerms) -> np.ndarray:
+    """What the replay answers at evaluations 1..n_evals (raw_y)."""
     values = np.full(int(run.n_evals), np.nan)
     for k, f in improvements(run):  # each improvement holds until the next
-        values[k - 1:] = f / scale
-    values[-1] = run.best_f / scale
+        values[k - 1:] = terms.raw(f)
+    values[-1] = terms.raw(run.best_f)
     return values
 
 
@@ -198,17 +275,19 @@ def export_runs(runs, out_dir, validate: bool = True) -> Path:
     for alg, rs in by_alg.items():
         logger = _analyzer(out, alg, f"femu-bench {rs[0].optimizer}, budget {rs[0].budget}", triggers)
         for r in rs:
-            values = iter(_replay_values(r, objective_scale(r.variant)).tolist())
-            problem = ioh_problem(r.variant, len(r.best_x), lambda x: next(values))
+            terms = ioh_terms(r.variant)
+            values = iter(_replay_values(r, terms).tolist())
+            problem = ioh_problem(terms, lambda x: next(values))
             problem.attach_logger(logger)
             logger.set_run_attribute("seed", float(r.seed))
-            problem(np.tile(np.asarray(r.best_x, float), (r.n_evals, 1)))
+            problem(np.tile(terms.unit(r.best_x), (r.n_evals, 1)))
             problem.reset()
             problem.detach_logger()
         logger.close()
     (out / MARKER).write_text(dumps({
         "format": "femu.ioh-export/1",
-        "raw_y_scale": {v: objective_scale(v) for v in sorted({r.variant for r in usable})},
+        "raw_y": "(J - f_opt) / raw_y_scale; x in [0, 1]: (x - xl) / (xu - xl)",
+        "problems": {v: ioh_terms(v).to_dict() for v in sorted({r.variant for r in usable})},
         "algorithms": {a: len(rs) for a, rs in by_alg.items()},
         "skipped": [{"optimizer": r.optimizer, "variant": r.variant, "seed": r.seed, "status": r.status}
                     for r in skipped]}))
@@ -268,26 +347,25 @@ def _dat_blocks(path: Path) -> list[np.ndarray]:
 def check_export(root, by_algorithm: dict[str, list[RunResult]]) -> None:
     """RuntimeError unless the files under ROOT hold exactly the runs of `by_algorithm`
     (as from `algorithm_names`): for each, the same evaluations, best value and improvements
-    plus ioh's last-evaluation line, all in units of J(x0)."""
-    got = {(r.algorithm, r.function_name[len(PREFIX):], int(r.attributes.get("seed", -1))): r
-           for r in read_ioh(root)}
+    plus ioh's last-evaluation line, all as raw_y (`IOHTerms.raw`)."""
+    got = {(r.algorithm, r.function_id, r.instance, int(r.attributes.get("seed", -1))): r for r in read_ioh(root)}
     n = sum(len(rs) for rs in by_algorithm.values())
     if len(got) != n:
         raise RuntimeError(f"{root}: {len(got)} runs in the IOHprofiler files, {n} exported")
     for alg, runs in by_algorithm.items():
         for run in runs:
-            key = (alg, run.variant, run.seed)
+            terms = ioh_terms(run.variant)
+            key = (alg, terms.function_id, terms.instance, run.seed)
             r = got.get(key)
             if r is None:
                 raise RuntimeError(f"{root}: run {key} is missing from the IOHprofiler files")
-            scale = objective_scale(run.variant)
-            expect = [(k, f / scale) for k, f in improvements(run)]
+            expect = [(k, float(terms.raw(f))) for k, f in improvements(run)]
             if expect[-1][0] != run.n_evals:
-                expect.append((run.n_evals, run.best_f / scale))
+                expect.append((run.n_evals, float(terms.raw(run.best_f))))
             # ioh writes raw_y with 10 fixed decimals
             if (r.evals != run.n_evals or r.points.shape != (len(expect), 2)
                     or not np.allclose(r.points, expect, rtol=0, atol=1e-10)):
                 raise RuntimeError(f"{root}: run {key} reads back as {r.evals} evaluations, {r.points.tolist()}; "
                                    f"expected {run.n_evals}, {expect}")
-            if not math.isclose(r.best_y, run.best_f / scale, rel_tol=1e-9):
-                raise RuntimeError(f"{root}: run {key} best {r.best_y} != {run.best_f / scale}")
+            if not math.isclose(float(terms.objective(r.best_y)), run.best_f, rel_tol=1e-9):
+                raise RuntimeError(f"{root}: run {key} best {r.best_y} != {float(terms.raw(run.best_f))}")

@@ -32,3 +32,13 @@ def save_figure(fig, path) -> Path:
     path = Path(path)
     fig.savefig(path)
     return path
+
+
+def solver_colors(names) -> dict:
+    """One colour per solver name, in the given order; never grey, which marks references
+    (the initial model, the paper's numbers)."""
+    from matplotlib import colormaps
+
+    tab10, tab20 = colormaps["tab10"], colormaps["tab20"]
+    palette = [tab10(i) for i in range(10) if i != 7] + [tab20(i) for i in range(1, 20, 2) if i not in (15,)]
+    return {n: palette[i % len(palette)] for i, n in enumerate(names)}

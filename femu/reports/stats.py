@@ -141,7 +141,8 @@ def _check(runs, targets) -> None:
         raise ValueError(f"no targets for problem(s) {missing}: pass Targets for every problem run")
 
 
-def _by(runs, key) -> dict:
+def by_key(runs, key) -> dict:
+    """The runs grouped by key(run), the groups in key order."""
     out: dict = {}
     for r in runs:
         out.setdefault(key(r), []).append(r)
@@ -165,7 +166,7 @@ def ert_table(runs: list[RunTrace], targets: dict[str, Targets]) -> ErtTable:
     """ERT of every solver on every group (family/dimension), runs pooled over instances."""
     _check(runs, targets)
     out, succ, count = {}, {}, {}
-    for (solver, group), rs in _by(runs, lambda r: (r.solver, group_of(r.problem))).items():
+    for (solver, group), rs in by_key(runs, lambda r: (r.solver, group_of(r.problem))).items():
         times = np.array([hitting_times(r, targets[r.problem]) for r in rs])
         out.setdefault(solver, {})[group] = ert(times, np.array([r.n_evals for r in rs])).tolist()
         succ.setdefault(solver, {})[group] = np.isfinite(times).sum(axis=0).tolist()
@@ -201,7 +202,7 @@ def ecdfs(runs: list[RunTrace], targets: dict[str, Targets], grid=None) -> list[
     _check(runs, targets)
     grid = budget_grid(max(r.n_evals for r in runs)) if grid is None else np.asarray(grid, dtype=float)
     out = []
-    for (solver, group), rs in _by(runs, lambda r: (r.solver, group_of(r.problem))).items():
+    for (solver, group), rs in by_key(runs, lambda r: (r.solver, group_of(r.problem))).items():
         times = np.concatenate([hitting_times(r, targets[r.problem]) for r in rs])
         frac = (times[None, :] <= grid[:, None]).mean(axis=1)
         out.append(Ecdf(solver, group, tuple(grid.tolist()), tuple(frac.tolist()), len(rs)))
@@ -232,7 +233,7 @@ def fixed_budget(runs: list[RunTrace], targets: dict[str, Targets], budgets) -> 
     """Fixed-budget distributions of Delta for every solver, group and budget."""
     _check(runs, targets)
     out = []
-    for (solver, group), rs in _by(runs, lambda r: (r.solver, group_of(r.problem))).items():
+    for (solver, group), rs in by_key(runs, lambda r: (r.solver, group_of(r.problem))).items():
         vals = np.array([r.best_at(budgets) - targets[r.problem].f_opt for r in rs])
         floor = min(targets[r.problem].floor for r in rs)
         out += [FixedBudget(solver, group, int(b), tuple(vals[:, j].tolist()), floor) for j, b in enumerate(budgets)]

@@ -3,7 +3,9 @@ Markdown (femu.reports.markdown) and PNG figures (femu.reports.figures), all wri
 femu.reports.render. A report renders records and computes nothing new.
 
 `write_report(store_or_runs, out_dir)` writes DIR/report.md, DIR/summary.json and the figures
-(convergence, ECDF, overhead, mean error vs the paper); with ``ioh`` also DIR/ioh.
+(convergence, ECDF, overhead, mean error vs the paper); with ``ioh`` also DIR/ioh. Runs on suite
+problems (`femu study --suite`) get the benchmark report instead (femu.reports.benchmark:
+DIR/report.md, DIR/stats.json), and runs on variants beside them DIR/variants.md.
 """
 
 from __future__ import annotations
@@ -13,6 +15,9 @@ from pathlib import Path
 from fe_problem.jsonutil import dumps
 from femu.studies.store import Store
 
+from femu.studies.tasks import is_suite_id
+
+from .benchmark import write_benchmark
 from .figures import plot_convergence, plot_ecdf, plot_errors, plot_overhead
 from .markdown import render_markdown
 from .records import GroupSummary
@@ -34,15 +39,24 @@ def write_report(store_or_runs, out_dir, ioh: bool = False, source: str | None =
     source = source or default
     if not runs:
         raise ValueError(f"{source}: no finished runs to report on")
-    path = render_files(summarize(runs), out_dir, source)
+    suite = [r for r in runs if is_suite_id(r.variant)]
+    variants = [r for r in runs if not is_suite_id(r.variant)]
+    if suite:  # the benchmark report; runs on the named variants get theirs in variants.md
+        path = write_benchmark(suite, out_dir, source)
+        if variants:
+            other = render_files(summarize(variants), out_dir, source, name="variants.md")
+            with path.open("a") as f:
+                f.write(f"\nThe runs on problem variants (not suite problems) are reported in [{other.name}]({other.name}).\n")
+    else:
+        path = render_files(summarize(runs), out_dir, source)
     if ioh:
         from .ioh import export_runs
         export_runs(runs, Path(out_dir) / "ioh")
     return path
 
 
-def render_files(groups: list[GroupSummary], out_dir, source: str) -> Path:
-    """Render summary records as OUT/report.md, OUT/summary.json and the PNG figures."""
+def render_files(groups: list[GroupSummary], out_dir, source: str, name: str = "report.md") -> Path:
+    """Render summary records as OUT/<name> (report.md), OUT/summary.json and the PNG figures."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     figures = {}
@@ -55,6 +69,6 @@ def render_files(groups: list[GroupSummary], out_dir, source: str) -> Path:
             made["ecdf"] = plot_ecdf(g, out / f"ecdf_{stem}.png")
         figures[(g.variant, g.budget)] = {k: p.name for k, p in made.items()}
     (out / "summary.json").write_text(dumps([g.to_dict() for g in groups]))
-    path = out / "report.md"
+    path = out / name
     path.write_text(render_markdown(groups, figures, source))
     return path

@@ -4,7 +4,7 @@
     STORE/runs/<key>.json        one RunResult (format femu.run/1), written atomically
     STORE/runs/<key>.claim       the process running that run now (pid, host), while it runs
 
-A run's key is ``<variant>__<optimizer>__b<budget>__s<seed>``. Files are written to a
+A run's key is ``<variant>__<optimizer>__b<budget>__s<seed>`` (a suite id's ``/`` as ``+``). Files are written to a
 temporary name in the same directory and renamed into place, so a killed study leaves only
 whole records (and at most a hidden ``.<key>.json.*.tmp`` file, which is ignored); a study
 started again skips every key already present. A study claims each run before it starts it
@@ -74,6 +74,8 @@ def check_record(d, key: str) -> str | None:
     for name, ok, need in checks:
         if not ok:
             return f"field {name!r}: must be {need}, got {d.get(name)!r}"[:300]
+    if not (d.get("f_opt") is None or _is_num(d["f_opt"])):
+        return f"field 'f_opt': must be a finite number or null, got {d.get('f_opt')!r}"
     for name in ("wall_s", "cpu_s", "fe_s"):
         if not (_is_num(d.get(name, 0.0)) and d.get(name, 0.0) >= 0):
             return f"field {name!r}: must be a number of seconds >= 0, got {d.get(name)!r}"
@@ -96,8 +98,9 @@ def _trace_ok(trace) -> bool:
 
 
 def run_key(variant: str, optimizer: str, budget: int, seed: int) -> str:
-    """The key (file stem) of one run in a store: ``VARIANT__OPTIMIZER__bBUDGET__sSEED``."""
-    return f"{variant}__{optimizer}__b{int(budget)}__s{int(seed)}"
+    """The key (file stem) of one run in a store: ``VARIANT__OPTIMIZER__bBUDGET__sSEED``; the
+    slashes of a suite id (``hframe-freq/12/1``) become ``+`` (``hframe-freq+12+1``)."""
+    return f"{variant.replace('/', '+')}__{optimizer}__b{int(budget)}__s{int(seed)}"
 
 
 def _umask() -> int:

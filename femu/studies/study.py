@@ -33,7 +33,8 @@ from pathlib import Path
 from adapters.budget import check_budget, check_min_budget
 from adapters.harness import RunResult
 from adapters.registry import get, module_of
-from adapters.variants import VARIANTS, make_problem
+from adapters.variants import VARIANTS
+from fe_problem.suite import select_suite
 from fe_problem.jsonutil import dumps
 
 from .child import DaskCluster, check_scheduler_address
@@ -42,7 +43,7 @@ from .manifest import write_manifest
 from .progress import Progress
 from .seeds import parse_names, parse_seeds
 from .store import Store
-from .tasks import Task, run_task
+from .tasks import Task, n_var_of, run_task
 
 #: Statuses that --retry-failed runs again.
 RETRY_STATUSES = ("failed", "timeout")
@@ -114,7 +115,7 @@ def check_budget_for(optimizers: list[str], budget, variants: list[str], options
     """`budget` as an int if every optimizer can run with it on every variant (with its
     options); ValueError naming ``--budget`` otherwise (and for an unknown optimizer)."""
     budget = check_budget(budget, "--budget")
-    n_vars = sorted({make_problem(v).n_var for v in variants})
+    n_vars = sorted({n_var_of(v) for v in variants})
     for name in optimizers:
         cls = get(name)  # ValueError naming the known ones
         for n_var in n_vars:
@@ -131,14 +132,26 @@ def check_workers(workers) -> None:
         raise ValueError(f"--workers: must be an integer >= 0 (0: run in this process), got {workers!r}")
 
 
-def _check_inputs(optimizers, seeds, budget, variants, workers, scheduler, time_limit_s, options):
-    """The study's arguments checked and normalised; ValueError naming the flag otherwise."""
-    optimizers = parse_names(optimizers, "optimizers")
-    variants = parse_names(variants, "variants")
-    seeds = parse_seeds(seeds)
-    for v in variants:
+def _problems(variants, suite) -> list[str]:
+    """The study's problems: the variants named, then the suite ids selected (`select_suite`:
+    ids, families or family/dimension prefixes); ``paper`` when neither is given."""
+    names = [] if variants is None and suite is not None else parse_names(variants or "paper", "variants")
+    for v in names:
         if v not in VARIANTS:
             raise ValueError(f"--variants: unknown problem variant {v!r}; available: {', '.join(VARIANTS)}")
+    if suite is not None:
+        try:
+            names += [i for i in select_suite(suite) if i not in names]
+        except ValueError as exc:
+            raise ValueError(f"--suite: {exc}") from None
+    return names
+
+
+def _check_inputs(optimizers, seeds, budget, variants, workers, scheduler, time_limit_s, options, suite=None):
+    """The study's arguments checked and normalised; ValueError naming the flag otherwise."""
+    optimizers = parse_names(optimizers, "optimizers")
+    variants = _problems(variants, suite)
+    seeds = parse_seeds(seeds)
     for name in optimizers:
         get(name)  # ValueError naming the known ones, before the options are looked at
     options = _check_options(options, optimizers)
@@ -182,13 +195,16 @@ def _stored_runs(store: Store, grid: list[Task]) -> dict[str, RunResult]:
     return stored
 
 
-def run_study(optimizers, seeds, budget: int, store, variants=("paper",), workers: int | None = None,
+def run_study(optimizers, seeds, budget: int, store, variants=None, workers: int | None = None,
               scheduler: str | None = None, time_limit_s: float | None = None, progress: bool = True,
-              options: dict | None = None, retry_failed: bool = False) -> StudyResult:
+              options: dict | None = None, retry_failed: bool = False, suite=None) -> StudyResult:
     """Run the grid optimizers x variants x seeds with `budget` FE evaluations per run into
     `store` (a directory), skipping the runs already stored.
 
     optimizers, variants: lists or comma-separated strings; seeds: a list or "0-29" / "0,3,7".
+    suite: suite ids or prefixes (``hframe-freq/12``, ``paper``), a list or comma-separated,
+    run as further variants (records carry the id as variant and problem, and f_opt);
+    variants None: ``paper`` unless a suite is given.
     workers: local processes (None: every core; 0: in this process); scheduler: a Dask
     scheduler address (excludes workers). time_limit_s: seconds per run (None: none).
     progress: a progress bar when stdout is a terminal. options: {optimizer: {keyword: value}}
@@ -196,7 +212,7 @@ def run_study(optimizers, seeds, budget: int, store, variants=("paper",), worker
     Raises ValueError (StoreError for the store) before running anything on bad input.
     """
     optimizers, seeds, budget, variants, options = _check_inputs(
-        optimizers, seeds, budget, variants, workers, scheduler, time_limit_s, options)
+        optimizers, seeds, budget, variants, workers, scheduler, time_limit_s, options, suite)
     store = store if isinstance(store, Store) else Store(store)
     grid = [Task(o, v, budget, s, options.get(o, {}), time_limit_s)
             for v in variants for o in optimizers for s in seeds]
@@ -208,6 +224,7 @@ def run_study(optimizers, seeds, budget: int, store, variants=("paper",), worker
         t0 = time.perf_counter()
         store.path.mkdir(parents=True, exist_ok=True)
         write_manifest(store, {"optimizers": optimizers, "seeds": seeds, "budget": budget, "variants": variants,
+                               "suite": suite if suite is None or isinstance(suite, str) else list(suite),
                                "time_limit_s": time_limit_s, "options": options,
                                "retry_failed": bool(retry_failed)}, executor.name)
         records = {t.key: stored[t.key] for t in grid if t.key in stored}

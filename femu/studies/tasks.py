@@ -1,6 +1,8 @@
 """One run of a study as a task: a pure function of (optimizer, variant, budget, seed, options).
 
-The worker builds the problem itself (`adapters.variants.make_problem`) and calls
+The variant is a problem variant name (``paper``, ``synthetic``) or a suite id
+(``hframe-freq/12/1``, `fe_problem.suite_ids`). The worker builds the problem itself
+(`problem_of`) and calls
 `adapters.harness.run`, so a seed gives the same record (apart from times, host) in this
 process, in a worker process and on a Dask cluster. Also here: the record of a run whose process
 returned nothing, and the hard deadline after which such a process is killed.
@@ -17,6 +19,7 @@ from typing import Callable
 
 from adapters.harness import RunResult, run
 from adapters.variants import make_problem
+from fe_problem.suite import suite_entry, suite_problem
 
 from .store import run_key
 
@@ -37,6 +40,21 @@ class Task:
         return run_key(self.variant, self.optimizer, self.budget, self.seed)
 
 
+def is_suite_id(variant: str) -> bool:
+    """Whether a study's variant is a suite id (``family/dimension/instance``)."""
+    return "/" in variant
+
+
+def problem_of(variant: str):
+    """A fresh problem for a variant name or a suite id (then a SuiteProblem with f_opt)."""
+    return suite_problem(variant) if is_suite_id(variant) else make_problem(variant)
+
+
+def n_var_of(variant: str) -> int:
+    """The number of parameters of a variant or suite id (a suite id's without building it)."""
+    return suite_entry(variant).n_var if is_suite_id(variant) else make_problem(variant).n_var
+
+
 def run_task(task: Task, on_start: Callable[[], None] | None = None) -> dict:
     """Run one task and return its record as a dict (RunResult.to_dict()).
 
@@ -47,11 +65,12 @@ def run_task(task: Task, on_start: Callable[[], None] | None = None) -> dict:
     """
     t0 = time.perf_counter()
     try:
-        problem = make_problem(task.variant)
+        problem = problem_of(task.variant)
         if on_start is not None:
             on_start()
-        return run(task.optimizer, problem, task.budget, task.seed, time_limit_s=task.time_limit_s,
-                   variant=task.variant, **task.options).to_dict()
+        record = run(task.optimizer, problem, task.budget, task.seed, time_limit_s=task.time_limit_s,
+                     variant=task.variant, **task.options).to_dict()
+        return dict(record, f_opt=getattr(problem, "f_opt", None))
     except Exception as exc:
         return lost_record(task, "failed", f"{type(exc).__name__}: {exc}\n{traceback.format_exc(limit=6)}",
                             time.perf_counter() - t0)
@@ -60,7 +79,7 @@ def run_task(task: Task, on_start: Callable[[], None] | None = None) -> dict:
 @lru_cache(maxsize=None)
 def _problem_name(variant: str) -> str:
     """The problem name of a variant (for records of runs that returned nothing)."""
-    return make_problem(variant).name
+    return problem_of(variant).name
 
 
 def lost_record(task: Task, status: str, error: str, wall_s: float) -> dict:
