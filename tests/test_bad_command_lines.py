@@ -16,9 +16,9 @@ import pytest
 
 from femu.cli import main
 
-def _study(optimizers: str, *more: str, store: str = "S") -> list[str]:
-    """A `femu study` command line with `optimizers` and the other arguments `more`."""
-    return ["study", "--optimizers", optimizers, "--seeds", "0", "--budget", "10", "--store", store, *more]
+def _study(optimizers: str, *more: str, store: str = "S", seeds: str = "0") -> list[str]:
+    """A `femu study` command line with `optimizers`, `seeds`, `store` and the other arguments `more`."""
+    return ["study", "--optimizers", optimizers, "--seeds", seeds, "--budget", "10", "--store", store, *more]
 
 
 class MinBudgetRaises:
@@ -185,15 +185,15 @@ CASES = [
     (["reproduce", "--workers", "1000"], "--workers: at most"),
     (_study("random-search", "--time-limit", "0"), "--time-limit: must be a positive number of seconds, got 0.0"),
     (_study("random-search", "--budget", "1e3"), "--budget: invalid int value: '1e3'"),
-    (["study", "--optimizers", "random-search", "--seeds", "0-", "--budget", "10", "--store", "S"],
+    (_study("random-search", seeds="0-"),
      "--seeds '0-': '0-' is not a seed or a range"),
-    (["study", "--optimizers", "random-search", "--seeds", "1_000", "--budget", "10", "--store", "S"],
+    (_study("random-search", seeds="1_000"),
      "--seeds '1_000': '1_000' is not a seed"),
-    (["study", "--optimizers", "random-search", "--seeds", "0x10", "--budget", "10", "--store", "S"],
+    (_study("random-search", seeds="0x10"),
      "--seeds '0x10': '0x10' is not a seed"),
-    (["study", "--optimizers", "random-search", "--seeds", "+5", "--budget", "10", "--store", "S"],
+    (_study("random-search", seeds="+5"),
      "--seeds '+5': '+5' is not a seed"),
-    (["study", "--optimizers", "random-search", "--seeds", " ", "--budget", "10", "--store", "S"], "empty seed"),
+    (_study("random-search", seeds=" "), "empty seed"),
     (["reproduce", "--seeds", " "], "--seeds ' ': empty seed"),
     (_study("random-search,"), "--optimizers 'random-search,': empty name in the list"),
     (_study("random-search", "--variants", ","), "--variants ',': empty name in the list"),
