@@ -248,7 +248,7 @@ def run(name: str, problem, budget: int, seed: int, time_limit_s: float | None =
         if sigint:
             raise
         status, error = "failed", "KeyboardInterrupt: raised by the optimizer (no Ctrl-C was pressed)"
-    except Exception as exc:  # a failing plugin must not end a study
+    except BaseException as exc:  # a failing plugin must not end a study (nor its own BaseException)
         # a library may re-raise our stop signal wrapped in its own exception: look at the chain
         stop = _stop_signal(exc)
         if isinstance(stop, BudgetExhausted):

@@ -134,6 +134,16 @@ class RaisesInItsOwnCode:
         return 1 / 0
 
 
+class Cancelled(BaseException):
+    """An exception outside Exception, as some async and test libraries raise."""
+
+
+class RaisesABaseException:
+    def minimize(self, objective, bounds, budget, rng):
+        objective(_points(bounds, rng, 2))
+        raise Cancelled("cancelled by its own library")
+
+
 @pytest.mark.parametrize("cls,status,says,n_evals", [
     (UsesTheProblemBehind, "failed", "has no attribute 'problem'", 0),
     (ReachesTheProblemThroughAClosure, "failed", "budget bypassed: the problem evaluated 501 points but the run was "
@@ -152,6 +162,7 @@ class RaisesInItsOwnCode:
     (SendsNaN, "failed", "ValueError", 0),
     (SendsPointsOutOfBounds, "failed", "ValueError", 0),
     (RaisesInItsOwnCode, "failed", "ZeroDivisionError", 6),
+    (RaisesABaseException, "failed", "Cancelled: cancelled by its own library", 2),
 ])
 def test_a_plugin_gets_the_record_it_earned(cls, status, says, n_evals):
     r = adapters.run(plugin(cls), make_problem("paper"), 300, 0)

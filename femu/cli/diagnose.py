@@ -23,9 +23,6 @@ from fe_problem.jsonutil import dumps
 from femu.reports.diagnosis import write_json, write_report
 from femu.reports.diagnosis_text import (cause_text, coordinate_labels, estimate_text, fmt, hz, mode_ranges, pct,
                                          threshold_chi2_drop)
-from femu.reports.render import make_out_dir
-
-from ._args import EMPTY_PATH
 
 #: How many alternatives and COMAC coordinates the terminal summary lists.
 N_ALTERNATIVES = 5
@@ -45,6 +42,8 @@ def _positive(value, option: str) -> float:
 
 
 def _check_out(out: str) -> Path:
+    from ._args import EMPTY_PATH
+
     if not out.strip():
         raise ValueError(f"--out: {EMPTY_PATH}")
     path = Path(out)
@@ -89,6 +88,8 @@ def run(args) -> int:
 
     written = []
     if out is not None:
+        from femu.reports.render import make_out_dir
+
         make_out_dir(out)  # only now, so that bad data leave no empty directory behind
         extended_file = None
         if diag.extended_model is not None:
