@@ -239,6 +239,7 @@ def run(name: str, problem, budget: int, seed: int, time_limit_s: float | None =
     status, error = "stopped", None
     counted0 = _problem_count(problem)
     wall0, cpu0 = time.perf_counter(), time.process_time()
+    sigint = [signal.SIGINT]  # until the watch is in place, an interrupt counts as a Ctrl-C
     try:
         with _sigint_watch() as sigint:
             optimizer.minimize(objective, objective.bounds, objective.budget, rng, **options)

@@ -18,7 +18,8 @@ def add_arguments(s) -> None:
                         "`femu reproduce --seeds 5` is a count)")
     s.add_argument("--budget", type=int, required=True, help="FE evaluations per run")
     s.add_argument("--store", required=True, help="directory of the result store")
-    s.add_argument("--workers", type=int, default=None, help="local worker processes (default: every core). 0: run in this process, without "
+    s.add_argument("--workers", type=int, default=None,
+                   help="local worker processes (default: every core). 0: run in this process, without "
                         "--time-limit; a plugin that ends the process (os._exit, a crash) then ends the study, "
                         "its run redone on resume")
     s.add_argument("--scheduler", default=None, help="address of a Dask scheduler (tcp://host:port) to run on instead of local processes")

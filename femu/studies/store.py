@@ -204,7 +204,8 @@ class Store:
             except OSError as exc:  # a read-only place, a file in the way, a full disk
                 raise self._write_error(exc) from None
             with os.fdopen(fd, "w") as fh:
-                fh.write(json.dumps({"pid": os.getpid(), "host": socket.gethostname(), "started": _started(os.getpid())}))
+                pid = os.getpid()
+                fh.write(json.dumps({"pid": pid, "host": socket.gethostname(), "started": _started(pid)}))
             return True
         return False
 
