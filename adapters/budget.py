@@ -42,11 +42,18 @@ def min_budget(optimizer, n_var: int, **options: Any) -> int:
     """The fewest FE evaluations `optimizer` (a class or an instance) needs on `n_var`
     parameters with `options`: its ``min_budget(n_var, **options)`` method, or a plain int
     attribute ``min_budget`` (older plugins), or 1 when it says nothing."""
-    need = getattr(optimizer, "min_budget", 1)
-    if callable(need):
-        if isinstance(optimizer, type):
-            optimizer = optimizer()
-        need = optimizer.min_budget(int(n_var), **options)
+    what = getattr(optimizer, "__name__", type(optimizer).__name__)
+    try:  # a plugin's own code: whatever it raises or returns is named, not passed on
+        need = getattr(optimizer, "min_budget", 1)
+        if callable(need):
+            if isinstance(optimizer, type):
+                optimizer = optimizer()
+            need = optimizer.min_budget(int(n_var), **options)
+    except Exception as exc:
+        raise ValueError(f"optimizer class {what}: asking its min_budget(n_var={n_var}) raised "
+                         f"{type(exc).__name__}: {str(exc)[:200]}") from None
+    if not _is_int(need):
+        raise ValueError(f"optimizer class {what}: min_budget must be a whole number of evaluations, got {need!r}")
     return max(1, int(need))
 
 

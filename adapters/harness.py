@@ -15,6 +15,8 @@ from __future__ import annotations
 import math
 import platform
 import random
+import signal
+import threading
 import time
 import traceback
 from contextlib import contextmanager
@@ -239,11 +241,17 @@ def run(name: str, problem, budget: int, seed: int, time_limit_s: float | None =
     status, error = "stopped", None
     counted0 = _problem_count(problem)
     wall0, cpu0 = time.perf_counter(), time.process_time()
+    sigint = [signal.SIGINT]  # until the watch is in place, an interrupt counts as a Ctrl-C
     try:
-        optimizer.minimize(objective, objective.bounds, objective.budget, rng, **options)
+        with _sigint_watch() as sigint:
+            optimizer.minimize(objective, objective.bounds, objective.budget, rng, **options)
     except SystemExit as exc:  # a plugin's sys.exit() ends its run, not the study
         status, error = "failed", f"SystemExit: the optimizer called sys.exit({exc.code!r})"
-    except Exception as exc:  # a failing plugin must not end a study
+    except KeyboardInterrupt:  # a Ctrl-C stops the study; one the plugin raised ends its run
+        if sigint:
+            raise
+        status, error = "failed", "KeyboardInterrupt: raised by the optimizer (no Ctrl-C was pressed)"
+    except BaseException as exc:  # a failing plugin must not end a study (nor its own BaseException)
         # a library may re-raise our stop signal wrapped in its own exception: look at the chain
         stop = _stop_signal(exc)
         if isinstance(stop, BudgetExhausted):
@@ -282,6 +290,36 @@ def _overrun(problem, counted0: int | None, objective: BudgetedObjective, budget
         return (f"budget bypassed: the problem evaluated {counted1 - counted0} points but the run was charged "
                 f"{objective.n_evals}; a plugin must evaluate through the objective it is given")
     return None
+
+
+@contextmanager
+def _sigint_watch():
+    """Notes whether a real SIGINT (Ctrl-C) arrives during the block: yields a list that is
+    non-empty once one has. A KeyboardInterrupt without a SIGINT was raised by the plugin. In
+    the main thread only (elsewhere signals cannot be handled), and only while SIGINT has
+    Python's default handler; otherwise it cannot tell, and counts any interrupt as real
+    unless SIGINT is ignored (then no Ctrl-C can have caused it)."""
+    seen: list[int] = []
+    if threading.current_thread() is not threading.main_thread():
+        seen.append(signal.SIGINT)
+        yield seen
+        return
+    previous = signal.getsignal(signal.SIGINT)
+    if previous is not signal.default_int_handler:
+        if previous is not signal.SIG_IGN:
+            seen.append(signal.SIGINT)
+        yield seen
+        return
+
+    def handler(signum, frame):
+        seen.append(signum)
+        signal.default_int_handler(signum, frame)
+
+    signal.signal(signal.SIGINT, handler)
+    try:
+        yield seen
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def _stop_signal(exc: BaseException) -> BaseException | None:

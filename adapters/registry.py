@@ -80,12 +80,15 @@ def _import_path(name: str) -> type:
     except (ImportError, AttributeError, ValueError) as exc:  # ValueError: an empty module name
         raise ValueError(f"optimizer {name!r}: cannot import {attr!r} from module {module!r} "
                          f"({type(exc).__name__}: {exc})") from None
+    except (Exception, SystemExit) as exc:  # the module's own top-level code failed or exited
+        raise ValueError(f"optimizer {name!r}: importing module {module!r} ran its top-level code, which raised "
+                         f"{type(exc).__name__}: {str(exc)[:200]}") from None
     return _checked(cls, f"optimizer {name!r}")
 
 
 def _checked(cls, what: str) -> type:
     """`cls` if it looks like an optimizer class, else a ValueError starting with `what`."""
-    if not callable(getattr(cls, "minimize", None)):
+    if not isinstance(cls, type) or not callable(getattr(cls, "minimize", None)):
         raise ValueError(f"{what} is not an optimizer class "
                          f"(it has no minimize(objective, bounds, budget, rng, **options) method)")
     return cls

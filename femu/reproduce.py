@@ -32,11 +32,11 @@ from __future__ import annotations
 import contextlib
 import sys
 import time
-from pathlib import Path
 
 from adapters.budget import check_budget, min_budget
 from adapters.registry import available, get
 from adapters.variants import make_problem
+from femu.reports.render import make_out_dir
 from femu.reports.study import render_files, summarize
 from femu.studies.seeds import parse_seed_count
 
@@ -100,11 +100,11 @@ def reproduce(seeds=DEFAULT_SEEDS, budget: int = DEFAULT_BUDGET, out="femu-repro
 
     check_workers(workers)
     names, left_out = solvers(budget)
-    for name, why in left_out.items():
-        print(f"femu reproduce: leaving out {name}: {why}", file=log)
     if not names:
         raise ValueError(f"--budget {budget}: no optimizer can run with this budget")
-    out = Path(out)
+    out = make_out_dir(out)  # before the runs: an OUT that cannot be made fails at once
+    for name, why in left_out.items():
+        print(f"femu reproduce: leaving out {name}: {why}", file=log)
     print(f"femu reproduce: {len(names)} optimizers x {len(seed_list)} seeds, {budget} FE evaluations each, "
           f"variant {VARIANT!r}, store {out / 'store'}", file=log, flush=True)
     t0 = time.perf_counter()

@@ -7,6 +7,7 @@ sample also runs the installed `femu` program, to see what a user's terminal sho
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -14,6 +15,37 @@ from pathlib import Path
 import pytest
 
 from femu.cli import main
+
+def _study(optimizers: str, *more: str, store: str = "S", seeds: str = "0") -> list[str]:
+    """A `femu study` command line with `optimizers`, `seeds`, `store` and the other arguments `more`."""
+    return ["study", "--optimizers", optimizers, "--seeds", seeds, "--budget", "10", "--store", store, *more]
+
+
+class MinBudgetRaises:
+    def min_budget(self, n_var, **options):
+        raise RuntimeError("no budget for you")
+
+    def minimize(self, objective, bounds, budget, rng):
+        pass
+
+
+class MinBudgetNotANumber(MinBudgetRaises):
+    def min_budget(self, n_var, **options):
+        return "many"
+
+
+class NeedsArguments(MinBudgetRaises):
+    def __init__(self, required):
+        self.required = required
+
+
+AN_INSTANCE = MinBudgetRaises()
+
+#: Plugin modules whose top-level code fails when imported (written into the test directory).
+BAD_MODULES = {"raises_on_import.py": "raise RuntimeError('boom')\n",
+               "exits_on_import.py": "import sys\nsys.exit(4)\n",
+               "bad_syntax.py": "def (:\n"}
+
 
 # (arguments, a fragment the error line must contain). In the arguments, FILE is a plain
 # text file, DIR an empty directory, LATIN a file of latin-1 bytes, LIST a JSON list, EMPTY
@@ -132,6 +164,56 @@ CASES = [
     (["suite", "nosuch"], "suite selection 'nosuch' matches no problem"),
     (["suite", "paper/99"], "suite selection 'paper/99' matches no problem"),
     (["nosuchcommand"], "invalid choice: 'nosuchcommand'"),
+    # plugins that cannot even be asked their minimum budget, or whose module cannot be imported
+    (_study("test_bad_command_lines:MinBudgetRaises"),
+     "optimizer class MinBudgetRaises: asking its min_budget(n_var=12) raised RuntimeError: no budget for you"),
+    (_study("test_bad_command_lines:MinBudgetNotANumber"),
+     "optimizer class MinBudgetNotANumber: min_budget must be a whole number of evaluations, got 'many'"),
+    (_study("test_bad_command_lines:NeedsArguments"), "optimizer class NeedsArguments: asking its min_budget(n_var=12) "
+                                                      "raised TypeError"),
+    (_study("adapters.protocol:Optimizer"), "asking its min_budget(n_var=12) raised TypeError: Protocols cannot be"),
+    (_study("test_bad_command_lines:AN_INSTANCE"), "'test_bad_command_lines:AN_INSTANCE' is not an optimizer class"),
+    (_study("adapters.harness:BudgetedObjective"), "'adapters.harness:BudgetedObjective' is not an optimizer class"),
+    (_study("raises_on_import:Opt"), "importing module 'raises_on_import' ran its top-level code, which raised "
+                                     "RuntimeError: boom"),
+    (_study("exits_on_import:Opt"), "importing module 'exits_on_import' ran its top-level code, which raised "
+                                    "SystemExit: 4"),
+    (_study("bad_syntax:Opt"), "importing module 'bad_syntax' ran its top-level code, which raised SyntaxError"),
+    # numbers out of range, malformed seeds
+    (_study("random-search", "--workers", "9999"), "--workers: at most"),
+    (_study("random-search", "--workers", "9" * 30), "--workers: at most"),
+    (["reproduce", "--workers", "1000"], "--workers: at most"),
+    (_study("random-search", "--time-limit", "0"), "--time-limit: must be a positive number of seconds, got 0.0"),
+    (_study("random-search", "--budget", "1e3"), "--budget: invalid int value: '1e3'"),
+    (_study("random-search", seeds="0-"),
+     "--seeds '0-': '0-' is not a seed or a range"),
+    (_study("random-search", seeds="1_000"),
+     "--seeds '1_000': '1_000' is not a seed"),
+    (_study("random-search", seeds="0x10"),
+     "--seeds '0x10': '0x10' is not a seed"),
+    (_study("random-search", seeds="+5"),
+     "--seeds '+5': '+5' is not a seed"),
+    (_study("random-search", seeds=" "), "empty seed"),
+    (["reproduce", "--seeds", " "], "--seeds ' ': empty seed"),
+    (_study("random-search,"), "--optimizers 'random-search,': empty name in the list"),
+    (_study("random-search", "--variants", ","), "--variants ',': empty name in the list"),
+    (["model", "hframe", "--modes", "1e3"], "--modes: expected a whole number, got '1e3'"),
+    (["identify", "FILE", "--max-damping", "2"], "--max-damping must lie in (0, 1), got 2.0"),
+    (["identify", "FILE", "--max-order", "0"], "--max-order: must be at least 1"),
+    # places that cannot be written: a store or an output directory under /proc or a file
+    (_study("random-search", store="/proc/femu-store"),
+     "--store /proc/femu-store: cannot write in the store (No such file or directory"),
+    (_study("random-search", store="FILE/sub"), "cannot write in the store (Not a directory"),
+    (["report", "STORE", "--out", "/proc/femu-report"], "--out /proc/femu-report: cannot create the directory"),
+    (["report", "STORE", "--out", "FILE/sub"], "cannot create the directory (Not a directory)"),
+    (["reproduce", "--out", "/proc/femu-reproduce"], "--out /proc/femu-reproduce: cannot create the directory"),
+    (["diagnose", "paper", "--out", ""], "--out: an empty path; name a directory"),
+    (["diagnose", "paper", "--out", "/proc/femu-diagnose"], "--out /proc/femu-diagnose: cannot create the directory"),
+    (["report", "", "--out", "R"], "--store: an empty path"),
+    (["results", "STORE", "extra"], "unrecognized arguments: extra"),
+    # a scheduler nobody answers at: refused within the connect timeout, nothing written
+    (_study("random-search", "--scheduler", "tcp://127.0.0.1:1"),
+     "--scheduler tcp://127.0.0.1:1: cannot connect to a Dask scheduler within 5 s"),
 ]
 
 
@@ -145,12 +227,15 @@ def place(tmp_path_factory):
     (d / "list.json").write_text("[1, 2]")
     (d / "empty.json").write_text("{}")
     (d / "deep.json").write_text("[" * 100_000 + "]" * 100_000)
+    for name, text in BAD_MODULES.items():
+        (d / name).write_text(text)
     assert main(["study", "--optimizers", "random-search", "--seeds", "0", "--budget", "10",
                  "--store", str(d / "store"), "--no-progress", "--workers", "0"]) == 0
     return d
 
 
 def _args(args: list[str], d: Path) -> list[str]:
+    args = [a.replace("FILE/", str(d / "file.txt") + "/") for a in args]
     names = {"FILE": "file.txt", "DIR": "dir", "LATIN": "latin.json", "LIST": "list.json", "EMPTY": "empty.json",
              "DEEP": "deep.json", "STORE": "store", "S": "new-store", "R": "report"}
     return [str(d / names[a]) if a in names else a for a in args]
@@ -166,6 +251,8 @@ def _expected(fragment: str, d: Path) -> str:
 @pytest.mark.parametrize("args,says", CASES, ids=[" ".join(a)[:70] for a, _ in CASES])
 def test_bad_command_line_is_one_error_line_and_exit_2(place, capsys, monkeypatch, args, says):
     monkeypatch.chdir(place)
+    monkeypatch.syspath_prepend(str(place))  # the plugin modules that fail on import
+    monkeypatch.setattr(sys, "dont_write_bytecode", True)
     before = sorted(p.name for p in place.iterdir())
     try:
         code = main(_args(args, place))
@@ -207,3 +294,32 @@ def test_a_model_with_a_400_digit_coordinate_is_refused_in_one_line(tmp_path, ca
     assert main(["model", str(f)]) == 2
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1 and str(f) in err and "x" in err and "Traceback" not in err
+
+
+def _read_only(path: Path, on: bool) -> None:
+    """Make `path` unwritable (or writable again), for root too: root ignores the mode bits,
+    so as root the directory is made immutable (chattr +i)."""
+    if os.geteuid() == 0:
+        subprocess.run(["chattr", "+i" if on else "-i", str(path)], check=True)
+    else:
+        path.chmod(0o555 if on else 0o755)
+
+
+@pytest.mark.parametrize("where", ["runs", "store"])
+def test_a_read_only_store_is_one_error_line_naming_it(tmp_path, capsys, where):
+    store = tmp_path / "ro"
+    argv = ["study", "--optimizers", "random-search", "--seeds", "0", "--budget", "10", "--store", str(store),
+            "--workers", "0", "--no-progress"]
+    assert main(argv) == 0
+    capsys.readouterr()
+    target = store / "runs" if where == "runs" else store
+    _read_only(target, True)
+    try:
+        argv[4] = "0-1"  # one more run: its claim (runs) or the study's manifest (store) cannot be written
+        assert main(argv) == 2
+    finally:
+        _read_only(target, False)
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+    assert err.startswith(f"femu study: error: --store {store}: cannot write in the store ("), err
+    assert sorted(p.name for p in (store / "runs").iterdir()) == ["paper__random-search__b10__s0.json"]

@@ -96,6 +96,54 @@ class CallsSysExit:
         sys.exit(3)
 
 
+class ReplacesTheRecorder:
+    """Shadows the objective's bookkeeping method, so that its evaluations are not charged."""
+
+    def minimize(self, objective, bounds, budget, rng):
+        objective._record = lambda X, f: None
+        for _ in range(5):
+            objective(_points(bounds, rng, 100))
+
+
+class SwallowsTheStopSignal:
+    """Catches the end of the budget and keeps asking: each further call is refused unevaluated."""
+
+    def minimize(self, objective, bounds, budget, rng):
+        for _ in range(10):
+            try:
+                objective(_points(bounds, rng, 200))
+            except adapters.BudgetExhausted:
+                pass
+
+
+class SendsNaN:
+    def minimize(self, objective, bounds, budget, rng):
+        X = _points(bounds, rng, 4)
+        X[2, 3] = np.nan
+        objective(X)
+
+
+class SendsPointsOutOfBounds:
+    def minimize(self, objective, bounds, budget, rng):
+        objective(_points(bounds, rng, 2) * 1e3)
+
+
+class RaisesInItsOwnCode:
+    def minimize(self, objective, bounds, budget, rng):
+        objective(_points(bounds, rng, 6))
+        return 1 / 0
+
+
+class Cancelled(BaseException):
+    """An exception outside Exception, as some async and test libraries raise."""
+
+
+class RaisesABaseException:
+    def minimize(self, objective, bounds, budget, rng):
+        objective(_points(bounds, rng, 2))
+        raise Cancelled("cancelled by its own library")
+
+
 @pytest.mark.parametrize("cls,status,says,n_evals", [
     (UsesTheProblemBehind, "failed", "has no attribute 'problem'", 0),
     (ReachesTheProblemThroughAClosure, "failed", "budget bypassed: the problem evaluated 501 points but the run was "
@@ -109,6 +157,12 @@ class CallsSysExit:
     (ReturnsGarbage, "stopped", None, 7),
     (SendsBadPoints, "failed", "ValueError", 0),
     (CallsSysExit, "failed", "SystemExit: the optimizer called sys.exit(3)", 4),
+    (ReplacesTheRecorder, "failed", "budget bypassed: the problem evaluated 500 points but the run was charged 0", 0),
+    (SwallowsTheStopSignal, "ok", None, 300),
+    (SendsNaN, "failed", "ValueError", 0),
+    (SendsPointsOutOfBounds, "failed", "ValueError", 0),
+    (RaisesInItsOwnCode, "failed", "ZeroDivisionError", 6),
+    (RaisesABaseException, "failed", "Cancelled: cancelled by its own library", 2),
 ])
 def test_a_plugin_gets_the_record_it_earned(cls, status, says, n_evals):
     r = adapters.run(plugin(cls), make_problem("paper"), 300, 0)
@@ -158,8 +212,11 @@ def test_a_plugin_that_ends_its_process_leaves_a_failed_record_and_the_study_goe
     names = [plugin(ExitsHard), plugin(Segfaults), plugin(Interrupted), "random-search"]
     res = run_study(names, "0", 100, tmp_path / "s", workers=2, progress=False)
     runs = {r.optimizer: r for r in res.runs}
-    for name in names[:3]:
+    for name in names[:2]:
         assert runs[name].status == "failed" and "exited with code" in runs[name].error, runs[name].error
+    # a KeyboardInterrupt no Ctrl-C caused is the plugin's: a failed run, its evaluations kept
+    interrupted = runs[names[2]]
+    assert interrupted.status == "failed" and interrupted.error.startswith("KeyboardInterrupt: raised by the optimizer")
     assert runs["random-search"].status == "ok" and runs["random-search"].n_evals == 100
     assert len(Store(tmp_path / "s").runs()) == 4
 

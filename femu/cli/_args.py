@@ -20,11 +20,15 @@ def positive_int(text: str) -> int:
     return value
 
 
+#: Why an empty output path is refused: it would mean the current directory without saying so.
+EMPTY_PATH = "an empty path; name a directory (use . for the current one)"
+
+
 def directory(text: str) -> str:
     """An argparse type: a directory to write into (made if missing). Refuses an empty path
-    (which would mean the current directory without saying so) and an existing non-directory."""
+    (`EMPTY_PATH`) and an existing non-directory."""
     if not text.strip():
-        raise argparse.ArgumentTypeError("an empty path; name a directory (use . for the current one)")
+        raise argparse.ArgumentTypeError(EMPTY_PATH)
     if Path(text).exists() and not Path(text).is_dir():
         raise argparse.ArgumentTypeError(f"{text} exists and is not a directory")
     return text

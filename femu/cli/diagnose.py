@@ -42,17 +42,13 @@ def _positive(value, option: str) -> float:
 
 
 def _check_out(out: str) -> Path:
+    from ._args import EMPTY_PATH
+
+    if not out.strip():
+        raise ValueError(f"--out: {EMPTY_PATH}")
     path = Path(out)
     if path.exists() and not path.is_dir():
         raise ValueError(f"--out {out}: exists and is not a directory")
-    return path
-
-
-def _make_out(path: Path) -> Path:
-    try:
-        path.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise ValueError(f"--out {path}: cannot create the directory ({exc.strerror})") from None
     return path
 
 
@@ -84,7 +80,7 @@ def run(args) -> int:
     shape_noise = None if shape_noise is None else _positive(shape_noise, "--shape-noise")
     data = load_modal_data(args.data)
     model = data.load_model() if args.model is None else load_model(args.model)
-    out = _check_out(args.out) if args.out else None  # before the work: a bad --out fails at once
+    out = _check_out(args.out) if args.out is not None else None  # before the work: a bad --out fails at once
     if sys.stderr.isatty():  # progress for a person waiting; logs and pipes get results and errors only
         _stderr(f"diagnosing {data.source} ({data.n_modes} modes) against model {model.name} ...")
     with warnings.catch_warnings(record=True) as caught:
@@ -95,7 +91,9 @@ def run(args) -> int:
 
     written = []
     if out is not None:
-        _make_out(out)  # only now, so that bad data leave no empty directory behind
+        from femu.reports.render import make_out_dir
+
+        make_out_dir(out)  # only now, so that bad data leave no empty directory behind
         extended_file = None
         if diag.extended_model is not None:
             extended_file = "extended.model.json"

@@ -52,6 +52,7 @@ def run(args) -> int:
     from fe_problem import identify, read_frf, save_modal_data
     from fe_problem.jsonutil import jsonable
     from femu.reports.identify import summary_record, write_report
+    from femu.reports.render import make_out_dir
 
     if not (math.isfinite(args.max_damping) and 0 < args.max_damping < 1):
         raise ValueError(f"--max-damping must lie in (0, 1), got {args.max_damping}")
@@ -78,10 +79,7 @@ def run(args) -> int:
     wall_s = time.perf_counter() - t0
     data = replace(ident.data, model=_model_reference(ident.data.model, out),
                    meta={**ident.data.meta, "wall_s": round(wall_s, 3)})
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise ValueError(f"--out {out}: cannot create the directory ({exc.strerror})") from None
+    make_out_dir(out)
     record = {**summary_record(ident), "wall_s": wall_s}
     written = [save_modal_data(data, out / "modal-data.json")]
     (out / "identification.json").write_text(json.dumps(jsonable(record), indent=1) + "\n")

@@ -10,14 +10,18 @@ def add_arguments(s) -> None:
     from adapters.registry import available
 
     s.add_argument("--optimizers", required=True,
-                   help="comma-separated registry names or package.module:Class paths; available: "
-                        + ", ".join(available()))
+                   help="comma-separated registry names or package.module:Class paths (a path imports "
+                        "that module, and so runs its top-level code, as any Python import does: name only "
+                        "modules you trust); available: " + ", ".join(available()))
     s.add_argument("--seeds", required=True,
                    help="seeds and ranges, comma-separated: 0-29, 0,3,7 or 0-4,10 (5 is the seed 5; "
                         "`femu reproduce --seeds 5` is a count)")
     s.add_argument("--budget", type=int, required=True, help="FE evaluations per run")
     s.add_argument("--store", required=True, help="directory of the result store")
-    s.add_argument("--workers", type=int, default=None, help="local worker processes (0: run in this process; default: every core)")
+    s.add_argument("--workers", type=int, default=None,
+                   help="local worker processes (default: every core). 0: run in this process, without "
+                        "--time-limit; a plugin that ends the process (os._exit, a crash) then ends the study, "
+                        "its run redone on resume")
     s.add_argument("--scheduler", default=None, help="address of a Dask scheduler (tcp://host:port) to run on instead of local processes")
     s.add_argument("--variants", default=None,
                    help="problem variants, comma-separated: paper, synthetic (default: paper, unless --suite)")

@@ -27,6 +27,17 @@ def figure(width: float = 7.5, height: float = 4.6, nrows: int = 1, ncols: int =
     return fig, axes
 
 
+def make_out_dir(path, flag: str = "--out") -> Path:
+    """Create the output directory `path` (and its parents) and return it; ValueError naming
+    `flag`, the path and the reason (a read-only place, a file on the way, ...) if it cannot."""
+    path = Path(path)
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ValueError(f"{flag} {path}: cannot create the directory ({exc.strerror or exc})") from None
+    return path
+
+
 def save_figure(fig, path) -> Path:
     """Write ``fig`` to ``path`` (PNG by its suffix) and return the path."""
     path = Path(path)

@@ -21,6 +21,7 @@ from .benchmark import write_benchmark
 from .figures import plot_convergence, plot_ecdf, plot_errors, plot_overhead
 from .markdown import render_markdown
 from .records import GroupSummary
+from .render import make_out_dir
 from .summary import best_so_far, paper_comparison, summarize  # noqa: F401  (the report's public names)
 
 __all__ = ["best_so_far", "paper_comparison", "render_files", "render_markdown", "summarize", "write_report"]
@@ -57,8 +58,7 @@ def write_report(store_or_runs, out_dir, ioh: bool = False, source: str | None =
 
 def render_files(groups: list[GroupSummary], out_dir, source: str, name: str = "report.md") -> Path:
     """Render summary records as OUT/<name> (report.md), OUT/summary.json and the PNG figures."""
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    out = make_out_dir(out_dir)
     figures = {}
     for g in groups:
         stem = f"{g.variant}_b{g.budget}"

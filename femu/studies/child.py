@@ -21,8 +21,11 @@ from typing import Callable, Iterator
 
 from fe_problem.jsonutil import dumps
 
-from .kill import kill_tree
+from .kill import kill_descendants, kill_tree
 from .tasks import STARTUP_LIMIT_S, Task, hard_deadline_s, hard_timeout_error, lost_record, run_task, startup_error
+
+#: Seconds to wait for a Dask scheduler to answer before the study is refused.
+CONNECT_TIMEOUT_S = 5
 
 #: Runs in one Dask worker process go one at a time (process-global random generators).
 _DASK_RUN_LOCK = threading.Lock()
@@ -85,6 +88,27 @@ def check_scheduler_address(address: str) -> None:
         raise ValueError(f"--scheduler {address}: {exc}") from None
 
 
+def _reach(address: str) -> None:
+    """ValueError unless a Dask comm (connection and handshake) can be opened to `address`
+    within CONNECT_TIMEOUT_S seconds; the connection is closed again."""
+    import asyncio
+
+    from distributed.comm import connect
+
+    async def probe():
+        comm = await connect(address, timeout=CONNECT_TIMEOUT_S)
+        await comm.close()
+
+    try:
+        asyncio.run(probe())
+    except OSError as exc:  # nothing listening, an unknown host, a timeout
+        raise ValueError(f"--scheduler {address}: cannot connect to a Dask scheduler within "
+                         f"{CONNECT_TIMEOUT_S} s ({exc})") from None
+    except Exception as exc:  # something answered, but does not speak Dask's protocol
+        raise ValueError(f"--scheduler {address}: what answered there is not a Dask scheduler "
+                         f"({type(exc).__name__}: {str(exc)[:200]})") from None
+
+
 class DaskCluster:
     """Submits every task to the Dask scheduler at `address` and yields them as they finish.
 
@@ -94,11 +118,12 @@ class DaskCluster:
         from dask.distributed import Client
 
         check_scheduler_address(address)
+        _reach(address)  # before a Client exists: a Client that failed to connect lingers and complains on exit
         try:
-            self.client = Client(address, timeout=10, set_as_default=False)
-        except Exception as exc:  # OSError, TimeoutError, ValueError for a malformed address
+            self.client = Client(address, timeout=CONNECT_TIMEOUT_S, set_as_default=False)
+        except Exception as exc:  # it went away between the two
             raise ValueError(f"--scheduler {address}: cannot connect to a Dask scheduler "
-                             f"({type(exc).__name__}: {exc})") from None
+                             f"({type(exc).__name__}: {str(exc)[:200]})") from None
         self.name = f"Dask scheduler {address}"
 
     def run(self, tasks: list[Task], running: Callable[[int], None]) -> Iterator[tuple[Task, dict]]:
@@ -130,6 +155,7 @@ def _run_task_main(argv: list[str]) -> int:
     the file OUT; the file STARTED is created when the run starts."""
     task = Task(**json.loads(argv[1]))
     record = run_task(task, on_start=Path(argv[3]).touch)
+    kill_descendants()  # processes the plugin started do not outlive its run
     Path(argv[2]).write_text(dumps(record, indent=None))
     return 0
 

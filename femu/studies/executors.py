@@ -3,11 +3,15 @@ through `running(n)` how many runs are under way.
 
 
 Executors
-- in-process (``workers=0``): one run after another in this process; no hard time limit.
+- in-process (``workers=0``): one run after another in this process; no hard time limit. A
+  plugin's sys.exit() or KeyboardInterrupt (without a Ctrl-C) is a failed run, but nothing in
+  a process survives a plugin that ends it (os._exit, a segfault): the study stops there, its
+  finished runs kept, and the interrupted run (its claim stale) is run again on resume.
 - local pool (default, ``workers=None`` = every core): at most `workers` runs at once, each in
   its own process forked from a forkserver that has already imported numpy, scipy, the FE
   core and the study's optimizers (a few ms per run, once ~0.5 s to start the server). A run
-  that hangs or crashes takes only its own process with it. As with any multiprocessing
+  that hangs or crashes takes only its own process with it, and the processes a plugin starts
+  are ended with its run. As with any multiprocessing
   code, a script that calls `run_study` needs the ``if __name__ == "__main__":`` guard.
 - Dask (``scheduler="tcp://host:port"``): one Dask task per run through
   ``dask.distributed.Client(address)``; the workers need femu-bench installed. Runs in one
@@ -37,7 +41,7 @@ import time
 from collections import deque
 from typing import Callable, Iterable, Iterator
 
-from .kill import kill_tree
+from .kill import kill_descendants, kill_tree
 from .tasks import STARTUP_LIMIT_S, Task, hard_deadline_s, hard_timeout_error, lost_record, run_task, startup_error
 
 class InProcess:
@@ -56,7 +60,9 @@ class InProcess:
 def _child(conn, task: Task) -> None:
     """Body of a local-pool process: says when the run starts, then sends its record."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's: it stops the children
-    conn.send(run_task(task, on_start=lambda: conn.send(None)))
+    record = run_task(task, on_start=lambda: conn.send(None))
+    kill_descendants()  # processes the plugin started do not outlive its run
+    conn.send(record)
     conn.close()
 
 

@@ -1,7 +1,10 @@
 """Ending a run's process with everything it started: a plugin may spawn processes of its own
-(a solver binary, a multiprocessing pool), and a timeout must not leave them running."""
+(a solver binary, a multiprocessing pool), and neither a timeout nor the end of its run may
+leave them running."""
 
 from __future__ import annotations
+
+import os
 
 import psutil
 
@@ -17,6 +20,22 @@ def kill_tree(pid: int) -> None:
         procs = root.children(recursive=True) + [root]
     except psutil.NoSuchProcess:
         return
+    _end(procs)
+
+
+def kill_descendants() -> int:
+    """End every process this process started (and theirs), leaving this one running; for a
+    run's worker process once its run is over. Returns how many there were."""
+    try:
+        procs = psutil.Process(os.getpid()).children(recursive=True)
+    except psutil.NoSuchProcess:
+        return 0
+    _end(procs)
+    return len(procs)
+
+
+def _end(procs: list) -> None:
+    """SIGTERM to each of `procs`, SIGKILL to those alive after `GRACE_S`; all reaped."""
     for p in procs:
         try:
             p.terminate()

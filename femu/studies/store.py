@@ -2,14 +2,15 @@
 
     STORE/study.json             what the study was asked to run (written at start)
     STORE/runs/<key>.json        one RunResult (format femu.run/1), written atomically
-    STORE/runs/<key>.claim       the process running that run now (pid, host), while it runs
+    STORE/runs/<key>.claim       the process running that run now (pid, host, its start time)
 
 A run's key is ``<variant>__<optimizer>__b<budget>__s<seed>`` (a suite id's ``/`` as ``+``). Files are written to a
 temporary name in the same directory and renamed into place, so a killed study leaves only
 whole records (and at most a hidden ``.<key>.json.*.tmp`` file, which is ignored); a study
 started again skips every key already present. A study claims each run before it starts it
 (a claim file created exclusively), so two studies on one store never run the same run; a
-claim left by a process that is gone (a kill -9, a crash) is stale and taken over.
+claim left by a process that is gone (a kill -9, a crash; also a pid since reused by another
+process, told apart by its start time) is stale and taken over, with a warning.
 """
 
 from __future__ import annotations
@@ -20,6 +21,8 @@ import os
 import socket
 import tempfile
 import time
+import warnings
+from contextlib import contextmanager
 from pathlib import Path
 
 import psutil
@@ -97,6 +100,23 @@ def _trace_ok(trace) -> bool:
     return True
 
 
+def _started(pid: int) -> float | None:
+    """The start time (s since the epoch) of process `pid`, None if it is gone."""
+    try:
+        return psutil.Process(pid).create_time()
+    except psutil.Error:
+        return None
+
+
+def _claim_started(path: Path) -> float | None:
+    """The owner's start time a claim file records (None: not recorded, older claims)."""
+    try:
+        started = json.loads(path.read_text()).get("started")
+    except (OSError, ValueError, AttributeError):
+        return None
+    return float(started) if isinstance(started, (int, float)) and not isinstance(started, bool) else None
+
+
 def run_key(variant: str, optimizer: str, budget: int, seed: int) -> str:
     """The key (file stem) of one run in a store: ``VARIANT__OPTIMIZER__bBUDGET__sSEED``; the
     slashes of a suite id (``hframe-freq/12/1``) become ``+`` (``hframe-freq+12+1``)."""
@@ -148,25 +168,47 @@ class Store:
         return {p.stem for p in self.runs_dir.glob("*.json")}
 
     def write(self, result: RunResult) -> Path:
+        """Store one run's record (atomically); StoreError if the store cannot be written."""
         path = self.runs_dir / f"{run_key(result.variant, result.optimizer, result.budget, result.seed)}.json"
-        atomic_write_json(path, result.to_dict())
+        with self._writing():
+            atomic_write_json(path, result.to_dict())
         return path
+
+    @contextmanager
+    def _writing(self):
+        """OSError while writing into the store (read-only, full, a file in the way) as a
+        StoreError naming --store and the reason."""
+        try:
+            yield
+        except OSError as exc:
+            raise self._write_error(exc) from None
+
+    def _write_error(self, exc: OSError) -> StoreError:
+        where = f": {exc.filename}" if exc.filename else ""
+        return StoreError(f"--store {self.path}: cannot write in the store ({exc.strerror or exc}{where})")
 
     def claim(self, key: str) -> bool:
         """Claim run `key` for this process; False if a live process holds it already. A claim
         of a process that no longer runs on this host is stale: it is removed and retaken."""
         path = self.runs_dir / f"{key}.claim"
-        path.parent.mkdir(parents=True, exist_ok=True)
         for _ in range(2):
             try:
+                path.parent.mkdir(parents=True, exist_ok=True)
                 fd = os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
             except FileExistsError:
                 if not self._stale(path):
                     return False
+                owner = self._owner(path)
+                warnings.warn(f"{path}: run {key} was claimed by process {owner[0] if owner else '?'}, which ended "
+                              f"without recording it (a study killed, or with --workers 0 a plugin that ended the "
+                              f"process); running it again")
                 path.unlink(missing_ok=True)
                 continue
+            except OSError as exc:  # a read-only place, a file in the way, a full disk
+                raise self._write_error(exc) from None
             with os.fdopen(fd, "w") as fh:
-                fh.write(json.dumps({"pid": os.getpid(), "host": socket.gethostname()}))
+                pid = os.getpid()
+                fh.write(json.dumps({"pid": pid, "host": socket.gethostname(), "started": _started(pid)}))
             return True
         return False
 
@@ -198,7 +240,11 @@ class Store:
             except FileNotFoundError:
                 return True
         pid, host = owner
-        return host == socket.gethostname() and not psutil.pid_exists(pid)
+        if host != socket.gethostname():
+            return False
+        started = _claim_started(path)
+        # a pid is reused once its process is gone: the same pid with another start time is not the owner
+        return not psutil.pid_exists(pid) or (started is not None and _started(pid) != started)
 
     def read(self, key: str) -> RunResult:
         """The run record stored under `key`; StoreError naming the file, the field and what
@@ -232,7 +278,9 @@ class Store:
         return sorted(out, key=lambda r: (r.variant, r.optimizer, r.budget, r.seed))
 
     def write_manifest(self, manifest: dict) -> None:
-        atomic_write_json(self.path / "study.json", manifest)
+        """Write STORE/study.json (atomically); StoreError if the store cannot be written."""
+        with self._writing():
+            atomic_write_json(self.path / "study.json", manifest)
 
     def manifest(self) -> dict | None:
         p = self.path / "study.json"

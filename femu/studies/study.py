@@ -126,10 +126,24 @@ def check_budget_for(optimizers: list[str], budget, variants: list[str], options
     return budget
 
 
+#: Local worker processes allowed per core this process may use (each is a Python process with
+#: numpy, scipy and the FE model in memory: far more than the cores only exhausts memory).
+WORKERS_PER_CORE = 4
+
+
+def max_workers() -> int:
+    """The most local worker processes a study may start: `WORKERS_PER_CORE` per core, at least 8."""
+    return max(8, WORKERS_PER_CORE * _n_cores())
+
+
 def check_workers(workers) -> None:
-    """ValueError unless `workers` is None (every core) or an integer >= 0 (0: this process)."""
+    """ValueError unless `workers` is None (every core) or an integer from 0 (this process) to
+    `max_workers()`."""
     if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 0):
         raise ValueError(f"--workers: must be an integer >= 0 (0: run in this process), got {workers!r}")
+    if workers is not None and workers > max_workers():
+        raise ValueError(f"--workers: at most {max_workers()} ({WORKERS_PER_CORE} per core of the {_n_cores()} this "
+                         f"process may use), got {workers}")
 
 
 def _problems(variants, suite) -> list[str]:
@@ -170,12 +184,15 @@ def _check_inputs(optimizers, seeds, budget, variants, workers, scheduler, time_
     return optimizers, seeds, budget, variants, options
 
 
-def _executor(todo: list[Task], optimizers: list[str], workers, scheduler):
-    """The executor for the runs to do: none needed, Dask, this process or a local pool."""
-    if not todo:  # every run is stored: no pool to start, no cluster to reach
+def _executor(todo: list[Task], optimizers: list[str], workers, cluster):
+    """The executor for the runs to do: none needed, the Dask `cluster` (already reached), this
+    process or a local pool."""
+    if not todo:  # every run is stored: no pool to start
+        if cluster is not None:
+            cluster.client.close()
         return InProcess(name="nothing to run")
-    if scheduler is not None:
-        return DaskCluster(scheduler)
+    if cluster is not None:
+        return cluster
     if workers == 0:
         return InProcess()
     n = workers if workers is not None else _n_cores()
@@ -218,11 +235,17 @@ def run_study(optimizers, seeds, budget: int, store, variants=None, workers: int
             for v in variants for o in optimizers for s in seeds]
     stored = _stored_runs(store, grid)
     wanted = [t for t in grid if t.key not in stored or (retry_failed and stored[t.key].status in RETRY_STATUSES)]
-    todo, n_elsewhere = _claim(store, wanted, stored)
+    # the cluster is reached before any claim: an unreachable one leaves nothing in the store
+    cluster = DaskCluster(scheduler) if scheduler is not None and wanted else None
     try:
-        executor = _executor(todo, optimizers, workers, scheduler)
+        todo, n_elsewhere = _claim(store, wanted, stored)
+    except BaseException:
+        if cluster is not None:
+            cluster.client.close()
+        raise
+    try:
+        executor = _executor(todo, optimizers, workers, cluster)
         t0 = time.perf_counter()
-        store.path.mkdir(parents=True, exist_ok=True)
         write_manifest(store, {"optimizers": optimizers, "seeds": seeds, "budget": budget, "variants": variants,
                                "suite": suite if suite is None or isinstance(suite, str) else list(suite),
                                "time_limit_s": time_limit_s, "options": options,
@@ -250,12 +273,17 @@ def _claim(store: Store, wanted: list[Task], stored: dict) -> tuple[list[Task], 
     process that holds their claim. A run another process finished between reading the store
     and claiming is read into `stored` instead of being run again."""
     todo, elsewhere = [], 0
-    for t in wanted:
-        if not store.claim(t.key):
-            elsewhere += 1
-        elif t.key not in stored and (store.runs_dir / f"{t.key}.json").exists():
-            stored[t.key] = store.read(t.key)
-            store.release(t.key)
-        else:
-            todo.append(t)
+    try:
+        for t in wanted:
+            if not store.claim(t.key):
+                elsewhere += 1
+            elif t.key not in stored and (store.runs_dir / f"{t.key}.json").exists():
+                stored[t.key] = store.read(t.key)
+                store.release(t.key)
+            else:
+                todo.append(t)
+    except BaseException:  # a store that cannot be written, Ctrl-C: leave no claim of ours behind
+        for t in wanted:
+            store.release(t.key)  # only this process's claims are removed
+        raise
     return todo, elsewhere

@@ -1,0 +1,149 @@
+"""Plugins that end or interrupt the process they run in, or leave processes of their own:
+in this process (``--workers 0``) a plugin's KeyboardInterrupt or sys.exit() is a failed run
+and the study goes on, a real Ctrl-C stops the study with its finished runs kept, and a plugin
+that ends the process (os._exit, a segfault) loses only its own run, which the next study on
+the store runs again (its claim is stale, with a warning). In worker processes, the processes a
+plugin started end with its run.
+
+The plugins are classes of this module and of test_faulty_plugins, reached as "module:Class"
+(also by `femu` programs started with this directory on PYTHONPATH)."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import psutil
+import pytest
+
+from femu.cli import main
+from femu.studies.store import Store
+from femu.studies.study import run_study
+from test_faulty_plugins import CallsSysExit, ExitsHard, Interrupted, Segfaults
+
+HERE = Path(__file__).parent
+
+
+def plugin(cls) -> str:
+    return f"{cls.__module__}:{cls.__name__}"
+
+
+def _points(bounds, rng, n):
+    return rng.uniform(*bounds, size=(n, len(bounds[0])))
+
+
+class SleepsLong:
+    """Evaluates once, then sleeps (a Ctrl-C lands in its sleep)."""
+
+    def minimize(self, objective, bounds, budget, rng):
+        objective(_points(bounds, rng, 2))
+        time.sleep(600)
+
+
+class SpawnsAndReturns:
+    """Starts a process of its own, writes its pid, and returns without ending it."""
+
+    def minimize(self, objective, bounds, budget, rng, pid_file):
+        child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(600)"])
+        Path(pid_file).write_text(str(child.pid))
+        objective(_points(bounds, rng, 2))
+
+
+def _femu(*args, **kw) -> subprocess.Popen:
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(HERE), os.environ.get("PYTHONPATH", "")]))
+    return subprocess.Popen([sys.executable, "-m", "femu", *args], env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, **kw)
+
+
+def _study_args(optimizers: str, store: Path, workers: str) -> list[str]:
+    return ["study", "--optimizers", optimizers, "--seeds", "0", "--budget", "100", "--store", str(store),
+            "--workers", workers, "--no-progress"]
+
+
+def test_in_process_a_plugins_interrupt_and_exit_are_failed_runs_and_the_study_goes_on(tmp_path, capsys):
+    names = [plugin(Interrupted), plugin(CallsSysExit), "random-search"]
+    assert main(_study_args(",".join(names), tmp_path / "s", "0")) == 0
+    assert "3 runs in" in capsys.readouterr().out
+    runs = {r.optimizer: r for r in Store(tmp_path / "s").runs()}
+    assert (runs[names[0]].status, runs[names[0]].n_evals) == ("failed", 0)
+    assert runs[names[0]].error == "KeyboardInterrupt: raised by the optimizer (no Ctrl-C was pressed)"
+    assert (runs[names[1]].status, runs[names[1]].n_evals) == ("failed", 4)
+    assert runs[names[1]].error == "SystemExit: the optimizer called sys.exit(3)"
+    assert (runs["random-search"].status, runs["random-search"].n_evals) == ("ok", 100)
+
+
+def test_in_process_a_real_ctrl_c_stops_the_study_and_keeps_what_is_finished(tmp_path):
+    store = tmp_path / "s"
+    p = _femu(*_study_args(f"random-search,{plugin(SleepsLong)}", store, "0"))
+    claim = store / "runs" / f"paper__{plugin(SleepsLong)}__b100__s0.claim"
+    deadline = time.time() + 120
+    while not claim.exists() and time.time() < deadline:
+        time.sleep(0.1)
+    time.sleep(1.0)  # the run is in its sleep
+    p.send_signal(signal.SIGINT)
+    out, err = p.communicate(timeout=60)
+    assert p.returncode == 130, (out, err)
+    assert "interrupted; the finished runs are in" in err and "Traceback" not in err, err
+    assert [r.optimizer for r in Store(store).runs()] == ["random-search"]
+    assert not claim.exists()
+
+
+@pytest.mark.parametrize("cls,code", [(ExitsHard, 7), (Segfaults, -signal.SIGSEGV)])
+def test_in_process_a_plugin_that_ends_the_process_loses_only_its_run_which_is_redone(tmp_path, cls, code):
+    store = tmp_path / "s"
+    first = _femu(*_study_args(f"random-search,{plugin(cls)}", store, "0"))
+    out, err = first.communicate(timeout=300)
+    assert first.returncode == code, (out, err)
+    assert [r.optimizer for r in Store(store).runs()] == ["random-search"]  # the finished run is kept
+    claim = store / "runs" / f"paper__{plugin(cls)}__b100__s0.claim"
+    assert json.loads(claim.read_text())["pid"] == first.pid  # the claim of a process that is gone
+    # the same study in worker processes: the stale claim is retaken, with a warning, and the run recorded
+    again = _femu(*_study_args(f"random-search,{plugin(cls)}", store, "1"))
+    out, err = again.communicate(timeout=300)
+    assert again.returncode == 0, (out, err)
+    assert f"was claimed by process {first.pid}, which ended without recording it" in err
+    assert "(1 new, 1 kept)" in out
+    runs = {r.optimizer: r for r in Store(store).runs()}
+    assert runs[plugin(cls)].status == "failed" and "exited with code" in runs[plugin(cls)].error
+    assert not claim.exists()
+
+
+def test_a_worker_ends_the_processes_its_plugin_left_behind(tmp_path):
+    pid_file = tmp_path / "child.pid"
+    res = run_study([plugin(SpawnsAndReturns)], "0", 50, tmp_path / "s", workers=1, progress=False,
+                    options={plugin(SpawnsAndReturns): {"pid_file": str(pid_file)}})
+    assert res.runs[0].status == "stopped" and res.runs[0].n_evals == 2, res.runs[0].error
+    pid = int(pid_file.read_text())
+    assert not psutil.pid_exists(pid) or psutil.Process(pid).status() == psutil.STATUS_ZOMBIE
+
+
+def test_a_claim_whose_pid_now_belongs_to_another_process_is_stale(tmp_path):
+    """A pid is reused once its process is gone: the claim records its owner's start time."""
+    store = Store(tmp_path / "s")
+    claim = store.runs_dir / "paper__random-search__b50__s0.claim"
+    claim.parent.mkdir(parents=True)
+    import socket
+
+    me = psutil.Process()
+    claim.write_text(json.dumps({"pid": me.pid, "host": socket.gethostname(), "started": me.create_time() - 100}))
+    with pytest.warns(UserWarning, match=f"was claimed by process {me.pid}, which ended"):
+        res = run_study("random-search", "0", 50, store, workers=0, progress=False)
+    assert res.n_new == 1 and not claim.exists()
+    claim.write_text(json.dumps({"pid": me.pid, "host": socket.gethostname(), "started": me.create_time()}))
+    res = run_study("random-search", "0", 60, store, workers=0, progress=False)  # another run: not claimed
+    assert res.n_new == 1 and claim.exists()
+    assert store.claim("paper__random-search__b50__s0") is False  # the live owner's claim is kept
+
+
+def test_the_cli_says_what_a_module_class_name_does_and_what_workers_0_cannot_stop():
+    from femu.cli import build_parser
+
+    sub = build_parser()._subparsers._group_actions[0].choices["study"]
+    text = " ".join(sub.format_help().split())
+    assert "imports that module, and so runs its top-level code" in text
+    assert "0: run in this process, without --time-limit; a plugin that ends the process" in text
