@@ -176,16 +176,18 @@ def make_case(kind: str, rng: np.random.Generator, seed: int) -> Case:
 
 
 def soft_support_truth(node: int, direction: str, stiffness: float) -> fp.FrameModel:
-    """The frame hung at `node` on an axial rod (length 5 cm, stiffness `stiffness` N/m, nearly
-    massless, no bending stiffness to speak of) from a grounded node."""
+    """The frame hung at `node` on an axial rubber rod (length 5 cm, E = 1 MPa, the area giving
+    `stiffness` N/m, nearly massless, no bending stiffness to speak of) from a grounded node.
+    Every value is inside the model file's physical ranges."""
     n = HFRAME.node(node)
     ground = Node(max(HFRAME.node_ids) + 1, n.x - (0.05 if direction == "x" else 0.0),
                   n.y - (0.05 if direction == "y" else 0.0))
-    area = 1e-4
-    rod = Material(stiffness * 0.05 / area, 1.0)
+    youngs = 1e6
+    area = stiffness * 0.05 / youngs
+    rod = Material(youngs, 1e-3)
     eid = max(HFRAME.element_ids) + 1
     return HFRAME.replace(nodes=HFRAME.nodes + (ground,), materials={**HFRAME.materials, "rod": rod},
-                          sections={**HFRAME.sections, "rod": Section(area, 1e-14)},
+                          sections={**HFRAME.sections, "rod": Section(area, 1e-20)},
                           elements=HFRAME.elements + (Element(eid, ground.id, node, "rod", "rod"),),
                           supports=(Support(ground.id, ("x", "y", "rz")),))
 

@@ -256,7 +256,8 @@ def test_a_claim_left_by_a_killed_study_is_taken_over(tmp_path):
     claim.parent.mkdir(parents=True)
     import socket
     claim.write_text(json.dumps({"pid": dead.pid, "host": socket.gethostname()}))
-    res = run_study("random-search", "0", 50, store, workers=0, progress=False)
+    with pytest.warns(UserWarning, match=f"claimed by process {dead.pid}, which ended without recording it"):
+        res = run_study("random-search", "0", 50, store, workers=0, progress=False)
     assert res.n_new == 1 and res.n_elsewhere == 0 and not claim.exists()
 
 

@@ -25,6 +25,7 @@ from fe_problem.jsonutil import dumps
 from femu.studies.tasks import is_suite_id
 
 from . import stats as st
+from .render import make_out_dir
 from .render import markdown_table
 
 #: The comparison metrics, the first drawn as the CD diagram (femu.reports.stats.run_scores).
@@ -223,8 +224,7 @@ def write_benchmark(runs, out_dir, source: str) -> Path:
     from . import stats_figures as sf
 
     s = benchmark_statistics(runs)
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    out = make_out_dir(out_dir)
     groups = sorted({st.group_of(p["id"]) for p in s["problems"]})
     figures = {"ert": sf.plot_ert(s["ert"], out / "ert.png").name,
                "ecdf": sf.plot_ecdf(s["ecdf"], out / "ecdf.png").name,

@@ -44,6 +44,7 @@ import numpy as np
 
 from adapters.harness import RunResult
 from fe_problem.jsonutil import dumps
+from .render import make_out_dir
 
 #: Prefix of the ioh function names: femu_paper, femu_hframe-freq, ...
 PREFIX = "femu_"
@@ -267,7 +268,7 @@ def export_runs(runs, out_dir, validate: bool = True) -> Path:
             shutil.rmtree(out)
         elif not out.is_dir() or any(out.iterdir()):
             raise ValueError(f"{out}: exists and is not a femu IOH export; choose an empty or new directory")
-    out.mkdir(parents=True, exist_ok=True)
+    make_out_dir(out, "--out")
     usable = [r for r in runs if r.n_evals > 0 and r.trace and len(r.best_x)]
     skipped = [r for r in runs if r.n_evals <= 0 or not r.trace or not len(r.best_x)]
     by_alg = algorithm_names(usable)
