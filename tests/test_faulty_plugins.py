@@ -308,3 +308,53 @@ def test_a_hand_edited_record_is_named_with_a_redo_hint_and_skipped_when_asked(t
     assert "warning: left out" in err and str(bad) in err
     assert main(["report", str(store), "--out", str(tmp_path / "r"), "--skip-invalid"]) == 0
     assert (tmp_path / "r" / "report.md").exists()
+
+
+# -- a damaged study manifest ----------------------------------------------------------------------
+MANIFEST_EDITS = [
+    ({"format": "femu.study/7"}, "field 'format'"),
+    ({"seeds": "0-9"}, "field 'seeds'"),
+    ({"seeds": [0, -3]}, "field 'seeds'"),
+    ({"budget": 0}, "field 'budget'"),
+    ({"budget": 1.5}, "field 'budget'"),
+    ({"optimizers": [3]}, "field 'optimizers'"),
+    ({"variants": None}, "field 'variants'"),
+    ({"time_limit_s": -2}, "field 'time_limit_s'"),
+    ({"options": [1]}, "field 'options'"),
+    ({"retry_failed": "yes"}, "field 'retry_failed'"),
+    ({"started": "yesterday"}, "field 'started'"),
+    ({"executor": None}, "field 'executor'"),
+    ({"versions": {"numpy": 2}}, "field 'versions'"),
+    ({"history": "none"}, "field 'history'"),
+    ({"history": [{"optimizers": ["random-search"]}]}, "field 'history[0].seeds': missing"),
+    ({"history": [7]}, "field 'history[0]'"),
+]
+
+
+@pytest.mark.parametrize("edit,says", MANIFEST_EDITS, ids=[str(e) for e, _ in MANIFEST_EDITS])
+def test_a_damaged_manifest_is_named_and_never_overwritten(tmp_path, capsys, edit, says):
+    store = tmp_path / "s"
+    argv = ["study", "--optimizers", "random-search", "--seeds", "0", "--budget", "50", "--store", str(store),
+            "--workers", "0", "--no-progress"]
+    assert main(argv) == 0
+    manifest = store / "study.json"
+    manifest.write_text(json.dumps({**json.loads(manifest.read_text()), **edit}))
+    before = manifest.read_bytes()
+    capsys.readouterr()
+    assert main(argv[:4] + ["0-1"] + argv[5:]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and str(manifest) in err and says in err, err
+    assert "the runs are kept" in err
+    assert manifest.read_bytes() == before and not (store / "runs" / "paper__random-search__b50__s1.json").exists()
+
+
+def test_a_manifest_of_an_earlier_version_without_optional_fields_is_read(tmp_path):
+    store = tmp_path / "s"
+    run_study("random-search", "0", 50, store, workers=0, progress=False)
+    manifest = store / "study.json"
+    old = {k: v for k, v in json.loads(manifest.read_text()).items()
+           if k not in ("suite", "time_limit_s", "options", "retry_failed", "host", "versions", "history")}
+    manifest.write_text(json.dumps(old))
+    res = run_study("random-search", "0-1", 50, store, workers=0, progress=False)
+    assert res.n_new == 1
+    assert json.loads(manifest.read_text())["history"][0]["seeds"] == [0]

@@ -282,11 +282,10 @@ class Store:
         with self._writing():
             atomic_write_json(self.path / "study.json", manifest)
 
-    def manifest(self) -> dict | None:
+    def manifest(self):
+        """STORE/study.json as parsed JSON (None if there is none); StoreError if it is no JSON.
+        femu.studies.manifest.read_manifest checks its fields."""
         p = self.path / "study.json"
         if not p.exists():
             return None
-        data = read_json_file(p, StoreError)
-        if not isinstance(data, dict):
-            raise StoreError(f"{p}: not a study manifest (a JSON {type(data).__name__}, not an object)")
-        return data
+        return read_json_file(p, StoreError)

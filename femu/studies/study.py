@@ -39,7 +39,7 @@ from fe_problem.jsonutil import dumps
 
 from .child import DaskCluster, check_scheduler_address
 from .executors import InProcess, LocalPool
-from .manifest import write_manifest
+from .manifest import read_manifest, write_manifest
 from .progress import Progress
 from .seeds import parse_names, parse_seeds
 from .store import Store
@@ -203,7 +203,7 @@ def _stored_runs(store: Store, grid: list[Task]) -> dict[str, RunResult]:
     """Every stored record (read first: a corrupt file stops the study before anything is
     written); ValueError if a run of the grid is stored with other options."""
     stored = {k: store.read(k) for k in sorted(store.keys())} if store.path.is_dir() else {}
-    store.manifest()  # a corrupt study.json is reported, not overwritten
+    read_manifest(store)  # a damaged study.json is reported, not overwritten
     for t in grid:
         old = stored.get(t.key)
         if old is not None and old.options != t.options:
