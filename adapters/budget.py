@@ -1,5 +1,6 @@
 """The one place for the budget rules: a budget is a whole number of FE evaluations >= 1, a
-seed a whole number >= 0, and an optimizer needs at least its minimum budget.
+seed a whole number >= 0, an optimizer needs at least its minimum budget, and a Jacobian costs
+what finite differences would (`jacobian_cost`).
 
 Every caller (the harness, `run_study`, `femu reproduce`) checks through these functions, so
 the messages are the same everywhere; a command-line caller prefixes the flag (``--budget:``).
@@ -38,6 +39,23 @@ def check_seed(seed) -> int:
     return int(seed)
 
 
+def jacobian_cost(n_var: int) -> int:
+    """FE evaluations charged for the objective, residuals and Jacobian at one point: n_var + 1,
+    what a forward-difference Jacobian costs (the point and one step per parameter). Every
+    plugin that asks the harness for derivatives pays this, whether the problem computes them
+    by finite differences or analytically (the H-frame's analytic eigenvalue sensitivities cost
+    one eigen-solve with vectors: charging that would make derivatives almost free and favour
+    the methods that use them over every derivative-free method)."""
+    return int(n_var) + 1
+
+
+def population_for_budget(n_var: int, budget: int) -> int:
+    """A GA population for `budget` evaluations on `n_var` parameters: about 100 generations
+    (budget // 100), at least 10 and n_var // 2, at most 100 (20 for 2,000 evaluations on up to
+    40 parameters, 48 on 96). Measured on the paper problem in docs/adapters.md."""
+    return int(min(100, max(10, int(budget) // 100, int(n_var) // 2)))
+
+
 def min_budget(optimizer, n_var: int, **options: Any) -> int:
     """The fewest FE evaluations `optimizer` (a class or an instance) needs on `n_var`
     parameters with `options`: its ``min_budget(n_var, **options)`` method, or a plain int
@@ -64,3 +82,16 @@ def check_min_budget(name: str, optimizer, budget: int, n_var: int, **options: A
         how = f" with options {options}" if options else ""
         raise ValueError(f"optimizer {name!r} needs a budget of at least {need} evaluations, got {budget} "
                          f"(on {n_var} parameters{how} the method needs at least {need} evaluations to start)")
+
+
+#: What every solver of a run is told about the start: ``none`` (nothing: each draws its first
+#: points from its seed) or ``all`` (the problem's initial point x0, passed as ``x0=``).
+X0_MODES = ("none", "all")
+
+
+def check_x0_mode(mode, flag: str | None = None) -> str:
+    """`mode` if it is one of `X0_MODES`; ValueError (starting with `flag`) otherwise."""
+    if mode not in X0_MODES:
+        what = f"{flag}: must be" if flag else "x0 must be"
+        raise ValueError(f"{what} one of {', '.join(X0_MODES)}, got {mode!r}")
+    return mode

@@ -95,7 +95,8 @@ class DeapGA:
     as many as the budget allows, so the mutation step anneals over the whole run; the paper
     used 100), n_elite (2), q, b, crossover_prob (0.8 per pair), mutation_prob (per gene,
     default 1/n_var). When the generations end before the budget, an independent new GA
-    starts, until the harness stops the run.
+    starts, until the harness stops the run. x0 (study option x0=all) is the first point of
+    the first GA's initial population.
     """
 
     name = "deap-ga"
@@ -104,7 +105,7 @@ class DeapGA:
         """Four evaluations: the smallest population the operators work on."""
         return 4
 
-    def minimize(self, objective, bounds, budget, rng: np.random.Generator, population: int | None = None,
+    def minimize(self, objective, bounds, budget, rng: np.random.Generator, x0=None, population: int | None = None,
                  generations: int | None = None, n_elite: int = 2, q: float = 0.08, b: float = 3.0,
                  crossover_prob: float = 0.8, mutation_prob: float | None = None):
         """Run GAs on `objective` (a batch per generation) until the harness stops the run."""
@@ -115,5 +116,8 @@ class DeapGA:
         if generations is None:
             generations = 1 + math.ceil(max(int(budget) - pop, 0) / max(pop - int(n_elite), 1))
         toolbox = make_toolbox(q, b, crossover_prob, mutation_prob)
+        xl, xu = (np.asarray(v, dtype=float) for v in bounds)
+        initial = None if x0 is None else (np.asarray(x0, dtype=float) - xl) / (xu - xl)
         while True:  # restart until the harness raises BudgetExhausted
-            evolve(f, len(bounds[0]), rng, pop, generations, n_elite, toolbox)
+            evolve(f, len(xl), rng, pop, generations, n_elite, toolbox, initial)
+            initial = None  # x0 starts the first GA only

@@ -4,7 +4,9 @@ A plugin sees only `objective(X) -> f` (a batch of points in, one value per poin
 The harness counts every row as one FE evaluation, stops the run by raising
 `BudgetExhausted` when the budget is spent (evaluating exactly the rows that fit), keeps the
 best point seen with its best-so-far trace, and times the run: wall, CPU and the time spent
-inside the FE evaluations. A plugin may therefore simply loop until it is stopped.
+inside the FE evaluations. A plugin may therefore simply loop until it is stopped. Derivatives
+(`BudgetedObjective.least_squares`) are charged `adapters.budget.jacobian_cost(n_var)` = n_var + 1
+evaluations, whoever asks.
 
 Helpers for adapters: `unit_scaled` (work in the unit cube) and `seeded_global_rngs` (for
 libraries that draw from numpy's or Python's global generator).
@@ -12,6 +14,7 @@ libraries that draw from numpy's or Python's global generator).
 
 from __future__ import annotations
 
+import inspect
 import math
 import platform
 import random
@@ -25,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from .budget import check_budget, check_min_budget, check_seed
+from .budget import check_budget, check_min_budget, check_seed, check_x0_mode, jacobian_cost
 from .provenance import library_versions
 
 RECORD_FORMAT = "femu.run/1"
@@ -47,7 +50,12 @@ class RunResult:
     evaluation), so `best_f` after k evaluations is the last entry with n_evals <= k.
     status: ``ok`` (budget spent), ``stopped`` (the method ended by itself before the budget),
     ``failed`` (it raised, or produced NaN), ``timeout`` (time limit).
-    Times in seconds: wall_s, cpu_s (this process), fe_s (inside FE evaluations).
+    Times in seconds: wall_s (wall clock of the run), cpu_s (CPU of this process during the
+    run, time.process_time), fe_s (wall clock inside FE evaluations); the fair costs:
+    fe_cpu_s (process CPU inside FE evaluations) and opt_cpu_s = cpu_s - fe_cpu_s (the
+    optimizer's own CPU), which do not grow with the machine's load as wall times do.
+    n_jacobians: derivative requests, each charged n_var + 1 evaluations (in n_evals).
+    x0: ``all`` when the solver was given the problem's initial point, ``none`` otherwise.
     versions: Python's and every run library's version (adapters.provenance.library_versions).
     f_opt: the problem's known optimum J (suite problems, set by studies), None if unknown.
     """
@@ -64,6 +72,10 @@ class RunResult:
     wall_s: float = 0.0
     cpu_s: float = 0.0
     fe_s: float = 0.0
+    fe_cpu_s: float = 0.0
+    opt_cpu_s: float = 0.0
+    n_jacobians: int = 0
+    x0: str = "none"
     status: str = "ok"
     error: str | None = None
     variant: str = "paper"
@@ -106,27 +118,27 @@ class BudgetedObjective:
 
     Parameters: problem (anything with n_var, xl, xu and a vectorised evaluate), budget
     (FE evaluations), time_limit_s (None: no limit). Extra least-squares access for methods
-    that need it: `residuals_and_jacobian(x)` is charged `problem.jacobian_cost_evals`.
+    that need derivatives: `least_squares(x)`, charged `jacobian_cost` = n_var + 1 evaluations.
+    fe_s / fe_cpu_s: wall / process CPU seconds inside the problem's evaluations.
 
     What a plugin sees is this object only: the problem behind it is not an attribute (its
     evaluate and least_squares are kept in closures), and the counters (`n_evals`, `budget`,
-    `remaining`, `best_f`, `best_x`, `trace`, `fe_s`, `time_limit_s`) are read-only
-    properties. `run` also cross-checks the problem's own evaluation count, so a plugin that
-    reaches the problem some other way has its run marked failed.
+    `remaining`, `best_f`, `best_x`, `trace`, `fe_s`, `fe_cpu_s`, `n_jacobians`,
+    `time_limit_s`, `jacobian_cost`) are read-only properties. `run` also cross-checks the
+    problem's own evaluation count, so a plugin that reaches the problem some other way has its
+    run marked failed.
     """
 
     #: The names a plugin may read but never assign.
-    READ_ONLY = ("problem", "n_evals", "budget", "remaining", "best_f", "best_x", "trace", "fe_s",
-                 "time_limit_s", "n_var", "bounds")
+    READ_ONLY = ("problem", "n_evals", "budget", "remaining", "best_f", "best_x", "trace", "fe_s", "fe_cpu_s",
+                 "n_jacobians", "jacobian_cost", "time_limit_s", "n_var", "bounds")
 
     def __init__(self, problem, budget: int, time_limit_s: float | None = None):
         budget = check_budget(budget)
         evaluate = problem.evaluate
         least_squares = getattr(problem, "least_squares", None)
-        cost = int(getattr(problem, "jacobian_cost_evals", 1))
         self._evaluate = lambda X: evaluate(X)
-        self._least_squares = (lambda x: least_squares(x)) if least_squares is not None else None
-        self._jacobian_cost = cost
+        self._least_squares = _charged_least_squares(least_squares) if least_squares is not None else None
         self._budget = int(budget)
         self._time_limit_s = time_limit_s
         self._n_evals = 0
@@ -134,8 +146,12 @@ class BudgetedObjective:
         self._best_x: np.ndarray | None = None
         self._trace: list[list[float]] = []
         self._fe_s = 0.0
+        self._fe_cpu_s = 0.0
+        self._n_jacobians = 0
+        self._residuals_at: bytes | None = None  # the point of the last least_squares(jacobian=False)
         self._t0 = time.perf_counter()
         self._n_var = int(problem.n_var)
+        self._jacobian_cost = jacobian_cost(self._n_var)
         self._bounds = (np.asarray(problem.xl, float).copy(), np.asarray(problem.xu, float).copy())
 
     def __setattr__(self, name: str, value) -> None:
@@ -149,7 +165,11 @@ class BudgetedObjective:
     best_x = property(lambda self: None if self._best_x is None else self._best_x.copy(),
                       doc="The point of `best_f` (a copy), or None.")
     trace = property(lambda self: [list(t) for t in self._trace], doc="Best-so-far [[n_evals, f], ...] (a copy).")
-    fe_s = property(lambda self: self._fe_s, doc="Seconds spent inside FE evaluations.")
+    fe_s = property(lambda self: self._fe_s, doc="Wall seconds spent inside FE evaluations.")
+    fe_cpu_s = property(lambda self: self._fe_cpu_s, doc="Process CPU seconds spent inside FE evaluations.")
+    n_jacobians = property(lambda self: self._n_jacobians, doc="Jacobians requested (each charged jacobian_cost).")
+    jacobian_cost = property(lambda self: self._jacobian_cost,
+                             doc="FE evaluations charged for the residuals and Jacobian at a point (n_var + 1).")
     time_limit_s = property(lambda self: self._time_limit_s, doc="The run's time limit in seconds, or None.")
     n_var = property(lambda self: self._n_var, doc="The number of parameters.")
     bounds = property(lambda self: (self._bounds[0].copy(), self._bounds[1].copy()),
@@ -184,9 +204,7 @@ class BudgetedObjective:
         if self.remaining <= 0:
             raise BudgetExhausted()
         take = X[: self.remaining]
-        t = time.perf_counter()
-        f = np.asarray(self._evaluate(take), dtype=float)
-        self._fe_s += time.perf_counter() - t
+        f = np.asarray(self._timed(self._evaluate, take), dtype=float)
         if f.shape != (len(take),):
             raise ValueError(f"the problem returned values of shape {f.shape} for {len(take)} points")
         self._record(take, f)
@@ -194,23 +212,39 @@ class BudgetedObjective:
             raise BudgetExhausted()
         return f
 
-    def least_squares(self, x):
+    def _timed(self, fn, arg):
+        """fn(arg), its wall and process CPU seconds added to fe_s and fe_cpu_s."""
+        t, c = time.perf_counter(), time.process_time()
+        out = fn(arg)
+        self._fe_cpu_s += time.process_time() - c
+        self._fe_s += time.perf_counter() - t
+        return out
+
+    def least_squares(self, x, jacobian: bool = True):
         """Objective, frequency residuals and their Jacobian at one point (the problem's
-        `least_squares`), charged `problem.jacobian_cost_evals` evaluations."""
+        `least_squares`).
+
+        Charged like finite differences: n_var + 1 evaluations (`jacobian_cost`) with the
+        Jacobian; 1 evaluation with jacobian=False (then ``.jacobian`` is None), and n_var for
+        the Jacobian at the point of the previous jacobian=False call (its value is paid).
+        BudgetExhausted, with nothing evaluated, when the remaining budget cannot pay."""
         self._check_time()
         if self._least_squares is None:
             raise TypeError("this problem has no least_squares (residuals and Jacobian)")
-        cost = self._jacobian_cost
+        X = np.atleast_2d(np.asarray(x, dtype=float))
+        key = X[0].tobytes()
+        cost = 1 if not jacobian else self._jacobian_cost - (key == self._residuals_at)
         if self.remaining < cost:
             raise BudgetExhausted()
-        X = np.atleast_2d(np.asarray(x, dtype=float))
-        t = time.perf_counter()
-        out = self._least_squares(X[0])
-        self._fe_s += time.perf_counter() - t
+        out = self._timed(lambda x: self._least_squares(x, cost), X[0])
+        self._residuals_at = None if jacobian else key
+        self._n_jacobians += bool(jacobian)
         # charge the extra cost first, so the trace dates the point at the evaluation count
         # after which it is known
         self._n_evals += cost - 1
         self._record(X, np.array([out.f]))
+        if not jacobian:
+            out = type(out)(out.f, out.residuals, None)
         if self.remaining <= 0:
             raise BudgetExhausted()
         return out
@@ -223,12 +257,38 @@ class BudgetedObjective:
         return out
 
 
+def _charged_least_squares(least_squares):
+    """`least_squares` as f(x, cost): the cost charged for the call is passed on as
+    ``charged=`` when the problem's method takes it (a logging wrapper records that many
+    evaluations), and dropped otherwise."""
+    try:
+        takes = "charged" in inspect.signature(least_squares).parameters
+    except (TypeError, ValueError):
+        takes = False
+    return (lambda x, cost: least_squares(x, charged=cost)) if takes else (lambda x, cost: least_squares(x))
+
+
+def _start(optimizer, name: str, problem, x0: str) -> dict:
+    """The start keyword for `minimize`: ``{"x0": problem.x0}`` when x0 is ``all`` (ValueError
+    if the plugin's minimize takes no x0), nothing when it is ``none`` (the plugin's x0 stays
+    None and it draws its first points from rng)."""
+    if check_x0_mode(x0) == "none":
+        return {}
+    params = inspect.signature(optimizer.minimize).parameters
+    if "x0" not in params and not any(p.kind is p.VAR_KEYWORD for p in params.values()):
+        raise ValueError(f"optimizer {name!r}: its minimize takes no x0 keyword, so it cannot be given the "
+                         f"initial point (x0='all'); run it with x0='none'")
+    return {"x0": np.asarray(problem.x0, dtype=float).copy()}
+
+
 def run(name: str, problem, budget: int, seed: int, time_limit_s: float | None = None,
-        variant: str = "paper", **options: Any) -> RunResult:
+        variant: str = "paper", x0: str = "none", **options: Any) -> RunResult:
     """Run optimizer `name` on `problem` with exactly `budget` FE evaluations and `seed`.
 
+    x0: ``none`` (default: the solver is told nothing about the start) or ``all`` (it gets
+    the problem's initial point as ``minimize(..., x0=array)``); see adapters.budget.X0_MODES.
     Never raises for a failing optimizer: its record has status ``failed`` and the error.
-    Unknown names and bad budgets or seeds raise ValueError before anything runs.
+    Unknown names and bad budgets, seeds or x0 modes raise ValueError before anything runs.
     """
     from .registry import get
 
@@ -236,6 +296,7 @@ def run(name: str, problem, budget: int, seed: int, time_limit_s: float | None =
     seed, budget = check_seed(seed), check_budget(budget)
     optimizer = cls()
     check_min_budget(name, optimizer, budget, problem.n_var, **options)
+    start = _start(optimizer, name, problem, x0)
     objective = BudgetedObjective(problem, budget, time_limit_s)
     rng = np.random.default_rng(int(seed))
     status, error = "stopped", None
@@ -244,7 +305,7 @@ def run(name: str, problem, budget: int, seed: int, time_limit_s: float | None =
     sigint = [signal.SIGINT]  # until the watch is in place, an interrupt counts as a Ctrl-C
     try:
         with _sigint_watch() as sigint:
-            optimizer.minimize(objective, objective.bounds, objective.budget, rng, **options)
+            optimizer.minimize(objective, objective.bounds, objective.budget, rng, **start, **options)
     except SystemExit as exc:  # a plugin's sys.exit() ends its run, not the study
         status, error = "failed", f"SystemExit: the optimizer called sys.exit({exc.code!r})"
     except KeyboardInterrupt:  # a Ctrl-C stops the study; one the plugin raised ends its run
@@ -270,8 +331,9 @@ def run(name: str, problem, budget: int, seed: int, time_limit_s: float | None =
         optimizer=name, problem=getattr(problem, "name", type(problem).__name__), seed=int(seed),
         budget=int(budget), options=dict(options), n_evals=objective.n_evals, best_f=objective.best_f,
         best_x=[] if objective.best_x is None else objective.best_x.tolist(), trace=objective.finish_trace(),
-        wall_s=wall, cpu_s=cpu, fe_s=objective.fe_s, status=status, error=error, variant=variant,
-        host=platform.node(), versions=library_versions())
+        wall_s=wall, cpu_s=cpu, fe_s=objective.fe_s, fe_cpu_s=objective.fe_cpu_s,
+        opt_cpu_s=max(cpu - objective.fe_cpu_s, 0.0), n_jacobians=objective.n_jacobians, x0=x0, status=status,
+        error=error, variant=variant, host=platform.node(), versions=library_versions())
 
 
 def _problem_count(problem) -> int | None:

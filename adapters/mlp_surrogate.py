@@ -142,7 +142,8 @@ class MLPSurrogate:
     per refit, for little gain on a 113-weight surface -- plus q, b, crossover_prob and
     mutation_prob as in deap-ga. The GA's first population holds the best FE point so far, so
     its answer is never predicted worse than that point (the paper does not say how it seeded
-    the GA). One FE evaluation per refit, as in the paper.
+    the GA). One FE evaluation per refit, as in the paper. x0 (study option x0=all) replaces
+    the design's first point.
     """
 
     name = "mlp-surrogate"
@@ -151,7 +152,7 @@ class MLPSurrogate:
         """16 evaluations: 15 design points to train on (budget * 15 // 16) and one refit."""
         return 16
 
-    def minimize(self, objective, bounds, budget, rng: np.random.Generator, n_initial: int | None = None,
+    def minimize(self, objective, bounds, budget, rng: np.random.Generator, x0=None, n_initial: int | None = None,
                  n_hidden: int = 8, initial_cycles: int = 200, refit_cycles: int = 5,
                  population: int = 100, generations: int = 50, q: float = 0.08, b: float = 3.0,
                  crossover_prob: float = 0.8, mutation_prob: float | None = None):
@@ -164,6 +165,9 @@ class MLPSurrogate:
             raise ValueError(f"n_initial must be in [2, budget={budget}], got {n_initial}")
 
         U = latin_hypercube(n_initial, n_var, rng)
+        if x0 is not None:  # the study gives the initial point: the design's first row
+            xl, xu = (np.asarray(v, dtype=float) for v in bounds)
+            U[0] = np.clip((np.asarray(x0, dtype=float) - xl) / (xu - xl), 0.0, 1.0)
         F = fe(U)
         # Train on log J, standardised once on the initial design: J is a sum of squares that
         # spans orders of magnitude (1e-4 at x0, 1e-6 near the optimum on the paper's data), so

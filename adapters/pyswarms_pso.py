@@ -58,15 +58,20 @@ class PyswarmsPSO:
         """One swarm evaluation: `n_particles` evaluations."""
         return int(n_particles)
 
-    def minimize(self, objective, bounds, budget, rng: np.random.Generator, n_particles: int = 30,
+    def minimize(self, objective, bounds, budget, rng: np.random.Generator, x0=None, n_particles: int = 30,
                  w: float = 0.729, c1: float = 1.49445, c2: float = 1.49445,
                  velocity_clamp: tuple[float, float] | None = (-0.5, 0.5), bh_strategy: str = "nearest"):
         f, _ = unit_scaled(objective, bounds)
         n_var = len(bounds[0])
         # enough iterations to spend the budget (ftol is off): the harness ends the run
         iters = -(-int(budget) // int(n_particles))
+        xl, xu = (np.asarray(b, dtype=float) for b in bounds)
         with seeded_global_rngs(rng), _quiet_pyswarms():
-            pso = GlobalBestPSO(int(n_particles), n_var, {"w": w, "c1": c1, "c2": c2},
+            init = None
+            if x0 is not None:  # the first particle at x0, the others uniform (PySwarms' own draw)
+                init = np.random.uniform(0.0, 1.0, (int(n_particles), n_var))
+                init[0] = np.clip((np.asarray(x0, dtype=float) - xl) / (xu - xl), 0.0, 1.0)
+            pso = GlobalBestPSO(int(n_particles), n_var, {"w": w, "c1": c1, "c2": c2}, init_pos=init,
                                 bounds=(np.zeros(n_var), np.ones(n_var)), bh_strategy=bh_strategy,
                                 velocity_clamp=None if velocity_clamp is None else tuple(velocity_clamp))
             pso.optimize(f, iters, verbose=False)

@@ -6,7 +6,8 @@ import numpy as np
 
 
 class RandomSearch:
-    """Uniform samples inside the bounds, in batches, until the harness stops the run."""
+    """Uniform samples inside the bounds, in batches of `batch_size` (100), until the harness
+    stops the run; x0 first when the study gives it (x0=all)."""
 
     name = "random-search"
 
@@ -14,7 +15,10 @@ class RandomSearch:
         """One evaluation."""
         return 1
 
-    def minimize(self, objective, bounds, budget, rng: np.random.Generator, batch_size: int = 100):
+    def minimize(self, objective, bounds, budget, rng: np.random.Generator, x0=None, batch_size: int = 100):
+        """Batches of uniform points until stopped."""
         xl, xu = bounds
+        if x0 is not None:
+            objective(np.atleast_2d(np.asarray(x0, dtype=float)))
         while True:
             objective(rng.uniform(xl, xu, size=(batch_size, len(xl))))

@@ -26,6 +26,7 @@ ENTRY_POINT_GROUP = "femu.optimizers"
 BUILTINS = {
     "pymoo-ga": "adapters.pymoo_ga:PymooGA",
     "deap-ga": "adapters.deap_ga:DeapGA",
+    "deap-ga-stock": "adapters.deap_stock:DeapGAStock",
     "pyswarms-pso": "adapters.pyswarms_pso:PyswarmsPSO",
     "scipy-sa": "adapters.scipy_sa:ScipyDualAnnealing",
     "mlp-surrogate": "adapters.mlp_surrogate:MLPSurrogate",

@@ -15,20 +15,23 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import least_squares
 
+from .budget import jacobian_cost
 from .harness import unit_scaled
 
 
 class Sensitivity:
     """Inverse eigensensitivity updating: trust-region least squares on frequency residuals.
 
-    Each point costs one charge of the objective's `least_squares` (an eigen-solve with
-    vectors: residuals and Jacobian together); scipy asks for the residuals and then the
-    Jacobian at the same accepted point, and the second request is served from a cache.
+    Costs follow the harness's finite-difference rule (adapters.budget.jacobian_cost): a
+    trial point where scipy asks only for the residuals costs 1 evaluation, the Jacobian at
+    an accepted point n_var more (n_var + 1 in all per Jacobian). When the budget left cannot
+    pay for a Jacobian, the rest is spent on points drawn uniformly (the restart distribution),
+    so a run uses its budget exactly.
 
-    The first start is the problem's initial point x0 (the centre of the bounds if the
-    objective does not know it). When a fit converges before the budget is spent the method
-    starts again from a point drawn uniformly from rng (restarts=True, the default: the
-    problem is under-determined, so different starts end on different points of the set of
+    The first start is x0 when the harness passes it (study option x0=all), else a point drawn
+    uniformly from rng. When a fit converges before the budget is spent the method starts again
+    from a point drawn uniformly from rng (restarts=True, the default: the problem is
+    under-determined, so different starts end on different points of the set of
     near-solutions, and the benchmark compares methods at equal budgets); with restarts=False
     it stops after the first fit and the run's status is ``stopped``. ftol, xtol, gtol are
     scipy's convergence tolerances.
@@ -37,32 +40,34 @@ class Sensitivity:
     name = "sensitivity"
 
     def min_budget(self, n_var: int, **options) -> int:
-        """Two evaluations: a start point and one least-squares step."""
-        return 2
+        """A start point and one Jacobian: n_var + 1 evaluations (budget.jacobian_cost)."""
+        return jacobian_cost(n_var)
 
-    def minimize(self, objective, bounds, budget, rng: np.random.Generator, restarts: bool = True,
+    def minimize(self, objective, bounds, budget, rng: np.random.Generator, x0=None, restarts: bool = True,
                  ftol: float = 1e-10, xtol: float = 1e-10, gtol: float = 1e-10):
-        """Least-squares fits from x0, then from rng-drawn starts, until the budget is spent
-        (or after the first fit when restarts=False)."""
+        """Least-squares fits from x0 (or a random point), then from rng-drawn starts, until the
+        budget is spent (or after the first fit when restarts=False)."""
         if not hasattr(objective, "least_squares"):
-            raise TypeError("sensitivity needs an objective with least_squares(x) -> (f, residuals, jacobian), "
-                            "such as the harness's BudgetedObjective")
+            raise TypeError("sensitivity needs an objective with least_squares(x, jacobian) -> (f, residuals, "
+                            "jacobian), such as the harness's BudgetedObjective")
         xl, xu = (np.asarray(v, dtype=float) for v in bounds)
         span = xu - xl
-        _, to_x = unit_scaled(objective, bounds)
+        f, to_x = unit_scaled(objective, bounds)
         last = {}
 
-        def at(u):
+        def at(u, jac: bool):
             key = u.tobytes()
-            if last.get("key") != key:
-                last.update(key=key, out=objective.least_squares(to_x(u)[0]))
+            if last.get("key") != key or (jac and last["out"].jacobian is None):
+                if jac and objective.remaining < objective.jacobian_cost:
+                    while True:  # no Jacobian left to buy: spend the rest (BudgetExhausted ends it)
+                        f(rng.random((objective.remaining, len(xl))))
+                last.update(key=key, out=objective.least_squares(to_x(u)[0], jacobian=jac))
             return last["out"]
 
-        x0 = getattr(getattr(objective, "problem", None), "x0", None)
-        u = np.full(len(xl), 0.5) if x0 is None else np.clip((np.asarray(x0, dtype=float) - xl) / span, 0.0, 1.0)
+        u = rng.random(len(xl)) if x0 is None else np.clip((np.asarray(x0, dtype=float) - xl) / span, 0.0, 1.0)
         while True:  # until the harness raises BudgetExhausted, or once without restarts
-            least_squares(lambda v: at(v).residuals, u, jac=lambda v: at(v).jacobian * span, bounds=(0.0, 1.0),
-                          method="trf", ftol=ftol, xtol=xtol, gtol=gtol)
+            least_squares(lambda v: at(v, False).residuals, u, jac=lambda v: at(v, True).jacobian * span,
+                          bounds=(0.0, 1.0), method="trf", ftol=ftol, xtol=xtol, gtol=gtol)
             if not restarts:
                 return
             u = rng.random(len(xl))

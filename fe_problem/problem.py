@@ -228,7 +228,8 @@ class UpdatingProblem:
         """J, the weighted frequency residuals r (m,) and dr/dtheta (m, n_var) at one point.
 
         Uses analytic eigenvalue derivatives (d lambda = phi^T (dK - lambda dM) phi), so it
-        costs one eigen-solve with vectors: counted as `jacobian_cost_evals` evaluations.
+        costs one eigen-solve with vectors: counted as `jacobian_cost_evals` of this problem's own
+        evaluations (the harness charges a plugin n_var + 1, adapters.budget.jacobian_cost).
         The frequency part of J is sum(r^2); J also holds the shape term if there is one."""
         X = self.check_x(x, "x")
         if X.shape[0] != 1:

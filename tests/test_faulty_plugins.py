@@ -288,6 +288,9 @@ EDITS = [
     ({"best_x": ["a"]}, "field 'best_x'"),
     ({"wall_s": -1}, "field 'wall_s'"),
     ({"format": "femu.run/9"}, "field 'format'"),
+    ({"fe_cpu_s": "fast"}, "field 'fe_cpu_s'"),
+    ({"n_jacobians": -1}, "field 'n_jacobians'"),
+    ({"x0": "some"}, "field 'x0'"),
 ]
 
 

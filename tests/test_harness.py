@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 import adapters
+import fe_problem
 from adapters import BudgetedObjective, BudgetExhausted, RunResult
 from adapters.harness import seeded_global_rngs, unit_scaled
 from adapters.variants import make_problem
@@ -104,17 +105,6 @@ class Logged:
         self.X.extend(np.atleast_2d(X).copy())
         self.f.extend(f)
         return f
-
-
-class CostlyJacobian:
-    """The paper problem whose least-squares call is charged 4 evaluations."""
-
-    jacobian_cost_evals = 4
-
-    def __init__(self):
-        self.inner = make_problem("paper")
-        self.n_var, self.xl, self.xu = self.inner.n_var, self.inner.xl, self.inner.xu
-        self.evaluate, self.least_squares = self.inner.evaluate, self.inner.least_squares
 
 
 def test_budget_is_exact_when_a_batch_overshoots():
@@ -216,29 +206,42 @@ def test_bad_budget_is_refused_before_anything_runs(budget):
 
 
 def test_budget_below_the_methods_minimum_is_refused():
+    """min_budget is computed from the dimension: one initial population of max(10, n_var // 2)."""
     p = make_problem("paper")
-    with pytest.raises(ValueError, match="'pymoo-ga' needs a budget of at least 100 evaluations, got 50"):
-        adapters.run("pymoo-ga", p, 50, seed=0)
+    with pytest.raises(ValueError, match="'pymoo-ga' needs a budget of at least 10 evaluations, got 9"):
+        adapters.run("pymoo-ga", p, 9, seed=0)
     assert p.n_evals == 0
+    big = fe_problem.suite_problem("hframe-freq/96/1")
+    for name in ("pymoo-ga", "deap-ga-stock"):
+        with pytest.raises(ValueError, match=f"'{name}' needs a budget of at least 48 evaluations, got 47"):
+            adapters.run(name, big, 47, seed=0)
+    assert big.n_evals == 0
+    assert adapters.run("pymoo-ga", big, 48, seed=0).n_evals == 48
 
 
-def test_least_squares_is_charged_its_cost_and_dated_after_it():
-    p = CostlyJacobian()
-    obj = BudgetedObjective(p, 10)
+def test_least_squares_is_charged_a_finite_difference_jacobian_and_dated_after_it():
+    """A Jacobian costs n_var + 1 evaluations (the point and a forward step per parameter),
+    whatever the problem spends on it; residuals alone cost 1, and the Jacobian at the point
+    just evaluated costs the n_var steps."""
+    p = make_problem("paper")
+    obj = BudgetedObjective(p, 30)
+    assert obj.jacobian_cost == 13
     lower = p.xl.copy()  # most moduli on the lower bound fit the paper's data far better than x0
-    out = obj.least_squares(p.inner.x0)
-    assert out.f == pytest.approx(p.inner.evaluate(p.inner.x0)[0], rel=1e-12)
-    assert out.jacobian.shape == (5, 12) and obj.n_evals == 4
+    out = obj.least_squares(p.x0)
+    assert out.f == pytest.approx(make_problem("paper").evaluate(p.x0)[0], rel=1e-12)
+    assert out.jacobian.shape == (5, 12) and obj.n_evals == 13 and obj.n_jacobians == 1
+    cheap = obj.least_squares(lower, jacobian=False)
+    assert cheap.jacobian is None and cheap.f < out.f and obj.n_evals == 14
     better = obj.least_squares(lower)
-    assert better.f < out.f and obj.n_evals == 8
-    assert obj.trace == [[4, out.f], [8, better.f]]
-    n_solved = p.inner.n_evals
-    with pytest.raises(BudgetExhausted):  # 2 evaluations left, a Jacobian costs 4
-        obj.least_squares(lower)
-    assert obj.n_evals == 8 and p.inner.n_evals == n_solved
+    assert better.f == cheap.f and obj.n_evals == 26 and obj.n_jacobians == 2
+    assert obj.trace == [[13, out.f], [14, cheap.f]]  # best-so-far: the same value again adds nothing
+    n_solved = p.n_evals
+    with pytest.raises(BudgetExhausted):  # 4 evaluations left, a Jacobian costs 13
+        obj.least_squares(p.x0)
+    assert obj.n_evals == 26 and p.n_evals == n_solved
     with pytest.raises(BudgetExhausted):
-        obj(np.vstack([p.inner.x0] * 3))
-    assert obj.n_evals == 10 and obj.finish_trace() == [[4, out.f], [8, better.f], [10, better.f]]
+        obj(np.vstack([p.x0] * 5))
+    assert obj.n_evals == 30 and obj.finish_trace() == [[13, out.f], [14, cheap.f], [30, better.f]]
 
 
 def test_third_party_plugin_is_listed_and_runs(plugins):

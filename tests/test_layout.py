@@ -26,7 +26,11 @@ def test_every_builtin_implements_the_protocol(name):
 def test_min_budget_follows_n_var_and_options():
     assert min_budget(get("scipy-sa"), 12) == 25 and min_budget(get("scipy-sa"), 3) == 7
     assert min_budget(get("cma-es"), 12) == 11 and min_budget(get("cma-es"), 12, popsize=20) == 20
-    assert min_budget(get("pymoo-ga"), 12) == 100 and min_budget(get("pymoo-ga"), 12, pop_size=40) == 40
+    # GAs: one initial population, sized to the dimension (max(10, n_var // 2), at most 100)
+    for name, option in (("pymoo-ga", "pop_size"), ("deap-ga-stock", "population")):
+        assert [min_budget(get(name), n) for n in (2, 12, 96, 200, 400)] == [10, 10, 48, 100, 100]
+        assert min_budget(get(name), 12, **{option: 40}) == 40
+    assert min_budget(get("sensitivity"), 12) == 13 and min_budget(get("sensitivity"), 96) == 97
 
     class Old:  # an older plugin: a plain attribute
         min_budget = 7
@@ -46,9 +50,9 @@ def test_one_budget_message_in_the_harness_the_study_and_reproduce(tmp_path, cap
                 ["reproduce", "--out", str(tmp_path / "r")]):
         assert cli.main([*cmd, "--budget", "0"]) == 2
         assert "--budget: must be an integer >= 1 (FE evaluations), got 0" in capsys.readouterr().err
-    # the minimum budget with the optimizer's options: pymoo-ga with pop_size 40 runs on 40
-    with pytest.raises(ValueError, match="'pymoo-ga' needs a budget of at least 100 evaluations, got 40"):
-        adapters.run("pymoo-ga", make_problem("paper"), 40, 0)
+    # the minimum budget with the optimizer's options: pymoo-ga with pop_size 40 runs on 40, not 39
+    with pytest.raises(ValueError, match="'pymoo-ga' needs a budget of at least 40 evaluations, got 39"):
+        adapters.run("pymoo-ga", make_problem("paper"), 39, 0, pop_size=40)
     assert adapters.run("pymoo-ga", make_problem("paper"), 40, 0, pop_size=40).n_evals == 40
 
 

@@ -178,7 +178,7 @@ class IOHLoggedProblem:
         self.ioh = ioh_problem(self.terms, lambda x: self._values.pop())
         self.ioh.attach_logger(logger)
 
-    def __getattr__(self, name):  # n_var, xl, xu, name, jacobian_cost_evals ... of the problem
+    def __getattr__(self, name):  # n_var, xl, xu, name ... of the problem
         return getattr(self.problem, name)
 
     def _log(self, X: np.ndarray, f: np.ndarray) -> None:
@@ -192,12 +192,12 @@ class IOHLoggedProblem:
         self._log(X, f)
         return f
 
-    def least_squares(self, x):
-        """The problem's least-squares form, logged as its `jacobian_cost_evals` evaluations
-        (the harness charges as many): the point once, then as often again without change."""
+    def least_squares(self, x, charged: int = 1):
+        """The problem's least-squares form, logged as the `charged` evaluations the harness
+        charged for it (residuals alone 1, with the Jacobian n_var + 1, adapters.budget
+        .jacobian_cost): the point once, then as often again without change."""
         out = self.problem.least_squares(x)
-        cost = int(getattr(self.problem, "jacobian_cost_evals", 1))
-        self._log(np.repeat(np.atleast_2d(x), cost, axis=0), np.full(cost, out.f))
+        self._log(np.repeat(np.atleast_2d(x), charged, axis=0), np.full(charged, out.f))
         return out
 
 

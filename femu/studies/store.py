@@ -79,9 +79,13 @@ def check_record(d, key: str) -> str | None:
             return f"field {name!r}: must be {need}, got {d.get(name)!r}"[:300]
     if not (d.get("f_opt") is None or _is_num(d["f_opt"])):
         return f"field 'f_opt': must be a finite number or null, got {d.get('f_opt')!r}"
-    for name in ("wall_s", "cpu_s", "fe_s"):
+    for name in ("wall_s", "cpu_s", "fe_s", "fe_cpu_s", "opt_cpu_s"):
         if not (_is_num(d.get(name, 0.0)) and d.get(name, 0.0) >= 0):
             return f"field {name!r}: must be a number of seconds >= 0, got {d.get(name)!r}"
+    if not (_is_int(d.get("n_jacobians", 0)) and d.get("n_jacobians", 0) >= 0):
+        return f"field 'n_jacobians': must be an integer >= 0, got {d.get('n_jacobians')!r}"
+    if d.get("x0", "none") not in ("none", "all"):
+        return f"field 'x0': must be none or all, got {d.get('x0')!r}"
     expected = run_key(d["variant"], d["optimizer"], d["budget"], d["seed"])
     if expected != key:
         return f"its fields (variant, optimizer, budget, seed) make the key {expected!r}, not the file's name {key!r}"
