@@ -268,16 +268,25 @@ def _charged_least_squares(least_squares):
     return (lambda x, cost: least_squares(x, charged=cost)) if takes else (lambda x, cost: least_squares(x))
 
 
+def check_takes_x0(name: str, optimizer=None) -> None:
+    """ValueError unless optimizer `name` (or the given class or instance) can be given the
+    initial point: its minimize takes an ``x0`` keyword (or **kwargs)."""
+    from .registry import get
+
+    optimizer = get(name) if optimizer is None else optimizer
+    params = inspect.signature(optimizer.minimize).parameters
+    if "x0" not in params and not any(p.kind is p.VAR_KEYWORD for p in params.values()):
+        raise ValueError(f"optimizer {name!r}: its minimize takes no x0 keyword, so it cannot be given the "
+                         f"initial point (x0='all'); run it with x0='none'")
+
+
 def _start(optimizer, name: str, problem, x0: str) -> dict:
     """The start keyword for `minimize`: ``{"x0": problem.x0}`` when x0 is ``all`` (ValueError
     if the plugin's minimize takes no x0), nothing when it is ``none`` (the plugin's x0 stays
     None and it draws its first points from rng)."""
     if check_x0_mode(x0) == "none":
         return {}
-    params = inspect.signature(optimizer.minimize).parameters
-    if "x0" not in params and not any(p.kind is p.VAR_KEYWORD for p in params.values()):
-        raise ValueError(f"optimizer {name!r}: its minimize takes no x0 keyword, so it cannot be given the "
-                         f"initial point (x0='all'); run it with x0='none'")
+    check_takes_x0(name, optimizer)
     return {"x0": np.asarray(problem.x0, dtype=float).copy()}
 
 

@@ -385,3 +385,26 @@ def test_progress_bar_on_a_terminal_and_off_with_no_progress(tmp_path):
     assert "femu study: 4 runs in a (4 new, 0 kept): 2 ok, 2 failed, 0 timeout;" in shown
     quiet = _run_on_terminal(argv + ["--store", "b", "--no-progress"], tmp_path)
     assert quiet.strip().splitlines() == [quiet.strip()] and quiet.startswith("femu study: 4 runs in b (4 new")
+
+
+def test_x0_is_a_study_option_given_to_every_solver_or_none(tmp_path, capsys):
+    """--x0 all gives every solver the model's initial point (stored in each record and the
+    manifest); a store of one x0 is not silently extended with the other."""
+    store = tmp_path / "s"
+    argv = ["study", "--optimizers", "cma-es,sensitivity", "--seeds", "0", "--budget", "60", "--store", str(store),
+            "--workers", "0", "--no-progress"]
+    assert main(argv + ["--x0", "all"]) == 0
+    records = [json.loads(p.read_text()) for p in sorted((store / "runs").glob("*.json"))]
+    assert [r["x0"] for r in records] == ["all", "all"]
+    x0_value = make_problem("paper").evaluate(make_problem("paper").x0)[0]
+    sens = next(r for r in records if r["optimizer"] == "sensitivity")
+    assert sens["trace"][0][1] == pytest.approx(x0_value, rel=1e-9)  # its first point is x0
+    assert json.loads((store / "study.json").read_text())["x0"] == "all"
+    capsys.readouterr()
+    assert main(argv) == 2
+    assert "stored with x0 all, asked for --x0 none; use another store" in capsys.readouterr().err
+    other = [a if a != str(store) else str(tmp_path / "t") for a in argv]
+    with pytest.raises(SystemExit) as stop:
+        main(other + ["--x0", "some"])
+    assert stop.value.code == 2
+    assert "argument --x0: invalid choice: 'some'" in capsys.readouterr().err and not (tmp_path / "t").exists()

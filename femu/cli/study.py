@@ -30,6 +30,9 @@ def add_arguments(s) -> None:
                         "(`femu suite` lists them)")
     s.add_argument("--time-limit", type=float, default=None, help="seconds per run before it is stopped (default: no limit)")
     s.add_argument("--no-progress", action="store_true", help="no progress bar (there is one only when stdout is a terminal)")
+    s.add_argument("--x0", choices=("none", "all"), default="none",
+                   help="what every solver is told of the start: none (each draws its own from its seed) or all "
+                        "(each is given the model's initial parameters)")
     s.add_argument("--retry-failed", action="store_true",
                    help="run again the runs stored as failed or timeout (they are kept otherwise)")
 
@@ -41,7 +44,8 @@ def run(args) -> int:
     try:
         result = run_study(args.optimizers, args.seeds, args.budget, args.store, variants=args.variants,
                            workers=args.workers, scheduler=args.scheduler, time_limit_s=args.time_limit, suite=args.suite,
-                           progress=not args.no_progress, retry_failed=getattr(args, "retry_failed", False))
+                           progress=not args.no_progress, retry_failed=getattr(args, "retry_failed", False),
+                           x0=getattr(args, "x0", "none"))
     except KeyboardInterrupt:
         print(f"femu study: interrupted; the finished runs are in {args.store}: the same command resumes the study",
               file=sys.stderr)

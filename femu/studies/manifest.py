@@ -48,6 +48,7 @@ REQUEST_FIELDS = (
     ("time_limit_s", False, lambda v: v is None or (_is_num(v) and v > 0), "null or seconds > 0"),
     ("options", False, lambda v: isinstance(v, dict), "an object"),
     ("retry_failed", False, lambda v: isinstance(v, bool), "true or false"),
+    ("x0", False, lambda v: v in ("none", "all"), "none or all"),
     ("executor", True, lambda v: isinstance(v, str) and v, "a non-empty string"),
     ("started", True, _is_time, "an ISO 8601 time"),
     ("host", False, lambda v: isinstance(v, str), "a string"),

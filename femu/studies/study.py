@@ -30,8 +30,8 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from adapters.budget import check_budget, check_min_budget
-from adapters.harness import RunResult
+from adapters.budget import check_budget, check_min_budget, check_x0_mode
+from adapters.harness import RunResult, check_takes_x0
 from adapters.registry import get, module_of
 from adapters.variants import VARIANTS
 from fe_problem.suite import select_suite
@@ -209,12 +209,15 @@ def _stored_runs(store: Store, grid: list[Task]) -> dict[str, RunResult]:
         if old is not None and old.options != t.options:
             raise ValueError(f"{store.runs_dir / (t.key + '.json')}: stored with options {old.options}, "
                              f"asked for {t.options}; use another store")
+        if old is not None and old.x0 != t.x0:
+            raise ValueError(f"{store.runs_dir / (t.key + '.json')}: stored with x0 {old.x0}, asked for --x0 {t.x0}; "
+                             "use another store")
     return stored
 
 
 def run_study(optimizers, seeds, budget: int, store, variants=None, workers: int | None = None,
               scheduler: str | None = None, time_limit_s: float | None = None, progress: bool = True,
-              options: dict | None = None, retry_failed: bool = False, suite=None) -> StudyResult:
+              options: dict | None = None, retry_failed: bool = False, suite=None, x0: str = "none") -> StudyResult:
     """Run the grid optimizers x variants x seeds with `budget` FE evaluations per run into
     `store` (a directory), skipping the runs already stored.
 
@@ -226,12 +229,18 @@ def run_study(optimizers, seeds, budget: int, store, variants=None, workers: int
     scheduler address (excludes workers). time_limit_s: seconds per run (None: none).
     progress: a progress bar when stdout is a terminal. options: {optimizer: {keyword: value}}
     passed to that optimizer's minimize. retry_failed: run again stored failed/timeout runs.
+    x0: ``none`` (every solver starts from its own seeded draws) or ``all`` (every solver is
+    given the problem's initial point; a plugin whose minimize takes no x0 is refused).
     Raises ValueError (StoreError for the store) before running anything on bad input.
     """
     optimizers, seeds, budget, variants, options = _check_inputs(
         optimizers, seeds, budget, variants, workers, scheduler, time_limit_s, options, suite)
     store = store if isinstance(store, Store) else Store(store)
-    grid = [Task(o, v, budget, s, options.get(o, {}), time_limit_s)
+    x0 = check_x0_mode(x0, "--x0")
+    if x0 == "all":
+        for name in optimizers:
+            check_takes_x0(name)
+    grid = [Task(o, v, budget, s, options.get(o, {}), time_limit_s, x0)
             for v in variants for o in optimizers for s in seeds]
     stored = _stored_runs(store, grid)
     wanted = [t for t in grid if t.key not in stored or (retry_failed and stored[t.key].status in RETRY_STATUSES)]
@@ -249,7 +258,7 @@ def run_study(optimizers, seeds, budget: int, store, variants=None, workers: int
         write_manifest(store, {"optimizers": optimizers, "seeds": seeds, "budget": budget, "variants": variants,
                                "suite": suite if suite is None or isinstance(suite, str) else list(suite),
                                "time_limit_s": time_limit_s, "options": options,
-                               "retry_failed": bool(retry_failed)}, executor.name)
+                               "retry_failed": bool(retry_failed), "x0": x0}, executor.name)
         records = {t.key: stored[t.key] for t in grid if t.key in stored}
         todo_keys = {t.key for t in todo}
         kept_failed = sum(1 for k, r in records.items() if k not in todo_keys and r.status in RETRY_STATUSES)

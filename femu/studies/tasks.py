@@ -25,7 +25,8 @@ from .store import run_key
 
 @dataclass(frozen=True)
 class Task:
-    """One run of the grid. time_limit_s in seconds (None: no limit)."""
+    """One run of the grid. time_limit_s in seconds (None: no limit); x0: what the solver is told
+    of the start (``none`` or ``all``, adapters.budget.X0_MODES)."""
 
     optimizer: str
     variant: str
@@ -33,6 +34,7 @@ class Task:
     seed: int
     options: dict = field(default_factory=dict)
     time_limit_s: float | None = None
+    x0: str = "none"
 
     @property
     def key(self) -> str:
@@ -69,7 +71,7 @@ def run_task(task: Task, on_start: Callable[[], None] | None = None) -> dict:
         if on_start is not None:
             on_start()
         record = run(task.optimizer, problem, task.budget, task.seed, time_limit_s=task.time_limit_s,
-                     variant=task.variant, **task.options).to_dict()
+                     variant=task.variant, x0=task.x0, **task.options).to_dict()
         return dict(record, f_opt=getattr(problem, "f_opt", None))
     except Exception as exc:
         return lost_record(task, "failed", f"{type(exc).__name__}: {exc}\n{traceback.format_exc(limit=6)}",
@@ -85,7 +87,7 @@ def _problem_name(variant: str) -> str:
 def lost_record(task: Task, status: str, error: str, wall_s: float) -> dict:
     """The record of a run whose process returned nothing (hard timeout, crash)."""
     return RunResult(optimizer=task.optimizer, problem=_problem_name(task.variant), seed=task.seed,
-                     budget=task.budget, options=dict(task.options), wall_s=wall_s, status=status,
+                     budget=task.budget, options=dict(task.options), wall_s=wall_s, status=status, x0=task.x0,
                      error=error, variant=task.variant, host=platform.node()).to_dict()
 
 
