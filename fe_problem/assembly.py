@@ -114,6 +114,16 @@ class AffineModel:
         return self._solver.n_elastic
 
     @property
+    def workers(self) -> int:
+        """Processes a batch is split over on the sparse path (1 on the dense path)."""
+        return getattr(self._solver, "workers", 1)
+
+    @workers.setter
+    def workers(self, n: int) -> None:
+        if self.path == "sparse":
+            self._solver.set_workers(n)
+
+    @property
     def k0(self):
         """K0 on the free DOFs (dense array or CSR matrix, by path)."""
         return self._solver.k0

@@ -87,6 +87,7 @@ class SparseModalSolver:
         self.mass_constant = self.gm.nnz == 0
         self._v0 = np.random.default_rng(0).uniform(0.5, 1.5, n)  # fixed: reproducible
         self.sigma = -1.0  # provisional; set from the first elastic mode below
+        self._order(x0)
         lam = self._lowest(x0[None, :])
         nonzero = lam > self.ZERO_TOL * lam[-1] if lam[-1] > 0 else np.zeros(len(lam), bool)
         self.n_rigid = int(len(lam) - nonzero.sum())
@@ -102,6 +103,40 @@ class SparseModalSolver:
         g = sp.csr_matrix((v[~const], (slot[~const], t[~const])), shape=(nnz, self.n_params))
         g.sum_duplicates()
         return c0, g
+
+    def _order(self, x0: np.ndarray) -> None:
+        """Fix a fill-reducing ordering of the pattern once (SuperLU's minimum degree on A + A^T
+        at x0): each point then factorises the permuted matrix as it is, without ordering anew.
+        `_perm` (new -> old DOF), and the permuted pattern with `_pdata`, the value index map."""
+        a = sp.csc_matrix((self.k_data(x0) - self.sigma * self.m_data(x0), self.cols, self.indptr),
+                          shape=(self.n_free, self.n_free))
+        if self.n_free < 3:
+            self._perm = np.arange(self.n_free)
+        else:
+            self._perm = np.argsort(splu(a, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                                         options={"SymmetricMode": True}).perm_c)
+        tag = sp.csc_matrix((np.arange(1.0, len(self.rows) + 1), self.cols, self.indptr), shape=a.shape)
+        tag = tag[self._perm][:, self._perm].tocsc()
+        tag.sort_indices()
+        self._pdata = tag.data.astype(np.int64) - 1
+        self._pindices, self._pindptr = tag.indices, tag.indptr
+
+    def _factor(self, a_data: np.ndarray):
+        """The LU factors of the matrix with values `a_data` on the pattern, in the fixed order:
+        a function b -> A^-1 b."""
+        ap = sp.csc_matrix((a_data[self._pdata], self._pindices, self._pindptr), shape=(self.n_free, self.n_free))
+        try:
+            lu = splu(ap, permc_spec="NATURAL", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
+        except RuntimeError:
+            raise ValueError(f"model {self.name!r}: K - sigma M is singular at this point (a DOF with no "
+                             "stiffness and no mass?)") from None
+        perm = self._perm
+
+        def solve(b: np.ndarray) -> np.ndarray:
+            x = np.empty_like(b)
+            x[perm] = lu.solve(b[perm])
+            return x
+        return solve
 
     def _lowest(self, x0: np.ndarray) -> np.ndarray:
         """Eigenvalues at x0, enough to see every zero-energy mode and a few elastic ones."""
@@ -152,13 +187,7 @@ class SparseModalSolver:
         if k >= self.n_free - 1:  # ARPACK needs k < n - 1: a tiny model, solved densely
             lam, phi = scipy.linalg.eigh(kmat.toarray(), mmat.toarray(), subset_by_index=(0, k - 1))
             return lam, phi
-        a = sp.csc_matrix((kd - self.sigma * md, self.cols, self.indptr), shape=kmat.shape)  # symmetric
-        try:
-            lu = splu(a, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
-        except RuntimeError:
-            raise ValueError(f"model {self.name!r}: K - sigma M is singular at this point (a DOF with no "
-                             "stiffness and no mass?)") from None
-        op = LinearOperator(kmat.shape, matvec=lu.solve, dtype=float)
+        op = LinearOperator(kmat.shape, matvec=self._factor(kd - self.sigma * md), dtype=float)
         out = eigsh(kmat, k=k, M=mmat, sigma=self.sigma, which="LM", OPinv=op, v0=self._v0,
                     ncv=min(self.n_free, max(2 * k + 1, 20)), tol=0.0, return_eigenvectors=vectors)
         if not vectors:
@@ -205,6 +234,13 @@ class SparseModalSolver:
         phi = np.stack([r[1] for r in res]) if res[0][1] is not None else None
         dlam = np.stack([r[2] for r in res]) if sens else None
         return lam, phi, dlam
+
+    def set_workers(self, n: int) -> None:
+        """Use `n` processes for later batches (the worker processes are started anew)."""
+        if getattr(self, "_pool", None) is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+            self._pool = None
+        self.workers = max(1, int(n))
 
     def _workers_pool(self) -> ProcessPoolExecutor:
         """workers - 1 forked processes that hold this solver, started at the first batch."""
