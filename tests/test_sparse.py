@@ -152,6 +152,7 @@ def test_the_path_is_chosen_by_size_and_can_be_forced():
     assert fp.AffineModel(large).n_free == 300 > SPARSE_MIN_DOFS >= fp.AffineModel(small).n_free
     assert solver_path(SPARSE_MIN_DOFS) == "dense" and solver_path(SPARSE_MIN_DOFS + 1) == "sparse"
     assert solver_path(10, "sparse") == "sparse" and solver_path(10**6, "dense") == "dense"
+    assert solver_path(150, n_params=3000) == "sparse"  # a small model with very many parameters
     with pytest.raises(ValueError, match="solver must be one of"):
         fp.AffineModel(small, solver="banded")
 
