@@ -196,3 +196,15 @@ def test_modal_analysis_of_a_large_free_free_frame_takes_the_sparse_path():
     assert res.n_rigid == 3 and fp.AffineModel(m).path == "sparse"
     np.testing.assert_allclose((2 * np.pi * res.frequencies_hz) ** 2, lam[0], rtol=1e-10)
     np.testing.assert_allclose(res.shapes, dense.expand(phi[0]), atol=1e-7 * np.abs(res.shapes).max())
+
+
+def test_a_300_dof_frame_on_the_sparse_path_agrees_with_opensees_to_1e_8():
+    from test_opensees import opensees_modes  # OpenSeesPy's full generalized LAPACK solver
+
+    m = grid_frame(9, 10)
+    res = fp.modal_analysis(m, 10)
+    assert fp.AffineModel(m).path == "sparse" and res.n_rigid == 0
+    hz, shapes, n_zero = opensees_modes(m, 10)
+    assert n_zero == 0
+    np.testing.assert_allclose(res.frequencies_hz, hz, rtol=1e-8)
+    assert np.all(np.diag(fp.mac(res.shapes, shapes)) > 1 - 1e-10)
