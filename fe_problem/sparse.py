@@ -64,8 +64,10 @@ class SparseModalSolver:
     """Eigen-solves of K0 + sum theta_k dK_k, M0 + sum theta_k dM_k (free DOFs) from triplets.
 
     k_trip, m_trip: (rows, cols, vals, term) on the free DOFs, term -1 for the constant part
-    and k for parameter k (terms.py). `n_rigid` counts the zero-energy modes at `x0` (dropped),
-    `n_elastic` the modes left. `name` names the model in errors.
+    and k for parameter k (terms.py). `n_rigid` counts the zero-energy modes at `x0` (dropped):
+    the eigenvalues below `ZERO_TOL` of the 12th, and at least `min_zero` (the rigid-body
+    motions the supports allow, known from the geometry). `n_elastic`: the modes left. `name`
+    names the model in errors.
     """
 
     #: An eigenvalue below this fraction of the first clearly elastic one is a zero-energy mode.
@@ -73,7 +75,8 @@ class SparseModalSolver:
     #: The shift is -SHIFT times the first elastic eigenvalue at the initial parameters.
     SHIFT = 0.5
 
-    def __init__(self, k_trip, m_trip, n: int, x0: np.ndarray, name: str, workers: int | None = None):
+    def __init__(self, k_trip, m_trip, n: int, x0: np.ndarray, name: str, workers: int | None = None,
+                 min_zero: int = 0):
         self.n_free, self.name, self.n_params = n, name, len(x0)
         self.workers = default_workers() if workers is None else int(workers)
         rows = np.concatenate([k_trip[0], m_trip[0]])
@@ -90,9 +93,9 @@ class SparseModalSolver:
         self._order(x0)
         lam = self._lowest(x0[None, :])
         nonzero = lam > self.ZERO_TOL * lam[-1] if lam[-1] > 0 else np.zeros(len(lam), bool)
-        self.n_rigid = int(len(lam) - nonzero.sum())
-        if nonzero.any():
-            self.sigma = -self.SHIFT * float(lam[nonzero][0])
+        self.n_rigid = max(int(len(lam) - nonzero.sum()), min(min_zero, len(lam)))
+        if self.n_rigid < len(lam):
+            self.sigma = -self.SHIFT * float(lam[self.n_rigid])
         self.n_elastic = n - self.n_rigid
 
     def _affine(self, slot, trip, nnz: int):

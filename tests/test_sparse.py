@@ -10,6 +10,8 @@ the batch it comes in or on the number of worker processes.
 
 from __future__ import annotations
 
+import tracemalloc
+
 import numpy as np
 import pytest
 import scipy.linalg
@@ -208,3 +210,24 @@ def test_a_300_dof_frame_on_the_sparse_path_agrees_with_opensees_to_1e_8():
     assert n_zero == 0
     np.testing.assert_allclose(res.frequencies_hz, hz, rtol=1e-8)
     assert np.all(np.diag(fp.mac(res.shapes, shapes)) > 1 - 1e-10)
+
+
+def test_a_long_thin_free_free_beam_keeps_its_three_rigid_modes_and_no_dense_matrix():
+    # 1,500 nodes 1 cm apart: K's condition number is about 1e13, so the rigid-body eigenvalues
+    # come out far from zero; they are known from the geometry and dropped all the same
+    n = 1500
+    m = FrameModel(name="thin", nodes=tuple(Node(i + 1, 0.01 * i, 0.0) for i in range(n)),
+                   materials={"m": Material(7e10, 2700.0, 0.33)}, sections={"s": Section(1e-4, 1e-9)},
+                   elements=tuple(Element(i + 1, i + 1, i + 2, "s", "m") for i in range(n - 1)))
+    tracemalloc.start()
+    try:
+        res = fp.modal_analysis(m, 4)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert res.n_rigid == 3 and res.mechanism is None
+    assert peak < 60 * 2**20  # one dense 4,500 x 4,500 matrix alone would be 162 MB
+    L = 0.01 * (n - 1)
+    beta_l = np.array([4.730040745, 7.853204624, 10.99560784, 14.13716549])  # free-free beam
+    exact = beta_l**2 / (2 * np.pi * L**2) * np.sqrt(7e10 * 1e-9 / (2700 * 1e-4))
+    np.testing.assert_allclose(res.frequencies_hz, exact, rtol=1e-5)
