@@ -12,8 +12,8 @@ modes (rigid-body motions, mechanisms), counted at the initial parameters, are c
 dropped as the dense path drops them.
 
 A batch of points on a model of `PARALLEL_MIN_DOFS` free DOFs or more is split over `workers`
-processes (forked once per solver, kept for its later batches; SuperLU and the ARPACK driver
-hold the GIL, so threads gave no speed-up), each with one BLAS thread. The points are
+processes: this one and a pool of forked workers shared by all models (SuperLU and the ARPACK
+driver hold the GIL, so threads gave no speed-up), each with one BLAS thread. The points are
 independent and each is solved by the same code from the same start vector, so the result is
 the same for any worker count and any batch.
 """
@@ -22,7 +22,8 @@ from __future__ import annotations
 
 import multiprocessing
 import os
-import weakref
+import pickle
+import uuid
 from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
@@ -47,17 +48,35 @@ def default_workers() -> int:
     return max(1, min(n, 8))
 
 
-_SOLVER: "SparseModalSolver | None" = None  # the solver of a worker process (set by fork)
+# One pool of worker processes for the whole program (not one per model: a diagnosis builds
+# hundreds of models), started at the first parallel batch. A task carries its solver pickled
+# once (a few MB at 9,000 DOFs) and a token; a worker keeps the last few solvers it was sent.
+_POOL: ProcessPoolExecutor | None = None
+_POOL_SIZE = 0
+_KEPT: dict[str, "SparseModalSolver"] = {}
+_KEEP = 4
 
 
-def _adopt(solver: "SparseModalSolver") -> None:
-    global _SOLVER
-    _SOLVER = solver
+def _pool(size: int) -> ProcessPoolExecutor:
+    """The shared pool, with at least `size` processes."""
+    global _POOL, _POOL_SIZE
+    if _POOL is None or _POOL_SIZE < size:
+        if _POOL is not None:
+            _POOL.shutdown(wait=True)
+        _POOL = ProcessPoolExecutor(size, mp_context=multiprocessing.get_context("fork"))
+        _POOL_SIZE = size
+    return _POOL
 
 
-def _chunk(theta: np.ndarray, n_modes: int, rows, sens: bool):
+def _chunk(token: str, blob: bytes, theta: np.ndarray, n_modes: int, rows, sens: bool):
     """A worker's share of a batch: the per-point results of `theta` (c, p), in order."""
-    return [_SOLVER._modes(t, n_modes, rows, sens) for t in theta]
+    solver = _KEPT.get(token)
+    if solver is None:
+        solver = pickle.loads(blob)
+        if len(_KEPT) >= _KEEP:
+            _KEPT.pop(next(iter(_KEPT)))
+        _KEPT[token] = solver
+    return [solver._modes(t, n_modes, rows, sens) for t in theta]
 
 
 class SparseModalSolver:
@@ -89,6 +108,7 @@ class SparseModalSolver:
         self.m_data0, self.gm = self._affine(slot[nk:], m_trip, len(lin))
         self.mass_constant = self.gm.nnz == 0
         self._v0 = np.random.default_rng(0).uniform(0.5, 1.5, n)  # fixed: reproducible
+        self._token, self._blob = uuid.uuid4().hex, None  # how worker processes know this solver
         self.sigma = -1.0  # provisional; set from the first elastic mode below
         self._order(x0)
         lam = self._lowest(x0[None, :])
@@ -226,8 +246,8 @@ class SparseModalSolver:
         w = min(self.workers, len(theta)) if self.n_free >= PARALLEL_MIN_DOFS else 1
         if w > 1:
             parts = np.array_split(theta, w)
-            pool = self._workers_pool()
-            futures = [pool.submit(_chunk, part, n_modes, rows, sens) for part in parts[1:]]
+            pool, blob = _pool(w - 1), self._pickled()
+            futures = [pool.submit(_chunk, self._token, blob, part, n_modes, rows, sens) for part in parts[1:]]
             res = [self._modes(t, n_modes, rows, sens) for t in parts[0]]  # this process takes a share
             for f in futures:
                 res += f.result()
@@ -239,23 +259,18 @@ class SparseModalSolver:
         return lam, phi, dlam
 
     def set_workers(self, n: int) -> None:
-        """Use `n` processes for later batches (the worker processes are started anew)."""
-        if getattr(self, "_pool", None) is not None:
-            self._pool.shutdown(wait=True, cancel_futures=True)
-            self._pool = None
+        """Split later batches over `n` processes (this one and n - 1 workers)."""
         self.workers = max(1, int(n))
 
-    def _workers_pool(self) -> ProcessPoolExecutor:
-        """workers - 1 forked processes that hold this solver, started at the first batch."""
-        if getattr(self, "_pool", None) is None:
-            self._pool = ProcessPoolExecutor(self.workers - 1, mp_context=multiprocessing.get_context("fork"),
-                                             initializer=_adopt, initargs=(self,))
-            weakref.finalize(self, self._pool.shutdown, wait=False, cancel_futures=True)
-        return self._pool
+    def _pickled(self) -> bytes:
+        """This solver pickled, once (it does not change after construction)."""
+        if self._blob is None:
+            self._blob = pickle.dumps(self, protocol=pickle.HIGHEST_PROTOCOL)
+        return self._blob
 
     def __getstate__(self):
         state = self.__dict__.copy()
-        state["_pool"] = None  # a copy starts its own workers
+        state["_blob"] = None
         return state
 
     def eigen(self, theta: np.ndarray, n_modes: int, vectors: bool = False, rows=None):
