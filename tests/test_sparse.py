@@ -231,3 +231,25 @@ def test_a_long_thin_free_free_beam_keeps_its_three_rigid_modes_and_no_dense_mat
     beta_l = np.array([4.730040745, 7.853204624, 10.99560784, 14.13716549])  # free-free beam
     exact = beta_l**2 / (2 * np.pi * L**2) * np.sqrt(7e10 * 1e-9 / (2700 * 1e-4))
     np.testing.assert_allclose(res.frequencies_hz, exact, rtol=1e-5)
+
+
+def test_least_squares_with_hundreds_of_parameters_on_a_1000_dof_frame():
+    m = grid_frame(9, 35)
+    m = m.replace(measured_dofs=tuple((n, "x") for n in range(20, 361, 10)))
+    pars = fp.element_moduli(m, lower=1.8e11, upper=2.4e11)  # 665 parameters
+    rng = np.random.default_rng(6)
+    truth = rng.uniform(1.9e11, 2.3e11, len(pars))
+    data = fp.synthetic_measurement(m, 6, parameters=pars, theta=truth, seed=1)
+    problem = fp.UpdatingProblem(m, data, parameters=pars, n_model_modes=8)
+    assert problem.system.path == "sparse" and problem.n_var == 665 and problem.system.n_free == 1050
+    x = rng.uniform(1.9e11, 2.3e11, len(pars))
+    ls = problem.least_squares(x)
+    assert ls.jacobian.shape == (6, 665)
+    np.testing.assert_allclose(ls.f, problem.evaluate(x)[0], rtol=1e-12)
+    for k in (0, 333, 664):
+        h = 1e-3 * x[k]  # the eigen-solver's 1e-14 noise must stay far below the step's effect
+        up, dn = x.copy(), x.copy()
+        up[k] += h
+        dn[k] -= h
+        fd = (problem.residuals(up)[0] - problem.residuals(dn)[0]) / (2 * h)
+        np.testing.assert_allclose(ls.jacobian[:, k], fd, rtol=1e-4, atol=1e-6 * np.abs(ls.jacobian).max())
