@@ -68,7 +68,7 @@ def _pool(size: int) -> ProcessPoolExecutor:
     return _POOL
 
 
-def _chunk(token: str, blob: bytes, theta: np.ndarray, n_modes: int, rows, sens: bool):
+def _chunk(token: str, blob: bytes, theta: np.ndarray, n_modes: int, shapes: bool, rows, sens: bool):
     """A worker's share of a batch: the per-point results of `theta` (c, p), in order."""
     solver = _KEPT.get(token)
     if solver is None:
@@ -76,7 +76,7 @@ def _chunk(token: str, blob: bytes, theta: np.ndarray, n_modes: int, rows, sens:
         if len(_KEPT) >= _KEEP:
             _KEPT.pop(next(iter(_KEPT)))
         _KEPT[token] = solver
-    return [solver._modes(t, n_modes, rows, sens) for t in theta]
+    return [solver._modes(t, n_modes, shapes, rows, sens) for t in theta]
 
 
 class SparseModalSolver:
@@ -219,9 +219,10 @@ class SparseModalSolver:
         order = np.argsort(lam)
         return lam[order], phi[:, order]
 
-    def _modes(self, theta: np.ndarray, n_modes: int, rows, sens: bool):
-        """One point: elastic eigenvalues, shapes (all rows or `rows`), and d lambda / d theta."""
-        need_vec = rows is not False or sens
+    def _modes(self, theta: np.ndarray, n_modes: int, shapes: bool, rows, sens: bool):
+        """One point: elastic eigenvalues, with `shapes` the shapes (all rows, or `rows`), with
+        `sens` d lambda / d theta."""
+        need_vec = shapes or sens
         lam, phi = self._point(theta, self.n_rigid + n_modes, need_vec)
         lam = lam[self.n_rigid:]
         if not need_vec:
@@ -234,12 +235,12 @@ class SparseModalSolver:
         if sens:  # phi^T (dK_k - lambda dM_k) phi through the triplet map: no matrix per parameter
             q = phi[self.rows] * phi[self.cols]                  # (nnz, m)
             dlam = (self.gk.T @ q).T - lam[:, None] * (self.gm.T @ q).T
-        if rows is not None and rows is not False:
+        if rows is not None:
             phi = phi[np.clip(rows, 0, None)] * (np.asarray(rows) >= 0)[:, None]
-        return lam, (phi if rows is not False else None), dlam
+        return lam, (phi if shapes else None), dlam
 
     # -- batches --------------------------------------------------------------------------
-    def _batch(self, theta: np.ndarray, n_modes: int, rows, sens: bool):
+    def _batch(self, theta: np.ndarray, n_modes: int, shapes: bool, rows, sens: bool):
         theta = np.atleast_2d(np.asarray(theta, dtype=float))
         if n_modes > self.n_elastic:
             raise ValueError(f"model {self.name!r} has only {self.n_elastic} elastic modes, asked for {n_modes}")
@@ -247,12 +248,13 @@ class SparseModalSolver:
         if w > 1:
             parts = np.array_split(theta, w)
             pool, blob = _pool(w - 1), self._pickled()
-            futures = [pool.submit(_chunk, self._token, blob, part, n_modes, rows, sens) for part in parts[1:]]
-            res = [self._modes(t, n_modes, rows, sens) for t in parts[0]]  # this process takes a share
+            futures = [pool.submit(_chunk, self._token, blob, part, n_modes, shapes, rows, sens)
+                       for part in parts[1:]]
+            res = [self._modes(t, n_modes, shapes, rows, sens) for t in parts[0]]  # this process takes a share
             for f in futures:
                 res += f.result()
         else:
-            res = [self._modes(t, n_modes, rows, sens) for t in theta]
+            res = [self._modes(t, n_modes, shapes, rows, sens) for t in theta]
         lam = np.stack([r[0] for r in res])
         phi = np.stack([r[1] for r in res]) if res[0][1] is not None else None
         dlam = np.stack([r[2] for r in res]) if sens else None
@@ -277,13 +279,13 @@ class SparseModalSolver:
         """Lowest `n_modes` elastic eigenpairs for a population theta (b, p), as the dense
         `ModalSolver.eigen`: omega^2 (b, n_modes) and, with `vectors`, mass-normalised shapes
         (b, n_free, n_modes), or (b, len(rows), n_modes) at `rows` only (row -1: zero)."""
-        lam, phi, _ = self._batch(theta, n_modes, (None if rows is None else rows) if vectors else False, False)
+        lam, phi, _ = self._batch(theta, n_modes, vectors, rows, False)
         return lam, phi
 
     def eigen_sensitivities(self, theta: np.ndarray, n_modes: int, rows=None):
         """Eigenvalues, shapes (all free DOFs, or at `rows`) and d(omega^2)/d(theta)
         (b, n_modes, p): phi^T (dK_k - lambda dM_k) phi summed over the pattern's triplets."""
-        return self._batch(theta, n_modes, rows, True)
+        return self._batch(theta, n_modes, True, rows, True)
 
 
 __all__ = ["PARALLEL_MIN_DOFS", "SparseModalSolver", "default_workers"]
