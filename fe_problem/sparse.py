@@ -25,6 +25,7 @@ import os
 import pickle
 import uuid
 from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 
 import numpy as np
 import scipy.linalg
@@ -68,6 +69,13 @@ def _pool(size: int) -> ProcessPoolExecutor:
         _POOL = ProcessPoolExecutor(size, mp_context=multiprocessing.get_context("fork"))
         _POOL_SIZE = size
     return _POOL
+
+
+def _drop_pool() -> None:
+    global _POOL, _POOL_SIZE
+    if _POOL is not None:
+        _POOL.shutdown(wait=False, cancel_futures=True)
+    _POOL, _POOL_SIZE = None, 0
 
 
 def _chunk(token: str, blob: bytes, theta: np.ndarray, n_modes: int, shapes: bool, rows, sens: bool):
@@ -249,18 +257,31 @@ class SparseModalSolver:
         w = min(self.workers, len(theta)) if self.n_free >= PARALLEL_MIN_DOFS else 1
         if w > 1:
             parts = np.array_split(theta, w)
-            pool, blob = _pool(w - 1), self._pickled()
-            futures = [pool.submit(_chunk, self._token, blob, part, n_modes, shapes, rows, sens)
-                       for part in parts[1:]]
+            futures = self._submit(parts[1:], n_modes, shapes, rows, sens)
             res = [self._modes(t, n_modes, shapes, rows, sens) for t in parts[0]]  # this process takes a share
-            for f in futures:
-                res += f.result()
+            for f, part in zip(futures, parts[1:]):
+                try:
+                    res += f.result()
+                except BrokenProcessPool:  # a worker died (killed, out of memory): do its share here
+                    _drop_pool()
+                    res += [self._modes(t, n_modes, shapes, rows, sens) for t in part]
         else:
             res = [self._modes(t, n_modes, shapes, rows, sens) for t in theta]
         lam = np.stack([r[0] for r in res])
         phi = np.stack([r[1] for r in res]) if res[0][1] is not None else None
         dlam = np.stack([r[2] for r in res]) if sens else None
         return lam, phi, dlam
+
+    def _submit(self, parts, n_modes: int, shapes: bool, rows, sens: bool) -> list:
+        """Hand `parts` to the shared pool; a pool found broken is replaced once."""
+        blob = self._pickled()
+        for attempt in range(2):
+            try:
+                pool = _pool(len(parts))
+                return [pool.submit(_chunk, self._token, blob, part, n_modes, shapes, rows, sens) for part in parts]
+            except BrokenProcessPool:
+                _drop_pool()
+        raise RuntimeError("the worker processes of the sparse solver cannot be started")
 
     def set_workers(self, n: int) -> None:
         """Split later batches over `n` processes (this one and n - 1 workers)."""

@@ -253,3 +253,23 @@ def test_least_squares_with_hundreds_of_parameters_on_a_1000_dof_frame():
         dn[k] -= h
         fd = (problem.residuals(up)[0] - problem.residuals(dn)[0]) / (2 * h)
         np.testing.assert_allclose(ls.jacobian[:, k], fd, rtol=1e-4, atol=1e-6 * np.abs(ls.jacobian).max())
+
+
+def test_a_batch_survives_a_worker_process_that_dies():
+    import os
+    import signal
+    import time
+
+    import fe_problem.sparse as fs
+
+    m = grid_frame(9, 10)
+    system = fp.AffineModel(m, workers=2)
+    theta = np.zeros((4, 0))
+    for wait_s in (0.0, 1.0):  # the death seen when the results are collected, or already at submit
+        lam, _ = system.eigen(theta, 6)  # (re)starts the shared pool
+        for pid in list(fs._POOL._processes):
+            os.kill(pid, signal.SIGKILL)
+        time.sleep(wait_s)
+        again, _ = system.eigen(theta, 6)  # the dead worker's share done here, or by a new pool
+        assert np.array_equal(again, lam) and np.all(again == again[0])
+    assert np.array_equal(system.eigen(theta, 6)[0], lam) and fs._POOL is not None
