@@ -30,7 +30,7 @@ from concurrent.futures.process import BrokenProcessPool
 import numpy as np
 import scipy.linalg
 import scipy.sparse as sp
-from scipy.sparse.linalg import LinearOperator, eigsh, splu
+from scipy.sparse.linalg import ArpackNoConvergence, LinearOperator, eigsh, splu
 
 
 #: Free DOFs from which a batch of points is split over worker processes (below: one process).
@@ -221,8 +221,17 @@ class SparseModalSolver:
             lam, phi = scipy.linalg.eigh(kmat.toarray(), mmat.toarray(), subset_by_index=(0, k - 1))
             return lam, phi
         op = LinearOperator(kmat.shape, matvec=self._factor(kd - self.sigma * md), dtype=float)
-        out = eigsh(kmat, k=k, M=mmat, sigma=self.sigma, which="LM", OPinv=op, v0=self._v0,
-                    ncv=min(self.n_free, max(2 * k + 1, 20)), tol=0.0, return_eigenvectors=vectors)
+        ncv = max(2 * k + 1, 20)
+        while True:  # a wider Krylov space if the first does not converge (never seen on frames)
+            try:
+                out = eigsh(kmat, k=k, M=mmat, sigma=self.sigma, which="LM", OPinv=op, v0=self._v0,
+                            ncv=min(self.n_free, ncv), tol=0.0, return_eigenvectors=vectors)
+                break
+            except ArpackNoConvergence:
+                if ncv >= min(self.n_free, 8 * k + 40):
+                    raise ValueError(f"model {self.name!r}: the Lanczos iteration for the lowest {k} modes did "
+                                     "not converge at this point") from None
+                ncv *= 2
         if not vectors:
             return np.sort(out), None
         lam, phi = out

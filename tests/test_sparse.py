@@ -273,3 +273,30 @@ def test_a_batch_survives_a_worker_process_that_dies():
         again, _ = system.eigen(theta, 6)  # the dead worker's share done here, or by a new pool
         assert np.array_equal(again, lam) and np.all(again == again[0])
     assert np.array_equal(system.eigen(theta, 6)[0], lam) and fs._POOL is not None
+
+
+def test_a_lanczos_run_that_does_not_converge_is_retried_wider_then_named(monkeypatch):
+    import fe_problem.sparse as fs
+    from scipy.sparse.linalg import ArpackNoConvergence
+
+    system = fp.AffineModel(grid_frame(9, 10), workers=1)
+    reference, _ = system.eigen(np.zeros((1, 0)), 6)
+    real, calls = fs.eigsh, []
+
+    def flaky(*args, **kw):
+        calls.append(kw["ncv"])
+        if len(calls) == 1:
+            raise ArpackNoConvergence("ARPACK error -1: No convergence", np.zeros(0), np.zeros((0, 0)))
+        return real(*args, **kw)
+
+    monkeypatch.setattr(fs, "eigsh", flaky)
+    lam, _ = system.eigen(np.zeros((1, 0)), 6)
+    assert calls == [20, 40]
+    np.testing.assert_allclose(lam, reference, rtol=1e-12)
+
+    def never(*args, **kw):
+        raise ArpackNoConvergence("ARPACK error -1: No convergence", np.zeros(0), np.zeros((0, 0)))
+
+    monkeypatch.setattr(fs, "eigsh", never)
+    with pytest.raises(ValueError, match="'grid9x10': the Lanczos iteration for the lowest 6 modes did not converge"):
+        system.eigen(np.zeros((1, 0)), 6)
