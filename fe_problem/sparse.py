@@ -12,7 +12,7 @@ modes (rigid-body motions, mechanisms), counted at the initial parameters, are c
 dropped as the dense path drops them.
 
 A batch of points on a model of `PARALLEL_MIN_DOFS` free DOFs or more is split over `workers`
-processes: this one and a pool of forked workers shared by all models (SuperLU and the ARPACK
+processes: this one and a pool of worker processes shared by all models (SuperLU and the ARPACK
 driver hold the GIL, so threads gave no speed-up), each with one BLAS thread. The points are
 independent and each is solved by the same code from the same start vector, so the result is
 the same for any worker count and any batch.
@@ -39,11 +39,24 @@ from scipy.sparse.linalg import ArpackNoConvergence, LinearOperator, eigsh, splu
 PARALLEL_MIN_DOFS = 200
 
 
+#: Environment variable that fixes the processes of a batch (`default_workers`); the study
+#: executors set it to 1 in the processes that run a study's runs, whose own parallelism is the
+#: study's (its --workers): a run's batches must not start processes of their own there.
+WORKERS_ENV = "FEMU_SOLVER_WORKERS"
+
+
 def default_workers() -> int:
-    """Processes for a batch of points: the cores this process may use (at most 8); 1 inside a
-    daemonic process (a worker of a pool, which may not start processes of its own)."""
+    """Processes for a batch of points: `FEMU_SOLVER_WORKERS` when set, else the cores this
+    process may use (at most 8); 1 inside a daemonic process (a worker of a pool, which may not
+    start processes of its own)."""
     if multiprocessing.current_process().daemon:
         return 1
+    env = os.environ.get(WORKERS_ENV, "").strip()
+    if env:
+        try:
+            return max(1, int(env))
+        except ValueError:
+            raise ValueError(f"{WORKERS_ENV}={env!r}: not a whole number of processes") from None
     try:
         n = len(os.sched_getaffinity(0))
     except AttributeError:  # not on Linux
@@ -66,7 +79,9 @@ def _pool(size: int) -> ProcessPoolExecutor:
     if _POOL is None or _POOL_SIZE < size:
         if _POOL is not None:
             _POOL.shutdown(wait=True)
-        _POOL = ProcessPoolExecutor(size, mp_context=multiprocessing.get_context("fork"))
+        # forkserver, not fork: this process may run threads (a progress bar, a Dask client) whose
+        # locks a forked child would inherit held; the solver reaches a worker pickled anyway
+        _POOL = ProcessPoolExecutor(size, mp_context=multiprocessing.get_context("forkserver"))
         _POOL_SIZE = size
     return _POOL
 
@@ -320,4 +335,4 @@ class SparseModalSolver:
         return self._batch(theta, n_modes, True, rows, True)
 
 
-__all__ = ["PARALLEL_MIN_DOFS", "SparseModalSolver", "default_workers"]
+__all__ = ["PARALLEL_MIN_DOFS", "WORKERS_ENV", "SparseModalSolver", "default_workers"]

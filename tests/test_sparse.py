@@ -300,3 +300,30 @@ def test_a_lanczos_run_that_does_not_converge_is_retried_wider_then_named(monkey
     monkeypatch.setattr(fs, "eigsh", never)
     with pytest.raises(ValueError, match="'grid9x10': the Lanczos iteration for the lowest 6 modes did not converge"):
         system.eigen(np.zeros((1, 0)), 6)
+
+
+def test_the_processes_of_a_batch_follow_the_environment_and_study_runs_use_one(monkeypatch):
+    import fe_problem.sparse as fs
+    from femu.studies import child
+
+    monkeypatch.setenv(fs.WORKERS_ENV, "3")
+    assert fs.default_workers() == 3 and fp.AffineModel(grid_frame(9, 10)).workers == 3
+    monkeypatch.setenv(fs.WORKERS_ENV, "many")
+    with pytest.raises(ValueError, match="FEMU_SOLVER_WORKERS='many': not a whole number"):
+        fs.default_workers()
+    # a run on a Dask worker is a fresh interpreter: its batches stay in it (the cluster's
+    # processes are the parallelism there); the env it is started with says so
+    seen = {}
+
+    class Stop(Exception):
+        pass
+
+    def popen(args, env, **kw):
+        seen.update(env)
+        raise Stop
+
+    monkeypatch.setattr(child.subprocess, "Popen", popen)
+    monkeypatch.setattr(child, "asdict", lambda task: {})
+    with pytest.raises(Stop):
+        child.run_task_in_child(None)
+    assert seen[fs.WORKERS_ENV] == "1"

@@ -43,7 +43,8 @@ def dask_task(task: Task) -> dict:
 def run_task_in_child(task: Task) -> dict:
     """Run a task in a fresh interpreter (``python -m femu.studies.child --run-task``), killed at
     the hard deadline: a ``timeout`` record then, a ``failed`` one if it dies."""
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
+    # one process per run: the run's parallelism is the cluster's, not the sparse solver's
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p), FEMU_SOLVER_WORKERS="1")
     with tempfile.TemporaryDirectory(prefix="femu-run-") as tmp:
         out, started, log = Path(tmp) / "record.json", Path(tmp) / "started", Path(tmp) / "stderr.txt"
         with open(log, "w") as err:
