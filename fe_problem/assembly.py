@@ -17,6 +17,7 @@ above (the crossover measured on this project's frames, see `SPARSE_MIN_DOFS`).
 from __future__ import annotations
 
 import numpy as np
+import scipy.linalg
 import scipy.sparse as sp
 
 from .model import FrameModel
@@ -97,17 +98,17 @@ class AffineModel:
             check_dense_size(model, p)
         k_trip, m_trip = terms.free_arrays()
         self._check_mass(m_trip)
+        # the rigid-body motions the supports allow are zero modes however ill-conditioned the
+        # model (an eigenvalue test alone can miss them, or take a real mode for one, on a fine mesh)
+        r, c, v, t = k_trip
+        k = sp.csr_matrix((v * np.append(self.x0, 1.0)[t], (r, c)), shape=(n, n))
+        allowed = self._rigid_allowed(k)
+        n_body = np.linalg.matrix_rank(allowed, tol=1e-9) if allowed.size else 0
         if self.path == "dense":
             k0, dk = dense_terms(k_trip, n, p)
             m0, dm = dense_terms(m_trip, n, p)
-            self._solver = ModalSolver(k0, m0, dk, dm, self.x0, model.name)
+            self._solver = ModalSolver(k0, m0, dk, dm, self.x0, model.name, n_body=n_body)
         else:
-            # the rigid-body motions the supports allow are zero modes however ill-conditioned
-            # the model (the eigenvalue test alone can miss them on a very fine mesh)
-            r, c, v, t = k_trip
-            k = sp.csr_matrix((v * np.append(self.x0, 1.0)[t], (r, c)), shape=(n, n))
-            allowed = self._rigid_allowed(k)
-            n_body = np.linalg.matrix_rank(allowed, tol=1e-9) if allowed.size else 0
             self._solver = SparseModalSolver(k_trip, m_trip, n, self.x0, model.name, workers, min_zero=n_body)
         #: None, or what moves in the zero-energy motions that are not rigid-body motions
         self.mechanism: str | None = self._find_mechanism() if self.n_rigid else None
@@ -189,8 +190,8 @@ class AffineModel:
         Such modes are dropped with the rigid-body modes; `femu model` shows this line."""
         k = self.stiffness(self.x0[None, :])[0]
         if self.path == "dense":
-            lam, vec = np.linalg.eigh(k)
-            null = vec[:, lam < ModalSolver.RIGID_TOL * max(lam.max(), 1e-300)]
+            # the modes the solver counted as zero-energy (the same rule, not a second one)
+            _, null = scipy.linalg.eigh(k, self.mass(self.x0[None, :])[0], subset_by_index=[0, self.n_rigid - 1])
         else:
             null = self._solver.zero_modes(self.x0)
         allowed = self._rigid_allowed(k)

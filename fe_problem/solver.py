@@ -33,38 +33,50 @@ def take_rows(phi: np.ndarray, rows) -> np.ndarray:
 class ModalSolver:
     """Eigen-solves of K0 + sum theta_k dK_k, M0 + sum theta_k dM_k (free DOFs only).
 
-    Rigid-body modes (zero eigenvalues at the initial parameters `x0`) are dropped;
-    `n_rigid` counts them and `n_elastic` the modes left. `name` names the model in errors.
+    Zero-energy modes are dropped: the `n_body` rigid-body motions the supports allow (known
+    from the geometry) and any other motion nothing strains at the initial parameters `x0` (a
+    mechanism); `n_rigid` counts them and `n_elastic` the modes left. `name` names the model in
+    errors.
     """
 
-    RIGID_TOL = 1e-12  # eigenvalue / largest eigenvalue below this is a rigid-body mode
+    #: An eigenvalue below this fraction of the 12th lowest is a zero-energy mode (the sparse
+    #: path's rule; relative to the largest eigenvalue, a fine mesh's axial stiffness would make
+    #: its first real mode look like zero)
+    ZERO_TOL = 1e-8
 
     def __init__(self, k0: np.ndarray, m0: np.ndarray, dk: np.ndarray, dm: np.ndarray, x0: np.ndarray,
-                 name: str):
+                 name: str, n_body: int = 0):
         self.k0, self.m0, self.dk, self.dm, self.name = k0, m0, dk, dm, name
         self.n_free = k0.shape[0]
         self.mass_constant = not np.any(dm)
-        n_fixed_null = self._project() if self.mass_constant else 0
+        n_fixed_null = self._project(n_body) if self.mass_constant else 0
         lam = np.linalg.eigvalsh(self.operator(x0[None, :]))[0]
-        self._skip = int(np.sum(lam < self.RIGID_TOL * lam.max()))  # zero modes left in the solve
+        # zero modes left in the solve: the rigid-body motions not projected out, and any other
+        # motion no element strains at x0 (a mechanism)
+        left = n_body - n_fixed_null
+        ref = lam[min(len(lam) - 1, left + 11)]
+        zero = int(np.sum(lam < self.ZERO_TOL * ref)) if ref > 0 else len(lam)
+        self._skip = max(zero, left)
         self.n_rigid = self._skip + n_fixed_null                      # rigid-body modes dropped
         self.n_elastic = self.n_free - self.n_rigid
 
-    def _project(self) -> int:
-        """Set up the mass-normalised, null-space-free operator; returns the directions dropped."""
+    def _project(self, n_body: int) -> int:
+        """Set up the mass-normalised operator without the rigid-body motions; returns the
+        directions dropped."""
         # Work in mass-normalised coordinates once: A = L^-1 K L^-T with M0 = L L^T.
         self._linv = np.linalg.inv(cholesky(self.m0, self.name))
         a0 = self._linv @ self.k0 @ self._linv.T
         da = self._linv @ self.dk @ self._linv.T        # (p, n, n); matmul, not a 3-operand einsum (O(p n^4))
-        # Motions that no parameter can strain (the rigid-body modes of a free structure)
-        # are eigenvectors of eigenvalue 0 for every theta: project them out once, exactly,
-        # so each solve is smaller (39 -> 36 DOFs for the free-free H-frame).
-        # Each term normalised by its own size (dA_k is per unit of theta_k, whose range can
-        # be anything): a direction is dropped only if every term is zero on it.
+        # The rigid-body motions (the supports allow `n_body` of them, known from the geometry)
+        # strain nothing for any theta: project them out once, so each solve is smaller (39 -> 36
+        # DOFs for the free-free H-frame). They are the `n_body` directions on which every term,
+        # each normalised by its own size (dA_k is per unit of theta_k, whose range can be
+        # anything), is smallest: the terms' own numerical null space. Their number comes from
+        # the geometry, not from a tolerance: on a fine mesh a real bending mode is 1e-12 of the
+        # axial stiffness, and a tolerance took it for a rigid-body mode.
         terms = [t / np.linalg.norm(t) for t in (a0, *da) if np.linalg.norm(t) > 0]
-        _, sv, vt = np.linalg.svd(np.vstack(terms), full_matrices=False)  # not the (p n)^2 U
-        keep = sv > 1e-10 * sv[0]
-        self._q = vt[keep].T                       # (n_free, n_kept) orthonormal
+        _, _, vt = np.linalg.svd(np.vstack(terms), full_matrices=False)  # not the (p n)^2 U
+        self._q = vt[: self.n_free - n_body].T      # (n_free, n_kept) orthonormal
         self._a0 = self._q.T @ a0 @ self._q
         k = self._q.shape[1]
         self._da_flat = (self._q.T @ da @ self._q).reshape(len(self.dk), k * k)

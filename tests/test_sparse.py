@@ -327,3 +327,19 @@ def test_the_processes_of_a_batch_follow_the_environment_and_study_runs_use_one(
     with pytest.raises(Stop):
         child.run_task_in_child(None)
     assert seen[fs.WORKERS_ENV] == "1"
+
+
+def test_the_dense_path_keeps_the_first_real_mode_of_a_fine_mesh():
+    """The H-frame split 16 times (579 DOFs): its axial stiffness is ~1e12 times its first
+    bending mode's, which a zero-mode test relative to the largest eigenvalue took for a fourth
+    rigid-body mode (the dense path dropped the 56 Hz mode)."""
+    from fe_problem.suite import split_hframe
+
+    m = split_hframe(16)
+    pars = fp.element_moduli(m)[:2]  # two parameters: the rest of the model is the constant part
+    dense, sparse = (fp.AffineModel(m, pars, solver=s) for s in ("dense", "sparse"))
+    assert (dense.n_rigid, dense.mechanism) == (3, None) == (sparse.n_rigid, sparse.mechanism)
+    lam_d, _ = dense.eigen(dense.x0[None, :], 8)
+    lam_s, _ = sparse.eigen(sparse.x0[None, :], 8)
+    np.testing.assert_allclose(lam_d, lam_s, rtol=1e-8)
+    assert 56.0 < np.sqrt(lam_d[0, 0]) / (2 * np.pi) < 56.5
