@@ -1,167 +1,44 @@
-"""K(theta), M(theta) of a model as affine sums, assembled once.
+"""K(theta), M(theta) of a model as affine sums, built once, and the solver path that uses them.
 
     K(theta) = K0 + sum_k theta_k dK_k,      M(theta) = M0 + sum_k theta_k dM_k
 
-with theta in physical units (parameters.py). `AffineModel` assembles K0, M0, dK_k, dM_k on
-the free DOFs once; the batched eigen-solver (solver.py) then evaluates a whole population
-with one tensor contraction and one eigen-solve, no Python loop per sample or per element.
+with theta in physical units (parameters.py). terms.py assembles every term as sparse
+triplets once; `AffineModel` hands them to one of two solvers behind one interface:
 
-DOFs: the model's nodal DOFs (its `layout`, node-major), then one extra rotation per released
-element end (the element's own end rotation, tied to the node's hinge rotation by a
-rotational spring). Supported DOFs are removed before solving.
+- "dense" (solver.py): n x n matrices per term, the whole population in one tensor
+  contraction and one batched LAPACK eigen-solve. Fastest for small models.
+- "sparse" (sparse.py): one CSR pattern, values affine in theta, the lowest modes per point
+  by shift-invert Lanczos; memory O(nnz), cost about linear in the DOFs.
+
+`solver="auto"` takes the dense path up to `SPARSE_MIN_DOFS` free DOFs and the sparse path
+above (the crossover measured on this project's frames, see `SPARSE_MIN_DOFS`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
-from .elements import element_matrices, profile_stiffness
 from .model import FrameModel
 from .parameters import Parameter
-from .solver import ModalSolver
+from .solver import ModalSolver, take_rows
+from .sparse import SparseModalSolver
+from .terms import DofMap, Terms, dense_terms
+
+#: Free DOFs above which `solver="auto"` takes the sparse path. Measured (benchmarks/
+#: crossover.py): per point, the dense batched eigvalsh and the sparse shift-invert solve
+#: cost the same at about this size on frames of beam elements (10 modes).
+SPARSE_MIN_DOFS = 200
+
+SOLVERS = ("auto", "dense", "sparse")
 
 
-@dataclass(frozen=True)
-class DofMap:
-    """Where every element end, spring and mass sits in the global DOF vector."""
-
-    n_nodal: int
-    n_total: int
-    element_dofs: np.ndarray          # (n_el, k) global DOF of each local DOF
-    hinges: dict[tuple[int, int], int]  # (element id, node id) -> hinge DOF
-    free: np.ndarray                   # indices of unsupported DOFs
-
-    @classmethod
-    def of(cls, model: FrameModel) -> "DofMap":
-        """The DOF map of `model`: nodal DOFs first, then one hinge DOF per released end."""
-        per, rot = model.layout.per_node, model.layout.rotation_position
-        n_nodal = model.n_dof
-        nxt = n_nodal
-        hinges: dict[tuple[int, int], int] = {}
-        edofs = np.zeros((len(model.elements), 2 * per), dtype=int)
-        for k, e in enumerate(model.elements):
-            for o, node, rel in ((0, e.node_i, e.release_i), (per, e.node_j, e.release_j)):
-                edofs[k, o:o + per] = model.node_dof_indices(node)
-                if rel is not None:
-                    hinges[(e.id, node)] = edofs[k, o + rot] = nxt
-                    nxt += 1
-        fixed = {model.dof_index(s.node, d) for s in model.supports for d in s.directions}
-        free = np.array([i for i in range(nxt) if i not in fixed], dtype=int)
-        return cls(n_nodal, nxt, edofs, hinges, free)
-
-
-def _scatter(n: int, dofs: np.ndarray, mats: np.ndarray) -> np.ndarray:
-    """Assemble element matrices (e, k, k) on DOFs (e, k) into one (n, n) matrix."""
-    out = np.zeros((n, n))
-    rows = np.broadcast_to(dofs[:, :, None], mats.shape)
-    cols = np.broadcast_to(dofs[:, None, :], mats.shape)
-    np.add.at(out, (rows.ravel(), cols.ravel()), mats.ravel())
-    return out
-
-
-def _two_dof(n: int, a: int, b: int | None, value: float) -> np.ndarray:
-    """A spring of unit `value` between DOFs a and b (b None: to ground)."""
-    out = np.zeros((n, n))
-    out[a, a] += value
-    if b is not None:
-        out[b, b] += value
-        out[a, b] -= value
-        out[b, a] -= value
-    return out
-
-
-def _unknown(model: FrameModel, what: str, ident, par: Parameter):
-    raise ValueError(f"parameter {par.label}: model {model.name!r} has no {what} {ident}")
-
-
-class _Assembly:
-    """The full-size (all DOFs) affine terms of one model and parameter set."""
-
-    def __init__(self, model: FrameModel, parameters: tuple[Parameter, ...]):
-        self.model, self.dofmap = model, DofMap.of(model)
-        n, p = self.dofmap.n_total, len(parameters)
-        self.k_el, self.m_el = element_matrices(model)
-        self.modulus = np.array([model.element_modulus_pa(e.id) for e in model.elements])
-        self.k_weight = self.modulus.copy()
-        self.m_weight = np.array([model.materials[e.material].density_kg_m3 for e in model.elements])
-        self.index = {e.id: i for i, e in enumerate(model.elements)}
-        self.dk, self.dm = np.zeros((p, n, n)), np.zeros((p, n, n))
-        self.k_extra = np.zeros((n, n))
-        self.taken: dict[str, set] = {"spring": set(), "release": set(), "mass": set()}
-        for i, par in enumerate(parameters):
-            self._term(i, par)
-
-    def _spring(self, s, value: float) -> np.ndarray:
-        m = self.model
-        return _two_dof(self.dofmap.n_total, m.dof_index(*s.dof_a), m.dof_index(*s.dof_b) if s.dof_b else None,
-                        value)
-
-    def _hinge(self, element_id: int, node: int, value: float) -> np.ndarray:
-        m = self.model
-        return _two_dof(self.dofmap.n_total, m.dof_index(node, m.layout.rotation),
-                        self.dofmap.hinges[(element_id, node)], value)
-
-    def _term(self, p: int, par: Parameter) -> None:
-        """Fill dK_p / dM_p of parameter `par` and take its share out of K0 / M0."""
-        model, dm, n = self.model, self.dofmap, self.dofmap.n_total
-        if par.kind in ("modulus", "density"):
-            rows = [self.index[t] if t in self.index else _unknown(model, "element", t, par) for t in par.targets]
-            w = np.zeros(len(model.elements))
-            w[rows] = 1.0
-            if par.kind == "modulus" and par.profile != "uniform":
-                try:
-                    k_w = profile_stiffness(model, model.element(par.targets[0]), par.profile)
-                except ValueError as exc:
-                    raise ValueError(f"parameter {par.label}: {exc}") from None
-                self.dk[p] = _scatter(n, dm.element_dofs[rows], k_w)
-                self.k_extra -= self.modulus[rows[0]] * self.dk[p]
-            elif par.kind == "modulus":
-                self.k_weight[rows] = 0.0
-                self.dk[p] = _scatter(n, dm.element_dofs, self.k_el * w[:, None, None])
-            else:
-                self.m_weight[rows] = 0.0
-                self.dm[p] = _scatter(n, dm.element_dofs, self.m_el * w[:, None, None])
-        elif par.kind == "mass":
-            for node in par.targets:
-                if node not in model.node_ids:
-                    _unknown(model, "node", node, par)
-                for d in model.node_dof_indices(node, model.layout.translations):
-                    self.dm[p, d, d] += 1.0
-                self.taken["mass"].add(node)
-        elif par.kind == "spring":
-            springs = {s.id: s for s in model.springs}
-            for sid in par.targets:
-                s = springs[sid] if sid in springs else _unknown(model, "spring", sid, par)
-                self.dk[p] += self._spring(s, 1.0)
-                self.taken["spring"].add(sid)
-        elif par.kind == "release":
-            key = tuple(par.targets)
-            if key not in dm.hinges:
-                raise ValueError(f"parameter {par.label}: element end {key} is not released in the model")
-            self.dk[p] = self._hinge(key[0], key[1], 1.0)
-            self.taken["release"].add(key)
-
-    def constant(self) -> tuple[np.ndarray, np.ndarray]:
-        """K0, M0: everything no parameter holds."""
-        model, dm, n = self.model, self.dofmap, self.dofmap.n_total
-        k0 = _scatter(n, dm.element_dofs, self.k_el * self.k_weight[:, None, None]) + self.k_extra
-        m0 = _scatter(n, dm.element_dofs, self.m_el * self.m_weight[:, None, None])
-        for lm in model.masses:
-            if lm.node not in self.taken["mass"]:
-                for d in model.node_dof_indices(lm.node, model.layout.translations):
-                    m0[d, d] += lm.mass_kg
-            r = model.dof_index(lm.node, model.layout.rotation)
-            m0[r, r] += lm.inertia_kg_m2
-        for s in model.springs:
-            if s.id not in self.taken["spring"]:
-                k0 += self._spring(s, s.stiffness)
-        for e in model.elements:
-            for node, rel in ((e.node_i, e.release_i), (e.node_j, e.release_j)):
-                if rel is not None and (e.id, node) not in self.taken["release"]:
-                    k0 += self._hinge(e.id, node, rel)
-        return k0, m0
+def solver_path(n_free: int, solver: str = "auto") -> str:
+    """The path ("dense" or "sparse") `AffineModel` takes for `n_free` free DOFs."""
+    if solver not in SOLVERS:
+        raise ValueError(f"solver must be one of {SOLVERS}, got {solver!r}")
+    if solver != "auto":
+        return solver
+    return "sparse" if n_free > SPARSE_MIN_DOFS else "dense"
 
 
 #: The most memory the dense path may take for one model's matrices (bytes): K0, M0 and one
@@ -187,31 +64,93 @@ def check_dense_size(model: FrameModel, n_params: int) -> None:
                          "use a coarser model or fewer parameters")
 
 
-class AffineModel(ModalSolver):
-    """K(theta), M(theta) of a model over a parameter set, reduced to the free DOFs.
+class AffineModel:
+    """K(theta), M(theta) of a model over a parameter set, reduced to the free DOFs, and the
+    solver of its modes.
 
-    Built once; `eigen(theta)` (solver.py) solves a whole population. Rigid-body modes (zero
-    eigenvalues of the unconstrained structure, counted at the initial parameters) are
-    dropped, and the `n_modes` lowest elastic modes are returned.
+    Built once; `eigen(theta, n_modes, vectors, rows)` solves a whole population, on the path
+    `path` ("dense" or "sparse": `solver="auto"` chooses by size, see `solver_path`; "dense" or
+    "sparse" forces one). Zero-energy modes (rigid-body motions of an unsupported structure,
+    mechanisms; counted at the initial parameters) are dropped, and the `n_modes` lowest
+    elastic modes are returned. `workers`: threads for a batch on the sparse path (default:
+    the cores this process may use); the result does not depend on it.
     """
 
-    def __init__(self, model: FrameModel, parameters: tuple[Parameter, ...] = ()):
+    def __init__(self, model: FrameModel, parameters: tuple[Parameter, ...] = (), solver: str = "auto",
+                 workers: int | None = None):
         self.model = model
         self.parameters = tuple(parameters)
-        check_dense_size(model, len(self.parameters))
-        asm = _Assembly(model, self.parameters)
-        self.dofmap = asm.dofmap
-        k0, m0 = asm.constant()
-        f = self.dofmap.free
-        self._check_mass(m0[np.ix_(f, f)] + np.einsum("p,pij->ij", self.x0, asm.dm[:, f][:, :, f]))
-        super().__init__(k0[np.ix_(f, f)], m0[np.ix_(f, f)], asm.dk[:, f][:, :, f], asm.dm[:, f][:, :, f],
-                         self.x0, model.name)
+        terms = Terms(model, self.parameters)
+        self.dofmap = terms.dofmap
+        n, p = len(self.dofmap.free), len(self.parameters)
+        self.path = solver_path(n, solver)
+        if self.path == "dense":
+            check_dense_size(model, p)
+        k_trip, m_trip = terms.free_arrays()
+        self._check_mass(m_trip)
+        if self.path == "dense":
+            k0, dk = dense_terms(k_trip, n, p)
+            m0, dm = dense_terms(m_trip, n, p)
+            self._solver = ModalSolver(k0, m0, dk, dm, self.x0, model.name)
+        else:
+            self._solver = SparseModalSolver(k_trip, m_trip, n, self.x0, model.name, workers)
         #: None, or what moves in the zero-energy motions that are not rigid-body motions
         self.mechanism: str | None = self._find_mechanism() if self.n_rigid else None
 
-    def _check_mass(self, m: np.ndarray) -> None:
-        """ValueError naming the model and the DOFs, if some free DOF carries no mass."""
-        massless = np.flatnonzero(np.diag(m) <= 0.0)
+    # -- the solver's interface (either path) ---------------------------------------------
+    @property
+    def n_free(self) -> int:
+        """Number of free (unsupported) DOFs."""
+        return self._solver.n_free
+
+    @property
+    def n_rigid(self) -> int:
+        """Zero-energy modes dropped (rigid-body motions and mechanisms)."""
+        return self._solver.n_rigid
+
+    @property
+    def n_elastic(self) -> int:
+        """Elastic modes the model has."""
+        return self._solver.n_elastic
+
+    @property
+    def k0(self):
+        """K0 on the free DOFs (dense array or CSR matrix, by path)."""
+        return self._solver.k0
+
+    @property
+    def m0(self):
+        """M0 on the free DOFs (dense array or CSR matrix, by path)."""
+        return self._solver.m0
+
+    def stiffness(self, theta: np.ndarray):
+        """K(theta) on the free DOFs for theta (b, p): (b, n, n) dense, or b CSR matrices."""
+        return self._solver.stiffness(theta)
+
+    def mass(self, theta: np.ndarray):
+        """M(theta) on the free DOFs for theta (b, p): (b, n, n) dense, or b CSR matrices."""
+        return self._solver.mass(theta)
+
+    def eigen(self, theta: np.ndarray, n_modes: int, vectors: bool = False, rows=None):
+        """Lowest `n_modes` elastic eigenpairs for a population theta (b, p): omega^2 (b, n_modes)
+        in (rad/s)^2 and, with `vectors`, mass-normalised shapes (b, n_free, n_modes), each
+        signed so that its largest entry is positive (else None); with `rows` (`nodal_rows`)
+        the shapes at those rows only, (b, len(rows), n_modes). ValueError if `n_modes` >
+        `n_elastic`."""
+        return self._solver.eigen(theta, n_modes, vectors, rows)
+
+    def eigen_sensitivities(self, theta: np.ndarray, n_modes: int, rows=None):
+        """Eigenvalues (b, m), shapes (as `eigen`, all free DOFs or at `rows`) and d(omega^2)/d(theta)
+        (b, m, p), from phi^T (dK_k - lambda dM_k) phi for mass-normalised phi."""
+        return self._solver.eigen_sensitivities(theta, n_modes, rows)
+
+    def _check_mass(self, m_trip) -> None:
+        """ValueError naming the model and the DOFs, if some free DOF carries no mass at x0."""
+        r, c, v, t = m_trip
+        d = r == c
+        scale = np.append(self.x0, 1.0)[t[d]]  # term -1 (the constant part) takes the last entry: 1
+        diag = np.bincount(r[d], weights=v[d] * scale, minlength=len(self.dofmap.free))
+        massless = np.flatnonzero(diag <= 0.0)
         if massless.size:
             names = self._dof_names()
             shown = ", ".join(names[i] for i in massless[:4]) + (" ..." if massless.size > 4 else "")
@@ -224,8 +163,11 @@ class AffineModel(ModalSolver):
         (a mechanism: a pin joint, a chain of hinges): their number and the DOFs that move most.
         Such modes are dropped with the rigid-body modes; `femu model` shows this line."""
         k = self.stiffness(self.x0[None, :])[0]
-        lam, vec = np.linalg.eigh(k)
-        null = vec[:, lam < self.RIGID_TOL * max(lam.max(), 1e-300)]
+        if self.path == "dense":
+            lam, vec = np.linalg.eigh(k)
+            null = vec[:, lam < ModalSolver.RIGID_TOL * max(lam.max(), 1e-300)]
+        else:
+            null = self._solver.zero_modes(self.x0)
         m = self.model
         rigid = np.zeros((self.dofmap.n_total, 3))
         rigid[: self.dofmap.n_nodal] = m.layout.rigid_motions(np.array([(n.x, n.y) for n in m.nodes]))
@@ -233,7 +175,7 @@ class AffineModel(ModalSolver):
             rigid[dof, 2] = 1.0
         r = rigid[self.dofmap.free]
         # the rigid motions the supports allow: combinations c with K r c = 0
-        _, sv, vt = np.linalg.svd(k @ r / max(np.abs(k).max(), 1e-300))
+        _, sv, vt = np.linalg.svd(k @ r / max(abs(k).max(), 1e-300))
         allowed = r @ vt[np.sum(sv > 1e-9):].T if sv.size else r
         if null.shape[1] <= (np.linalg.matrix_rank(allowed, tol=1e-9) if allowed.size else 0):
             return None
@@ -287,16 +229,15 @@ class AffineModel(ModalSolver):
         """Row indices into the free-DOF vector for nodal DOFs [(node, dir), ...].
 
         A supported DOF has no row: -1 (its shape entry is zero)."""
-        pos = {g: i for i, g in enumerate(self.dofmap.free)}
-        return np.array([pos.get(self.model.dof_index(n, d), -1) for n, d in dofs], dtype=int)
+        pos = np.full(self.dofmap.n_total, -1)
+        pos[self.dofmap.free] = np.arange(len(self.dofmap.free))
+        return np.array([pos[self.dofmap.dof(n, d, self.model)] for n, d in dofs], dtype=int)
 
     @staticmethod
     def at_rows(phi_free: np.ndarray, rows: np.ndarray) -> np.ndarray:
         """Shapes (b, n_free, k) at the rows `nodal_rows` gave: (b, len(rows), k), zero where
         a DOF is supported (row -1)."""
-        out = phi_free[:, np.clip(rows, 0, None), :]
-        out[:, rows < 0, :] = 0.0
-        return out
+        return take_rows(phi_free, rows)
 
 
-__all__ = ["AffineModel", "DofMap"]
+__all__ = ["AffineModel", "DofMap", "SPARSE_MIN_DOFS", "SOLVERS", "check_dense_size", "solver_path"]

@@ -79,6 +79,8 @@ class UpdatingProblem:
     shape_weight: weight of the sum of (1 - MAC) over paired modes with measured shapes
         (0 leaves the objective frequency-only; needs shapes in the data).
     n_model_modes: how many model modes to compute for pairing (default: measured + 4).
+    solver: ``"auto"`` (dense batched for small models, sparse shift-invert above
+        `fe_problem.assembly.SPARSE_MIN_DOFS` free DOFs), ``"dense"`` or ``"sparse"``.
 
     `evaluate(X)` takes one point (n_var,) or a population (n, n_var) and returns (n,)
     objective values; every row counts as one FE evaluation in `n_evals`.
@@ -86,14 +88,15 @@ class UpdatingProblem:
 
     def __init__(self, model: FrameModel | str | None = None, data: ModalData | str = "paper",
                  parameters: tuple[Parameter, ...] | None = None, weights="gamma",
-                 shape_weight: float = 0.0, n_model_modes: int | None = None, name: str | None = None):
+                 shape_weight: float = 0.0, n_model_modes: int | None = None, name: str | None = None,
+                 solver: str = "auto"):
         self.data = load_modal_data(data)
         self.model = self.data.load_model() if model is None else load_model(model)
         self.data.check_model(self.model)
         self.parameters = element_moduli(self.model) if parameters is None else tuple(parameters)
         if not self.parameters:
             raise ValueError("UpdatingProblem needs at least one parameter")
-        self.system = AffineModel(self.model, self.parameters)
+        self.system = AffineModel(self.model, self.parameters, solver=solver)
         m = self.data.n_modes
         if n_model_modes is not None and n_model_modes < m:
             raise ValueError(f"n_model_modes={n_model_modes} is fewer than the {m} measured modes of "
@@ -110,9 +113,9 @@ class UpdatingProblem:
             raise ValueError(f"shape_weight={shape_weight} but {self.data.source} has no measured shapes")
         self.shape_weight = float(shape_weight)
 
-        lam, phi = self.system.eigen(self.x0[None], self.n_model_modes, vectors=True)
+        lam, phi = self.system.eigen(self.x0[None], self.n_model_modes, vectors=True, rows=self.rows)
         f0 = frequencies_hz(lam[0])
-        self.pairing = pair_modes(self.data.frequencies_hz, f0, self.data.shapes, self._at_measured(phi)[0],
+        self.pairing = pair_modes(self.data.frequencies_hz, f0, self.data.shapes, phi[0],
                                   self.has_shape)
         if not self.pairing.paired.all():
             bad = np.flatnonzero(~self.pairing.paired)
@@ -185,22 +188,20 @@ class UpdatingProblem:
                              f"[{self.xl[c]:.6g}, {self.xu[c]:.6g}]")
         return X
 
-    def _at_measured(self, phi: np.ndarray) -> np.ndarray:
-        """Free-DOF shapes (b, n_free, k) at the measured DOFs (b, n_meas, k)."""
-        return self.system.at_rows(phi, self.rows)
-
     def _solve(self, X: np.ndarray, shapes: bool):
-        lam, phi = self.system.eigen(X, self.n_model_modes, vectors=shapes)
+        """Paired model frequencies (b, m) and, with `shapes`, shapes at the measured DOFs only."""
+        lam, phi = self.system.eigen(X, self.n_model_modes, vectors=shapes, rows=self.rows)
         f = frequencies_hz(lam)[:, self.model_index]
         return f, phi
 
     def objective_from_modes(self, f: np.ndarray, phi: np.ndarray | None) -> np.ndarray:
-        """J for paired model frequencies f (b, m) and free-DOF shapes (or None)."""
+        """J for paired model frequencies f (b, m) and the model's shapes at the measured DOFs
+        (b, n_measured_dofs, n_model_modes; `system.eigen(..., rows=self.rows)`), or None."""
         fm = self.data.frequencies_hz
         j = np.sum(self.weights * ((fm - f) / fm) ** 2, axis=1)
         if self.shape_weight:
             sel = np.flatnonzero(self.has_shape)
-            model = self._at_measured(phi)[:, :, self.model_index[sel]]
+            model = phi[:, :, self.model_index[sel]]
             measured = self.data.shapes[:, sel]
             macs = np.einsum("bii->bi", mac(measured[None], model))
             j = j + self.shape_weight * np.sum(1.0 - macs, axis=1)
@@ -234,7 +235,7 @@ class UpdatingProblem:
         X = self.check_x(x, "x")
         if X.shape[0] != 1:
             raise ValueError(f"least_squares takes one point, got {X.shape[0]}")
-        lam, phi, dlam = self.system.eigen_sensitivities(X, self.n_model_modes)
+        lam, phi, dlam = self.system.eigen_sensitivities(X, self.n_model_modes, rows=self.rows)
         self.n_evals += self.jacobian_cost_evals
         f = frequencies_hz(lam)[:, self.model_index]
         df = dlam[0, self.model_index, :] / (8.0 * np.pi**2 * f[0, :, None])
@@ -258,8 +259,8 @@ class UpdatingProblem:
         """Paired frequencies, errors, MAC and COMAC of the model at x (default x0): `correlate`
         with the problem's fixed pairing."""
         x = self.x0 if x is None else self.check_x(x, "x")[0]
-        lam, phi = self.system.eigen(x[None], self.n_model_modes, vectors=True)
-        c = correlate(frequencies_hz(lam[0]), self._at_measured(phi)[0], self.data, self.pairing)
+        lam, phi = self.system.eigen(x[None], self.n_model_modes, vectors=True, rows=self.rows)
+        c = correlate(frequencies_hz(lam[0]), phi[0], self.data, self.pairing)
         obj = float(self.objective_from_modes(c.model_hz[None], phi)[0])
         return CorrelationReport(x, c.measured_hz, c.model_hz, c.error_pct, c.mac, c.mac_matrix, c.comac,
                                  self.pairing, obj)

@@ -22,6 +22,14 @@ def cholesky(m: np.ndarray, name: str) -> np.ndarray:
                          "(a DOF with no mass: a released end of a massless element, or a zero density)") from None
 
 
+def take_rows(phi: np.ndarray, rows) -> np.ndarray:
+    """Shapes (b, n_free, k) at free-DOF `rows`: (b, len(rows), k), zero where a row is -1."""
+    rows = np.asarray(rows)
+    out = phi[:, np.clip(rows, 0, None), :]
+    out[:, rows < 0, :] = 0.0
+    return out
+
+
 class ModalSolver:
     """Eigen-solves of K0 + sum theta_k dK_k, M0 + sum theta_k dM_k (free DOFs only).
 
@@ -87,12 +95,14 @@ class ModalSolver:
             return np.broadcast_to(self._linv, (theta.shape[0],) + self._linv.shape)
         return np.linalg.inv(cholesky(self.mass(theta), self.name))
 
-    def eigen(self, theta: np.ndarray, n_modes: int, vectors: bool = False):
+    def eigen(self, theta: np.ndarray, n_modes: int, vectors: bool = False, rows=None):
         """Lowest `n_modes` elastic eigenpairs for a population theta (b, p).
 
         Returns eigenvalues omega^2 (b, n_modes) in (rad/s)^2 and, with `vectors`, mass-
         normalised shapes on the free DOFs (b, n_free, n_modes), each signed so that its
-        largest-magnitude entry is positive (else None). ValueError if `n_modes` > `n_elastic`.
+        largest-magnitude entry is positive (else None); with `rows` (free-DOF rows, -1 for a
+        supported DOF: zero) only those rows, (b, len(rows), n_modes).
+        ValueError if `n_modes` > `n_elastic`.
         """
         theta = np.atleast_2d(np.asarray(theta, dtype=float))
         if n_modes > self.n_elastic:
@@ -108,14 +118,16 @@ class ModalSolver:
             y = self._q @ y
         phi = np.swapaxes(self._linv_batch(theta), 1, 2) @ y
         big = np.take_along_axis(phi, np.abs(phi).argmax(axis=1)[:, None, :], axis=1)
-        return lam[:, sl], phi * np.where(big < 0, -1.0, 1.0)
+        phi = phi * np.where(big < 0, -1.0, 1.0)
+        return lam[:, sl], (phi if rows is None else take_rows(phi, rows))
 
-    def eigen_sensitivities(self, theta: np.ndarray, n_modes: int):
-        """Eigenvalues, shapes and d(omega^2)/d(theta) (b, n_modes, p) for theta (b, p).
+    def eigen_sensitivities(self, theta: np.ndarray, n_modes: int, rows=None):
+        """Eigenvalues, shapes (all free DOFs, or at `rows`) and d(omega^2)/d(theta)
+        (b, n_modes, p) for theta (b, p).
 
         For mass-normalised phi: d lambda / d theta_k = phi^T (dK_k - lambda dM_k) phi.
         """
         lam, phi = self.eigen(theta, n_modes, vectors=True)
         dk = np.einsum("bim,pij,bjm->bmp", phi, self.dk, phi)
         dm = np.einsum("bim,pij,bjm->bmp", phi, self.dm, phi)
-        return lam, phi, dk - lam[:, :, None] * dm
+        return lam, (phi if rows is None else take_rows(phi, rows)), dk - lam[:, :, None] * dm

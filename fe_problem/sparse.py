@@ -1,0 +1,195 @@
+"""The sparse modal solver: the lowest modes of K(theta) phi = omega^2 M(theta) phi by
+shift-invert Lanczos, for models too large for the dense batched path (solver.py).
+
+K and M share one CSR pattern on the free DOFs, fixed at construction: each matrix's values
+are `c0 + G @ theta` with G a sparse (nnz, p) map, so a point costs O(nnz) to build and no
+per-parameter matrix is ever dense. Each point factorises A = K - sigma M once (SuperLU,
+`scipy.sparse.linalg.splu`) and runs ARPACK (`scipy.sparse.linalg.eigsh`, shift-invert mode)
+from a fixed start vector, so a point's modes do not depend on the points solved before it or
+beside it. The shift sigma is negative (a fraction of the first elastic eigenvalue at the
+initial parameters), so A is positive definite even for a free-free structure; its zero-energy
+modes (rigid-body motions, mechanisms), counted at the initial parameters, are computed and
+dropped as the dense path drops them.
+
+A batch of points is spread over `workers` threads (SuperLU and ARPACK release the GIL for
+most of their work); the points are independent, so the result is the same for any worker
+count and any batch.
+"""
+
+from __future__ import annotations
+
+import os
+from concurrent.futures import ThreadPoolExecutor
+
+import numpy as np
+import scipy.linalg
+import scipy.sparse as sp
+from scipy.sparse.linalg import LinearOperator, eigsh, splu
+
+
+def default_workers() -> int:
+    """Threads for a batch of points: the cores this process may use (at most 8)."""
+    try:
+        n = len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        n = os.cpu_count() or 1
+    return max(1, min(n, 8))
+
+
+class SparseModalSolver:
+    """Eigen-solves of K0 + sum theta_k dK_k, M0 + sum theta_k dM_k (free DOFs) from triplets.
+
+    k_trip, m_trip: (rows, cols, vals, term) on the free DOFs, term -1 for the constant part
+    and k for parameter k (terms.py). `n_rigid` counts the zero-energy modes at `x0` (dropped),
+    `n_elastic` the modes left. `name` names the model in errors.
+    """
+
+    #: An eigenvalue below this fraction of the first clearly elastic one is a zero-energy mode.
+    ZERO_TOL = 1e-8
+    #: The shift is -SHIFT times the first elastic eigenvalue at the initial parameters.
+    SHIFT = 0.5
+
+    def __init__(self, k_trip, m_trip, n: int, x0: np.ndarray, name: str, workers: int | None = None):
+        self.n_free, self.name, self.n_params = n, name, len(x0)
+        self.workers = default_workers() if workers is None else int(workers)
+        rows = np.concatenate([k_trip[0], m_trip[0]])
+        cols = np.concatenate([k_trip[1], m_trip[1]])
+        lin, slot = np.unique(rows * n + cols, return_inverse=True)
+        self.rows, self.cols = lin // n, lin % n
+        self.indptr = np.concatenate([[0], np.cumsum(np.bincount(self.rows, minlength=n))])
+        nk = len(k_trip[0])
+        self.k_data0, self.gk = self._affine(slot[:nk], k_trip, len(lin))
+        self.m_data0, self.gm = self._affine(slot[nk:], m_trip, len(lin))
+        self.mass_constant = self.gm.nnz == 0
+        self._v0 = np.random.default_rng(0).uniform(0.5, 1.5, n)  # fixed: reproducible
+        self.sigma = -1.0  # provisional; set from the first elastic mode below
+        lam = self._lowest(x0[None, :])
+        nonzero = lam > self.ZERO_TOL * lam[-1] if lam[-1] > 0 else np.zeros(len(lam), bool)
+        self.n_rigid = int(len(lam) - nonzero.sum())
+        if nonzero.any():
+            self.sigma = -self.SHIFT * float(lam[nonzero][0])
+        self.n_elastic = n - self.n_rigid
+
+    def _affine(self, slot, trip, nnz: int):
+        """Constant values (nnz,) and the sparse (nnz, p) map G of one family."""
+        _, _, v, t = trip
+        const = t < 0
+        c0 = np.bincount(slot[const], weights=v[const], minlength=nnz)
+        g = sp.csr_matrix((v[~const], (slot[~const], t[~const])), shape=(nnz, self.n_params))
+        g.sum_duplicates()
+        return c0, g
+
+    def _lowest(self, x0: np.ndarray) -> np.ndarray:
+        """Eigenvalues at x0, enough to see every zero-energy mode and a few elastic ones."""
+        k = min(self.n_free, 12)
+        return self._point(x0[0], k, vectors=False)[0]
+
+    def zero_modes(self, x0: np.ndarray) -> np.ndarray:
+        """The zero-energy modes at x0 (n_free, n_rigid), M-orthonormal."""
+        return self._point(x0, self.n_rigid, vectors=True)[1] if self.n_rigid else np.zeros((self.n_free, 0))
+
+    # -- matrices ---------------------------------------------------------------------
+    def matrix(self, data: np.ndarray) -> sp.csr_matrix:
+        """A CSR matrix on the fixed pattern with values `data` (nnz,)."""
+        return sp.csr_matrix((data, self.cols, self.indptr), shape=(self.n_free, self.n_free))
+
+    def k_data(self, theta: np.ndarray) -> np.ndarray:
+        """Values of K(theta) on the pattern, for one point theta (p,)."""
+        return self.k_data0 + self.gk @ theta
+
+    def m_data(self, theta: np.ndarray) -> np.ndarray:
+        """Values of M(theta) on the pattern, for one point theta (p,)."""
+        return self.m_data0 + self.gm @ theta if not self.mass_constant else self.m_data0
+
+    def stiffness(self, theta: np.ndarray) -> list[sp.csr_matrix]:
+        """K(theta) on the free DOFs, one CSR matrix per row of theta (b, p)."""
+        return [self.matrix(self.k_data(t)) for t in np.atleast_2d(theta)]
+
+    def mass(self, theta: np.ndarray) -> list[sp.csr_matrix]:
+        """M(theta) on the free DOFs, one CSR matrix per row of theta (b, p)."""
+        return [self.matrix(self.m_data(t)) for t in np.atleast_2d(theta)]
+
+    @property
+    def k0(self) -> sp.csr_matrix:
+        """The constant part K0 (CSR)."""
+        return self.matrix(self.k_data0)
+
+    @property
+    def m0(self) -> sp.csr_matrix:
+        """The constant part M0 (CSR)."""
+        return self.matrix(self.m_data0)
+
+    # -- one point ----------------------------------------------------------------------
+    def _point(self, theta: np.ndarray, k: int, vectors: bool):
+        """The k lowest eigenpairs (zero-energy ones included) at one point theta (p,):
+        eigenvalues (k,) ascending and, with `vectors`, M-normalised vectors (n_free, k)."""
+        kd, md = self.k_data(theta), self.m_data(theta)
+        kmat, mmat = self.matrix(kd), self.matrix(md)
+        if k >= self.n_free - 1:  # ARPACK needs k < n - 1: a tiny model, solved densely
+            lam, phi = scipy.linalg.eigh(kmat.toarray(), mmat.toarray(), subset_by_index=(0, k - 1))
+            return lam, phi
+        a = sp.csc_matrix((kd - self.sigma * md, self.cols, self.indptr), shape=kmat.shape)  # symmetric
+        try:
+            lu = splu(a, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
+        except RuntimeError:
+            raise ValueError(f"model {self.name!r}: K - sigma M is singular at this point (a DOF with no "
+                             "stiffness and no mass?)") from None
+        op = LinearOperator(kmat.shape, matvec=lu.solve, dtype=float)
+        out = eigsh(kmat, k=k, M=mmat, sigma=self.sigma, which="LM", OPinv=op, v0=self._v0,
+                    ncv=min(self.n_free, max(2 * k + 1, 20)), tol=0.0, return_eigenvectors=vectors)
+        if not vectors:
+            return np.sort(out), None
+        lam, phi = out
+        order = np.argsort(lam)
+        return lam[order], phi[:, order]
+
+    def _modes(self, theta: np.ndarray, n_modes: int, rows, sens: bool):
+        """One point: elastic eigenvalues, shapes (all rows or `rows`), and d lambda / d theta."""
+        need_vec = rows is not False or sens
+        lam, phi = self._point(theta, self.n_rigid + n_modes, need_vec)
+        lam = lam[self.n_rigid:]
+        if not need_vec:
+            return lam, None, None
+        phi = phi[:, self.n_rigid:]
+        phi = phi / np.sqrt(np.einsum("im,im->m", phi, self.matrix(self.m_data(theta)) @ phi))
+        big = phi[np.abs(phi).argmax(axis=0), np.arange(phi.shape[1])]
+        phi = phi * np.where(big < 0, -1.0, 1.0)
+        dlam = None
+        if sens:  # phi^T (dK_k - lambda dM_k) phi through the triplet map: no matrix per parameter
+            q = phi[self.rows] * phi[self.cols]                  # (nnz, m)
+            dlam = (self.gk.T @ q).T - lam[:, None] * (self.gm.T @ q).T
+        if rows is not None and rows is not False:
+            phi = phi[np.clip(rows, 0, None)] * (np.asarray(rows) >= 0)[:, None]
+        return lam, (phi if rows is not False else None), dlam
+
+    # -- batches --------------------------------------------------------------------------
+    def _batch(self, theta: np.ndarray, n_modes: int, rows, sens: bool):
+        theta = np.atleast_2d(np.asarray(theta, dtype=float))
+        if n_modes > self.n_elastic:
+            raise ValueError(f"model {self.name!r} has only {self.n_elastic} elastic modes, asked for {n_modes}")
+        def one(t):
+            return self._modes(t, n_modes, rows, sens)
+        if self.workers > 1 and len(theta) > 1:
+            with ThreadPoolExecutor(min(self.workers, len(theta))) as pool:
+                res = list(pool.map(one, theta))
+        else:
+            res = [one(t) for t in theta]
+        lam = np.stack([r[0] for r in res])
+        phi = np.stack([r[1] for r in res]) if res[0][1] is not None else None
+        dlam = np.stack([r[2] for r in res]) if sens else None
+        return lam, phi, dlam
+
+    def eigen(self, theta: np.ndarray, n_modes: int, vectors: bool = False, rows=None):
+        """Lowest `n_modes` elastic eigenpairs for a population theta (b, p), as the dense
+        `ModalSolver.eigen`: omega^2 (b, n_modes) and, with `vectors`, mass-normalised shapes
+        (b, n_free, n_modes), or (b, len(rows), n_modes) at `rows` only (row -1: zero)."""
+        lam, phi, _ = self._batch(theta, n_modes, (None if rows is None else rows) if vectors else False, False)
+        return lam, phi
+
+    def eigen_sensitivities(self, theta: np.ndarray, n_modes: int, rows=None):
+        """Eigenvalues, shapes (all free DOFs, or at `rows`) and d(omega^2)/d(theta)
+        (b, n_modes, p): phi^T (dK_k - lambda dM_k) phi summed over the pattern's triplets."""
+        return self._batch(theta, n_modes, rows, True)
+
+
+__all__ = ["SparseModalSolver", "default_workers"]

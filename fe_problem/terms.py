@@ -1,0 +1,205 @@
+"""The affine terms of K(theta) and M(theta) as sparse triplets, assembled once.
+
+    K(theta) = K0 + sum_k theta_k dK_k,      M(theta) = M0 + sum_k theta_k dM_k
+
+Every contribution (an element's stiffness or mass, a spring, a hinge, a lumped mass) is a
+list of (row, column, value) triplets tagged with its term: -1 for K0 / M0, k for dK_k /
+dM_k. Both solver paths read the same triplets: the dense path scatters them into
+n x n arrays (solver.py), the sparse path into one fixed CSR pattern (sparse.py). So the
+rules of what each parameter holds live here, once, and memory is O(number of triplets).
+
+DOFs: the model's nodal DOFs (its `layout`, node-major), then one extra rotation per released
+element end (the element's own end rotation, tied to the node's hinge rotation by a
+rotational spring). Supported DOFs are removed by `Terms.free`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .elements import element_matrices, profile_stiffness
+from .model import FrameModel
+from .parameters import Parameter
+
+
+@dataclass(frozen=True)
+class DofMap:
+    """Where every element end, spring and mass sits in the global DOF vector."""
+
+    n_nodal: int
+    n_total: int
+    element_dofs: np.ndarray          # (n_el, k) global DOF of each local DOF
+    hinges: dict[tuple[int, int], int]  # (element id, node id) -> hinge DOF
+    free: np.ndarray                   # indices of unsupported DOFs
+    node_dofs: dict[int, np.ndarray]   # node id -> its nodal DOFs (layout order)
+
+    @classmethod
+    def of(cls, model: FrameModel) -> "DofMap":
+        """The DOF map of `model`: nodal DOFs first, then one hinge DOF per released end."""
+        lay = model.layout
+        per, rot = lay.per_node, lay.rotation_position
+        node_dofs = {n.id: per * k + np.arange(per) for k, n in enumerate(model.nodes)}
+        nxt = model.n_dof
+        hinges: dict[tuple[int, int], int] = {}
+        edofs = np.zeros((len(model.elements), 2 * per), dtype=int)
+        for k, e in enumerate(model.elements):
+            for o, node, rel in ((0, e.node_i, e.release_i), (per, e.node_j, e.release_j)):
+                edofs[k, o:o + per] = node_dofs[node]
+                if rel is not None:
+                    hinges[(e.id, node)] = edofs[k, o + rot] = nxt
+                    nxt += 1
+        fixed = np.zeros(nxt, dtype=bool)
+        for s in model.supports:
+            fixed[[node_dofs[s.node][lay.position(d)] for d in s.directions]] = True
+        return cls(model.n_dof, nxt, edofs, hinges, np.flatnonzero(~fixed), node_dofs)
+
+    def dof(self, node: int, direction: str, model: FrameModel) -> int:
+        """The global index of a nodal DOF."""
+        return int(self.node_dofs[node][model.layout.position(direction)])
+
+
+class Triplets:
+    """(row, col, value, term) lists of one matrix family (K or M) over all DOFs."""
+
+    def __init__(self):
+        self.parts: list[tuple[np.ndarray, np.ndarray, np.ndarray, int]] = []
+
+    def add(self, term: int, rows, cols, vals) -> None:
+        """Add values at (rows, cols) to term `term` (-1: the constant part)."""
+        r, c, v = np.broadcast_arrays(np.asarray(rows), np.asarray(cols), np.asarray(vals, dtype=float))
+        self.parts.append((r.ravel(), c.ravel(), v.ravel(), term))
+
+    def blocks(self, term: int, dofs: np.ndarray, mats: np.ndarray) -> None:
+        """Element matrices (e, k, k) on DOFs (e, k)."""
+        self.add(term, dofs[:, :, None], dofs[:, None, :], mats)
+
+    def two_dof(self, term: int, a: int, b: int | None, value: float) -> None:
+        """A spring of `value` between DOFs a and b (b None: to ground)."""
+        if b is None:
+            self.add(term, [a], [a], [value])
+        else:
+            self.add(term, [a, b, a, b], [a, b, b, a], [value, value, -value, -value])
+
+    def arrays(self, free: np.ndarray, n_total: int):
+        """(rows, cols, vals, term) on the free DOFs (renumbered), triplets on a support dropped."""
+        pos = np.full(n_total, -1)
+        pos[free] = np.arange(len(free))
+        if not self.parts:
+            return np.zeros(0, int), np.zeros(0, int), np.zeros(0), np.zeros(0, int)
+        r = pos[np.concatenate([p[0] for p in self.parts])]
+        c = pos[np.concatenate([p[1] for p in self.parts])]
+        v = np.concatenate([p[2] for p in self.parts])
+        t = np.concatenate([np.full(len(p[0]), p[3]) for p in self.parts])
+        keep = (r >= 0) & (c >= 0) & (v != 0.0)
+        return r[keep], c[keep], v[keep], t[keep]
+
+
+def _unknown(model: FrameModel, what: str, ident, par: Parameter):
+    raise ValueError(f"parameter {par.label}: model {model.name!r} has no {what} {ident}")
+
+
+class Terms:
+    """The affine terms of one model and parameter set, as triplets on all DOFs: `k`, `m`."""
+
+    def __init__(self, model: FrameModel, parameters: tuple[Parameter, ...]):
+        self.model, self.dofmap = model, DofMap.of(model)
+        self.n_params = len(parameters)
+        self.k, self.m = Triplets(), Triplets()
+        self.k_el, self.m_el = element_matrices(model)
+        mats = model.materials
+        self.modulus = np.array([e.youngs_modulus_pa if e.youngs_modulus_pa is not None
+                                 else mats[e.material].youngs_modulus_pa for e in model.elements])
+        self.k_weight = self.modulus.copy()
+        self.m_weight = np.array([mats[e.material].density_kg_m3 for e in model.elements])
+        self.index = {e.id: i for i, e in enumerate(model.elements)}
+        self.taken: dict[str, set] = {"spring": set(), "release": set(), "mass": set()}
+        for i, par in enumerate(parameters):
+            self._term(i, par)
+        self._constant()
+
+    def _dof(self, node: int, direction: str) -> int:
+        return self.dofmap.dof(node, direction, self.model)
+
+    def _spring(self, term: int, s, value: float) -> None:
+        self.k.two_dof(term, self._dof(*s.dof_a), self._dof(*s.dof_b) if s.dof_b else None, value)
+
+    def _hinge(self, term: int, element_id: int, node: int, value: float) -> None:
+        self.k.two_dof(term, self._dof(node, self.model.layout.rotation), self.dofmap.hinges[(element_id, node)],
+                       value)
+
+    def _translations(self, node: int) -> list[int]:
+        return [self._dof(node, d) for d in self.model.layout.translations]
+
+    def _term(self, p: int, par: Parameter) -> None:
+        """The triplets of dK_p / dM_p of parameter `par`; its share taken out of K0 / M0."""
+        model, edofs = self.model, self.dofmap.element_dofs
+        if par.kind in ("modulus", "density"):
+            rows = [self.index[t] if t in self.index else _unknown(model, "element", t, par) for t in par.targets]
+            if par.kind == "modulus" and par.profile != "uniform":
+                try:
+                    k_w = profile_stiffness(model, model.element(par.targets[0]), par.profile)
+                except ValueError as exc:
+                    raise ValueError(f"parameter {par.label}: {exc}") from None
+                self.k.blocks(p, edofs[rows], k_w)
+                self.k.blocks(-1, edofs[rows], -self.modulus[rows[0]] * k_w)
+            elif par.kind == "modulus":
+                self.k_weight[rows] = 0.0
+                self.k.blocks(p, edofs[rows], self.k_el[rows])
+            else:
+                self.m_weight[rows] = 0.0
+                self.m.blocks(p, edofs[rows], self.m_el[rows])
+        elif par.kind == "mass":
+            for node in par.targets:
+                if node not in self.dofmap.node_dofs:
+                    _unknown(model, "node", node, par)
+                t = self._translations(node)
+                self.m.add(p, t, t, 1.0)
+                self.taken["mass"].add(node)
+        elif par.kind == "spring":
+            springs = {s.id: s for s in model.springs}
+            for sid in par.targets:
+                self._spring(p, springs[sid] if sid in springs else _unknown(model, "spring", sid, par), 1.0)
+                self.taken["spring"].add(sid)
+        elif par.kind == "release":
+            key = tuple(par.targets)
+            if key not in self.dofmap.hinges:
+                raise ValueError(f"parameter {par.label}: element end {key} is not released in the model")
+            self._hinge(p, key[0], key[1], 1.0)
+            self.taken["release"].add(key)
+
+    def _constant(self) -> None:
+        """K0, M0: everything no parameter holds."""
+        model, edofs = self.model, self.dofmap.element_dofs
+        self.k.blocks(-1, edofs, self.k_el * self.k_weight[:, None, None])
+        self.m.blocks(-1, edofs, self.m_el * self.m_weight[:, None, None])
+        for lm in model.masses:
+            if lm.node not in self.taken["mass"]:
+                t = self._translations(lm.node)
+                self.m.add(-1, t, t, lm.mass_kg)
+            r = self._dof(lm.node, model.layout.rotation)
+            self.m.add(-1, [r], [r], [lm.inertia_kg_m2])
+        for s in model.springs:
+            if s.id not in self.taken["spring"]:
+                self._spring(-1, s, s.stiffness)
+        for e in model.elements:
+            for node, rel in ((e.node_i, e.release_i), (e.node_j, e.release_j)):
+                if rel is not None and (e.id, node) not in self.taken["release"]:
+                    self._hinge(-1, e.id, node, rel)
+
+    def free_arrays(self):
+        """The K and M triplets on the free DOFs: ((rows, cols, vals, term), (...))."""
+        f, n = self.dofmap.free, self.dofmap.n_total
+        return self.k.arrays(f, n), self.m.arrays(f, n)
+
+
+def dense_terms(trip, n: int, p: int) -> tuple[np.ndarray, np.ndarray]:
+    """The constant (n, n) and per-parameter (p, n, n) dense matrices of triplets `trip`."""
+    r, c, v, t = trip
+    out = np.zeros((p + 1, n, n))
+    np.add.at(out, (t + 1, r, c), v)
+    return out[0], out[1:]
+
+
+__all__ = ["DofMap", "Terms", "Triplets", "dense_terms"]
