@@ -15,10 +15,9 @@ import argparse
 import re
 import time
 
+from fe_problem.assembly import SOLVERS
+
 from ._args import positive_int, print_json
-
-SOLVERS = ("auto", "dense", "sparse")
-
 
 def frame_size(text: str) -> tuple[int, int]:
     """An argparse type: BAYSxSTOREYS, two whole numbers >= 1 (``10x50``)."""
