@@ -1,0 +1,136 @@
+"""First-order screening of every candidate from one set of modes (large models).
+
+`fit.screen` judges a candidate by one exact step: one eigen-solve of the candidate's own
+system each. On a large model (thousands of candidates, each system thousands of DOFs) that
+is the whole cost of a diagnosis. Here the step is taken on the first-order modes instead:
+
+- eigenvalues: d lambda_i = phi_i^T D_i phi_i (D_i: the candidate's `Term`, local.py);
+- shapes at the measured coordinates C: C d phi_i = -G_i^T (D_i phi_i) + c_i C phi_i (Nelson's
+  derivative with the particular part M-orthogonal to phi_i), where G_i = Z_i C^T and
+  Z_i = sum_{j != i} phi_j phi_j^T / (lambda_j - lambda_i) is applied through one sparse
+  factorisation per mode of the bordered matrix [[K - lambda_i M, M phi_i], [phi_i^T M, 0]]
+  with the measured coordinates as right-hand sides (Z_i is symmetric: an adjoint solve).
+
+So the cost is one factorisation per mode plus a few flops per candidate and coordinate, and
+memory one (n_free x n_coord) block at a time. The screened step then goes through the same
+profiled residuals as `fit.screen` (`screen_linear`), so both screens rank on one scale.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.linalg import splu
+
+from ..assembly import AffineModel
+from ..modal import frequencies_hz
+from .fit import Fit, profiled
+from .local import Term
+from .residuals import Observations
+
+
+def _to_free(system: AffineModel, dofs: np.ndarray) -> np.ndarray:
+    """Model DOF indices to rows of the free-DOF vector; a supported DOF maps to row n_free
+    (a zero row appended to every free-DOF array)."""
+    pos = np.full(system.dofmap.n_total, system.n_free)
+    pos[system.dofmap.free] = np.arange(system.n_free)
+    return pos[dofs]
+
+
+def _groups(terms: list[Term]) -> dict[int, np.ndarray]:
+    """Candidate indices grouped by the number of DOFs their term touches (one einsum each)."""
+    sizes = np.array([len(t.dofs) for t in terms])
+    return {int(k): np.flatnonzero(sizes == k) for k in np.unique(sizes)}
+
+
+def first_order_modes(system: AffineModel, coords, n_modes: int, terms: list[Term]):
+    """Modes of `system` at x0 and their first-order change for each term.
+
+    Returns lam (m,), shapes at `coords` (n_coord, m), d lam (c, m), d shapes (c, n_coord, m)
+    for the c terms. Memory: one free-DOF block of n_free x n_coord per mode."""
+    x0 = system.x0[None, :]
+    lam, phi = system.eigen(x0, n_modes, vectors=True)
+    lam, phi = lam[0], phi[0]
+    k0, m0 = sp.csc_matrix(system.k0), sp.csc_matrix(system.m0)
+    n, rows = system.n_free, system.nodal_rows(coords)
+    ok = rows >= 0
+    c_t = sp.csc_matrix((np.ones(ok.sum()), (rows[ok], np.flatnonzero(ok))), shape=(n, len(rows)))
+    phi_c = np.where(ok[:, None], phi[np.clip(rows, 0, None)], 0.0)
+    phi_z = np.vstack([phi, np.zeros((1, n_modes))])
+    dlam = np.zeros((len(terms), n_modes))
+    dshape = np.zeros((len(terms), len(rows), n_modes))
+    groups = {k: (idx, _to_free(system, np.array([terms[i].dofs for i in idx])),
+                  np.array([terms[i].dk for i in idx]), np.array([terms[i].dm for i in idx]),
+                  np.array([terms[i].dm2 if terms[i].dm2 is not None else np.zeros_like(terms[i].dk) for i in idx]))
+              for k, idx in _groups(terms).items()}
+    for i in range(n_modes):
+        g = _adjoint(k0, m0, lam[i], phi[:, i], c_t)          # (n + 1, n_coord), last row zero
+        for idx, free, dk, dm, dm2 in groups.values():
+            d = dk - lam[i] * dm + lam[i] ** 2 * dm2            # (c, k, k)
+            u = phi_z[free, i]                                   # (c, k)
+            r = np.einsum("ckl,cl->ck", d, u)
+            dlam[idx, i] = np.einsum("ck,ck->c", u, r)
+            c_i = 0.5 * np.einsum("ck,ckl,cl->c", u, -dm + 2.0 * lam[i] * dm2, u)
+            dshape[idx, :, i] = -np.einsum("ckq,ck->cq", g[free], r) + c_i[:, None] * phi_c[None, :, i]
+    return lam, phi_c, dlam, dshape
+
+
+def _adjoint(k0, m0, lam: float, phi: np.ndarray, c_t) -> np.ndarray:
+    """G = Z C^T (n + 1 rows, the last zero) for one mode, through the bordered matrix."""
+    n = k0.shape[0]
+    b = m0 @ phi
+    bordered = sp.bmat([[k0 - lam * m0, sp.csc_matrix(b[:, None])], [sp.csc_matrix(b[None, :]), None]], format="csc")
+    rhs = c_t.toarray() - np.outer(b, phi @ c_t.toarray())   # P C^T: the part M-orthogonal to phi
+    sol = splu(bordered).solve(np.vstack([rhs, np.zeros((1, rhs.shape[1]))]))
+    out = sol.copy()
+    out[n] = 0.0
+    return out
+
+
+def screen_linear(obs: Observations, base: Fit, lam: np.ndarray, phi_c: np.ndarray, dlam: np.ndarray,
+                  dshape: np.ndarray, step: float, upper: float) -> tuple[float, float]:
+    """`fit.screen` on first-order modes: the chi^2 drop a linearised model promises and its a,
+    from the profiled residuals at one small step with the baseline pairing held fixed."""
+    hz = frequencies_hz(lam + step * dlam)
+    moved = profiled(obs, hz, phi_c + step * dshape, base.pairing)
+    j = (moved.residuals - base.residuals) / step
+    jj = float(j @ j)
+    if jj <= 0.0:
+        return 0.0, 0.0
+    a = min(max(-float(base.residuals @ j) / jj, 0.0), upper)
+    drop = base.chi2 - float(np.sum((base.residuals + a * j) ** 2))
+    return max(drop, 0.0), a
+
+
+def screen_all(obs: Observations, base: Fit, model, coords, n_modes: int, cands) -> list[tuple[float, float]]:
+    """(chi^2 drop, a) of every candidate with a first-order term, from one set of modes of
+    `model`; candidates without one (global effects) get (nan, nan): the caller screens them
+    by a step or fits them outright."""
+    with_term = [i for i, c in enumerate(cands) if c.term is not None]
+    terms = [cands[i].term() for i in with_term]
+    lam, phi_c, dlam, dshape = first_order_modes(AffineModel(model), coords, n_modes, terms)
+    out = [(float("nan"), float("nan"))] * len(cands)
+    for j, i in enumerate(with_term):
+        out[i] = screen_linear(obs, base, lam, phi_c, dlam[j], dshape[j], cands[i].step, cands[i].upper)
+    return out
+
+
+def linear_bounded_moduli(obs: Observations, base: Fit, local, coords, n_modes: int, rel_lo: float,
+                          rel_hi: float) -> np.ndarray:
+    """The bounded update of every element modulus in [rel_lo, rel_hi] x its calibrated value
+    (scaled into z in [0, 1]), linearised at the calibrated model: one bounded linear least-
+    squares step (`scipy.optimize.lsq_linear`) on the residual Jacobian of first-order modes.
+    Returns z (n_el,). For models where each element's own solve would cost too much."""
+    from scipy.optimize import lsq_linear
+
+    s, model = base.s, local.model
+    span = (rel_hi - rel_lo) * s * local.modulus            # Pa per unit z
+    terms = [local.stiffness(e.id, span[k]) for k, e in enumerate(model.elements)]
+    mid = 0.5 * (rel_lo + rel_hi) * s * local.modulus       # z = 1/2
+    start = model.with_element_moduli({e.id: float(mid[k]) for k, e in enumerate(model.elements)})
+    lam, phi_c, dlam, dshape = first_order_modes(AffineModel(start), coords, n_modes, terms)
+    r0 = obs.residuals(frequencies_hz(lam), phi_c, base.pairing)[0]
+    h = 1e-4
+    jac = np.column_stack([(obs.residuals(frequencies_hz(lam + h * dlam[k]), phi_c + h * dshape[k],
+                                          base.pairing)[0] - r0) / h for k in range(len(terms))])
+    return lsq_linear(jac, jac @ np.full(len(terms), 0.5) - r0, bounds=(0.0, 1.0)).x
