@@ -305,10 +305,11 @@ def boundary_stiffness(st: Setting) -> Iterator[Candidate]:
 
 def distributed_mass(st: Setting) -> Iterator[Candidate]:
     """Mass spread evenly along an element: its density times (1 + a)."""
+    total = st.model.total_mass_kg()
     for e in st.model.elements:
         rho0 = st.model.materials[e.material].density_kg_m3
         m_e = rho0 * st.model.sections[e.section].area_m2 * st.model.element_length_m(e.id)
-        upper = max(0.5 * st.model.total_mass_kg() / m_e, 0.1)
+        upper = max(0.5 * total / m_e, 0.1)
         system = lazy_system(lambda e=e, rho0=rho0, upper=upper: AffineModel(
             st.model, (Parameter("density", (e.id,), 0.0, rho0 * (1 + upper), rho0),)))
 

@@ -226,14 +226,21 @@ def screen_and_fit(cal: Calibration, kinds, n_fit: int | None, keep=None) -> Scr
     of every kind (a kind is never judged by another's linearisation)."""
     cands = [c for c in all_candidates(cal.setting, kinds) if keep is None or keep(c)]
     screened = screen_candidates(cal, cands)
+    order, chosen = to_fit(cands, screened, n_fit)
+    fitted = {i: fit(cal.obs, cands[i], screened[i][1]) for i in order if i in chosen}
+    order = [i for i in order if i in fitted] + [i for i in order if i not in fitted]
+    return Screening(cands, screened, order, fitted)
+
+
+def to_fit(cands: list[Candidate], screened: list[tuple[float, float]], n_fit: int | None) -> tuple[list[int], set[int]]:
+    """The screening order (largest first-order drop first) and the candidates to fit: the
+    `n_fit` first (None: all), every global one, and the two first of every kind."""
     order = sorted(range(len(cands)), key=lambda i: -screened[i][0])
     chosen = set(order if n_fit is None else order[:n_fit])
     chosen |= {i for i in order if cands[i].location is None}
     for kind in {c.kind for c in cands}:
         chosen |= set([i for i in order if cands[i].kind == kind][:2])
-    fitted = {i: fit(cal.obs, cands[i], screened[i][1]) for i in order if i in chosen}
-    order = [i for i in order if i in fitted] + [i for i in order if i not in fitted]
-    return Screening(cands, screened, order, fitted)
+    return order, chosen
 
 
 def screen_candidates(cal: Calibration, cands: list[Candidate]) -> list[tuple[float, float]]:
