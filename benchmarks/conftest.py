@@ -33,6 +33,18 @@ RATIOS = (
     ("evaluate(paper) speed / bare batched eigvalsh speed", "eigvalsh_bare", "evaluate_paper", 0.5),
     ("evaluate(paper) speed / bare batched eigh speed", "eigh_bare", "evaluate_paper", 0.5),
     ("evaluate(synthetic, shapes) speed / bare batched eigh speed", "eigh_bare", "evaluate_synthetic", 0.5),
+    ("evaluate, 300-DOF frame: speed-up over OpenSeesPy rebuild + eigen", "opensees_scale:300", "evaluate_scale:300",
+     1.0),
+    ("evaluate, 3,000-DOF frame: speed-up over OpenSeesPy", "opensees_scale:3000", "evaluate_scale:3000", 5.0),
+    ("evaluate, 9,000-DOF frame: speed-up over OpenSeesPy", "opensees_scale:9000", "evaluate_scale:9000", 5.0),
+    ("batch of 4 at 3,000 DOFs: 2 worker processes over 1", "batch_scale:3000:w1", "batch_scale:3000:w2", 1.0),
+)
+
+#: (label, figure key prefix, goal): the log-log slope of per-item time against DOFs over the
+#: figures "<prefix>:<n_dof>"; the goal is the largest acceptable slope (None: no goal).
+SLOPES = (
+    ("evaluate cost vs DOFs, 300 to 9,000 (log-log slope)", "evaluate_scale", 1.1),
+    ("OpenSeesPy rebuild + eigen cost vs DOFs (log-log slope)", "opensees_scale", None),
 )
 
 _FIGURES: dict[str, dict] = {}
@@ -99,6 +111,18 @@ def _ratios() -> list[dict]:
     return out
 
 
+def _slopes() -> list[dict]:
+    out = []
+    for label, prefix, goal in SLOPES:
+        pts = sorted((int(k.split(":")[1]), f["min_s"]) for k, f in _FIGURES.items() if k.split(":")[0] == prefix)
+        if len(pts) >= 2:
+            n, t = np.log([p[0] for p in pts]), np.log([p[1] for p in pts])
+            slope = float(np.polyfit(n, t, 1)[0])
+            out.append({"label": label, "prefix": prefix, "n_dof": [p[0] for p in pts], "slope": slope, "goal": goal,
+                        "met": None if goal is None else slope <= goal})
+    return out
+
+
 def pytest_terminal_summary(terminalreporter):
     """Print the per-item figures and the ratios of this session."""
     if not _FIGURES:
@@ -116,10 +140,13 @@ def pytest_terminal_summary(terminalreporter):
         for r in ratios:
             tr.write_line(f"{r['label']:<62}{r['ratio_min']:>8.2f}{r['ratio_median']:>8.2f}"
                           f"{'>= ' + format(r['goal'], 'g'):>7}  {'met' if r['met'] else 'NOT MET'}")
+    for r in _slopes():
+        goal = "" if r["goal"] is None else f"<= {r['goal']:g}  {'met' if r['met'] else 'NOT MET'}"
+        tr.write_line(f"{r['label']:<62}{r['slope']:>8.2f}{'':>8}{goal:>7}")
 
 
 @pytest.hookimpl(optionalhook=True)
 def pytest_benchmark_update_json(config, benchmarks, output_json):
     """Add the figures and ratios to the JSON of --benchmark-json / --benchmark-autosave."""
-    output_json["femu_figures"] = {"per_item": dict(_FIGURES), "ratios": _ratios(),
+    output_json["femu_figures"] = {"per_item": dict(_FIGURES), "ratios": _ratios(), "slopes": _slopes(),
                                    "OPENBLAS_NUM_THREADS": os.environ.get("OPENBLAS_NUM_THREADS")}

@@ -1,4 +1,5 @@
-"""Print the README's Speed table (Markdown) from a benchmark run's JSON.
+"""Print the README's Speed tables (Markdown) from a benchmark run's JSON: the 39-DOF table
+(test_bench_evaluate.py) and the scale table (test_bench_scale.py), each if its figures are in it.
 
     OPENBLAS_NUM_THREADS=1 python -m pytest benchmarks --benchmark-only --benchmark-json bench.json
     python benchmarks/readme_tables.py bench.json
@@ -53,6 +54,34 @@ def speed_table(figures: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _ms(seconds: float) -> str:
+    return f"{seconds * 1e3:.1f} ms" if seconds < 1 else f"{seconds:.2f} s"
+
+
+def scale_table(figures: dict) -> str:
+    """The scale table (test_bench_scale.py): per size our evaluate and OpenSeesPy, the ratio,
+    the accuracy, then the log-log slopes."""
+    per_item = figures["per_item"]
+    sizes = sorted(int(k.split(":")[1]) for k in per_item if k.startswith("evaluate_scale:"))
+    if not sizes:
+        raise ValueError("no figure 'evaluate_scale:N' in the benchmark JSON: run benchmarks/test_bench_scale.py")
+    lines = ["| free DOFs | parameters | `evaluate`, one point | OpenSeesPy rebuild + eigen | speed-up "
+             "| max rel. diff of the 10 frequencies to the reference |", "|---|---|---|---|---|---|"]
+    for n in sizes:
+        ours, ops = per_item[f"evaluate_scale:{n}"], per_item.get(f"opensees_scale:{n}")
+        ratio = f"{ops['min_s'] / ours['min_s']:.1f}x" if ops else ""
+        lines.append(f"| {n:,} | {ours['n_params']} | {_ms(ours['min_s'])} | {_ms(ops['min_s']) if ops else ''} "
+                     f"| {ratio} | {ours['max_rel_diff_to_reference']:.1e} |")
+    for r in figures.get("slopes", []):
+        goal = "" if r["goal"] is None else f" (goal <= {r['goal']:g}: {'met' if r['met'] else '**not met**'})"
+        lines.append(f"\n{r['label']}: {r['slope']:.2f}{goal}")
+    w1, w2 = per_item.get("batch_scale:3000:w1"), per_item.get("batch_scale:3000:w2")
+    if w1 and w2:
+        lines.append(f"\nA batch of 4 points at 3,000 DOFs: {_ms(w1['min_s'])} per point with 1 process, "
+                     f"{_ms(w2['min_s'])} with 2 ({w1['min_s'] / w2['min_s']:.2f}x).")
+    return "\n".join(lines) + "\n"
+
+
 def main(argv: list[str]) -> int:
     """`python benchmarks/readme_tables.py BENCH_JSON`: print the table; exit 2 on bad input."""
     if len(argv) != 1:
@@ -61,7 +90,14 @@ def main(argv: list[str]) -> int:
     path = Path(argv[0])
     try:
         figures = json.loads(path.read_text())["femu_figures"]
-        sys.stdout.write(speed_table(figures))
+        tables = []
+        if "evaluate_paper" in figures["per_item"]:
+            tables.append(speed_table(figures))
+        if any(k.startswith("evaluate_scale:") for k in figures["per_item"]):
+            tables.append(scale_table(figures))
+        if not tables:
+            tables.append(speed_table(figures))  # names what is missing
+        sys.stdout.write("\n".join(tables))
     except (OSError, ValueError, KeyError) as exc:
         print(f"readme_tables: {path}: {exc if not isinstance(exc, KeyError) else f'no field {exc}'}",
               file=sys.stderr)

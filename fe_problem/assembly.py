@@ -32,13 +32,21 @@ SPARSE_MIN_DOFS = 200
 SOLVERS = ("auto", "dense", "sparse")
 
 
-def solver_path(n_free: int, solver: str = "auto") -> str:
-    """The path ("dense" or "sparse") `AffineModel` takes for `n_free` free DOFs."""
+#: `solver="auto"` also takes the sparse path when the dense one would hold more than this
+#: (bytes, `dense_bytes`): a small model with very many parameters.
+AUTO_DENSE_BYTES = 512 * 2**20
+
+
+def solver_path(n_free: int, solver: str = "auto", n_params: int = 0) -> str:
+    """The path ("dense" or "sparse") `AffineModel` takes for `n_free` free DOFs and `n_params`
+    parameters: `solver` if forced, else sparse above `SPARSE_MIN_DOFS` DOFs or above
+    `AUTO_DENSE_BYTES` of dense matrices."""
     if solver not in SOLVERS:
         raise ValueError(f"solver must be one of {SOLVERS}, got {solver!r}")
     if solver != "auto":
         return solver
-    return "sparse" if n_free > SPARSE_MIN_DOFS else "dense"
+    big = n_free > SPARSE_MIN_DOFS or dense_bytes(n_free, n_params) > AUTO_DENSE_BYTES
+    return "sparse" if big else "dense"
 
 
 #: The most memory the dense path may take for one model's matrices (bytes): K0, M0 and one
@@ -83,7 +91,7 @@ class AffineModel:
         terms = Terms(model, self.parameters)
         self.dofmap = terms.dofmap
         n, p = len(self.dofmap.free), len(self.parameters)
-        self.path = solver_path(n, solver)
+        self.path = solver_path(n, solver, p)
         if self.path == "dense":
             check_dense_size(model, p)
         k_trip, m_trip = terms.free_arrays()
@@ -112,6 +120,16 @@ class AffineModel:
     def n_elastic(self) -> int:
         """Elastic modes the model has."""
         return self._solver.n_elastic
+
+    @property
+    def workers(self) -> int:
+        """Processes a batch is split over on the sparse path (1 on the dense path)."""
+        return getattr(self._solver, "workers", 1)
+
+    @workers.setter
+    def workers(self, n: int) -> None:
+        if self.path == "sparse":
+            self._solver.set_workers(n)
 
     @property
     def k0(self):
@@ -240,4 +258,5 @@ class AffineModel:
         return take_rows(phi_free, rows)
 
 
-__all__ = ["AffineModel", "DofMap", "SPARSE_MIN_DOFS", "SOLVERS", "check_dense_size", "solver_path"]
+__all__ = ["AUTO_DENSE_BYTES", "AffineModel", "DofMap", "SPARSE_MIN_DOFS", "SOLVERS", "check_dense_size",
+           "solver_path"]

@@ -11,15 +11,19 @@ initial parameters), so A is positive definite even for a free-free structure; i
 modes (rigid-body motions, mechanisms), counted at the initial parameters, are computed and
 dropped as the dense path drops them.
 
-A batch of points is spread over `workers` threads (SuperLU and ARPACK release the GIL for
-most of their work); the points are independent, so the result is the same for any worker
-count and any batch.
+A batch of points on a model of `PARALLEL_MIN_DOFS` free DOFs or more is split over `workers`
+processes (forked once per solver, kept for its later batches; SuperLU and the ARPACK driver
+hold the GIL, so threads gave no speed-up), each with one BLAS thread. The points are
+independent and each is solved by the same code from the same start vector, so the result is
+the same for any worker count and any batch.
 """
 
 from __future__ import annotations
 
+import multiprocessing
 import os
-from concurrent.futures import ThreadPoolExecutor
+import weakref
+from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 import scipy.linalg
@@ -27,13 +31,33 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import LinearOperator, eigsh, splu
 
 
+#: Free DOFs from which a batch of points is split over worker processes (below: one process).
+PARALLEL_MIN_DOFS = 1000
+
+
 def default_workers() -> int:
-    """Threads for a batch of points: the cores this process may use (at most 8)."""
+    """Processes for a batch of points: the cores this process may use (at most 8); 1 inside a
+    daemonic process (a worker of a pool, which may not start processes of its own)."""
+    if multiprocessing.current_process().daemon:
+        return 1
     try:
         n = len(os.sched_getaffinity(0))
     except AttributeError:  # not on Linux
         n = os.cpu_count() or 1
     return max(1, min(n, 8))
+
+
+_SOLVER: "SparseModalSolver | None" = None  # the solver of a worker process (set by fork)
+
+
+def _adopt(solver: "SparseModalSolver") -> None:
+    global _SOLVER
+    _SOLVER = solver
+
+
+def _chunk(theta: np.ndarray, n_modes: int, rows, sens: bool):
+    """A worker's share of a batch: the per-point results of `theta` (c, p), in order."""
+    return [_SOLVER._modes(t, n_modes, rows, sens) for t in theta]
 
 
 class SparseModalSolver:
@@ -63,6 +87,7 @@ class SparseModalSolver:
         self.mass_constant = self.gm.nnz == 0
         self._v0 = np.random.default_rng(0).uniform(0.5, 1.5, n)  # fixed: reproducible
         self.sigma = -1.0  # provisional; set from the first elastic mode below
+        self._order(x0)
         lam = self._lowest(x0[None, :])
         nonzero = lam > self.ZERO_TOL * lam[-1] if lam[-1] > 0 else np.zeros(len(lam), bool)
         self.n_rigid = int(len(lam) - nonzero.sum())
@@ -78,6 +103,40 @@ class SparseModalSolver:
         g = sp.csr_matrix((v[~const], (slot[~const], t[~const])), shape=(nnz, self.n_params))
         g.sum_duplicates()
         return c0, g
+
+    def _order(self, x0: np.ndarray) -> None:
+        """Fix a fill-reducing ordering of the pattern once (SuperLU's minimum degree on A + A^T
+        at x0): each point then factorises the permuted matrix as it is, without ordering anew.
+        `_perm` (new -> old DOF), and the permuted pattern with `_pdata`, the value index map."""
+        a = sp.csc_matrix((self.k_data(x0) - self.sigma * self.m_data(x0), self.cols, self.indptr),
+                          shape=(self.n_free, self.n_free))
+        if self.n_free < 3:
+            self._perm = np.arange(self.n_free)
+        else:
+            self._perm = np.argsort(splu(a, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                                         options={"SymmetricMode": True}).perm_c)
+        tag = sp.csc_matrix((np.arange(1.0, len(self.rows) + 1), self.cols, self.indptr), shape=a.shape)
+        tag = tag[self._perm][:, self._perm].tocsc()
+        tag.sort_indices()
+        self._pdata = tag.data.astype(np.int64) - 1
+        self._pindices, self._pindptr = tag.indices, tag.indptr
+
+    def _factor(self, a_data: np.ndarray):
+        """The LU factors of the matrix with values `a_data` on the pattern, in the fixed order:
+        a function b -> A^-1 b."""
+        ap = sp.csc_matrix((a_data[self._pdata], self._pindices, self._pindptr), shape=(self.n_free, self.n_free))
+        try:
+            lu = splu(ap, permc_spec="NATURAL", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
+        except RuntimeError:
+            raise ValueError(f"model {self.name!r}: K - sigma M is singular at this point (a DOF with no "
+                             "stiffness and no mass?)") from None
+        perm = self._perm
+
+        def solve(b: np.ndarray) -> np.ndarray:
+            x = np.empty_like(b)
+            x[perm] = lu.solve(b[perm])
+            return x
+        return solve
 
     def _lowest(self, x0: np.ndarray) -> np.ndarray:
         """Eigenvalues at x0, enough to see every zero-energy mode and a few elastic ones."""
@@ -128,13 +187,7 @@ class SparseModalSolver:
         if k >= self.n_free - 1:  # ARPACK needs k < n - 1: a tiny model, solved densely
             lam, phi = scipy.linalg.eigh(kmat.toarray(), mmat.toarray(), subset_by_index=(0, k - 1))
             return lam, phi
-        a = sp.csc_matrix((kd - self.sigma * md, self.cols, self.indptr), shape=kmat.shape)  # symmetric
-        try:
-            lu = splu(a, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
-        except RuntimeError:
-            raise ValueError(f"model {self.name!r}: K - sigma M is singular at this point (a DOF with no "
-                             "stiffness and no mass?)") from None
-        op = LinearOperator(kmat.shape, matvec=lu.solve, dtype=float)
+        op = LinearOperator(kmat.shape, matvec=self._factor(kd - self.sigma * md), dtype=float)
         out = eigsh(kmat, k=k, M=mmat, sigma=self.sigma, which="LM", OPinv=op, v0=self._v0,
                     ncv=min(self.n_free, max(2 * k + 1, 20)), tol=0.0, return_eigenvectors=vectors)
         if not vectors:
@@ -167,17 +220,40 @@ class SparseModalSolver:
         theta = np.atleast_2d(np.asarray(theta, dtype=float))
         if n_modes > self.n_elastic:
             raise ValueError(f"model {self.name!r} has only {self.n_elastic} elastic modes, asked for {n_modes}")
-        def one(t):
-            return self._modes(t, n_modes, rows, sens)
-        if self.workers > 1 and len(theta) > 1:
-            with ThreadPoolExecutor(min(self.workers, len(theta))) as pool:
-                res = list(pool.map(one, theta))
+        w = min(self.workers, len(theta)) if self.n_free >= PARALLEL_MIN_DOFS else 1
+        if w > 1:
+            parts = np.array_split(theta, w)
+            pool = self._workers_pool()
+            futures = [pool.submit(_chunk, part, n_modes, rows, sens) for part in parts[1:]]
+            res = [self._modes(t, n_modes, rows, sens) for t in parts[0]]  # this process takes a share
+            for f in futures:
+                res += f.result()
         else:
-            res = [one(t) for t in theta]
+            res = [self._modes(t, n_modes, rows, sens) for t in theta]
         lam = np.stack([r[0] for r in res])
         phi = np.stack([r[1] for r in res]) if res[0][1] is not None else None
         dlam = np.stack([r[2] for r in res]) if sens else None
         return lam, phi, dlam
+
+    def set_workers(self, n: int) -> None:
+        """Use `n` processes for later batches (the worker processes are started anew)."""
+        if getattr(self, "_pool", None) is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+            self._pool = None
+        self.workers = max(1, int(n))
+
+    def _workers_pool(self) -> ProcessPoolExecutor:
+        """workers - 1 forked processes that hold this solver, started at the first batch."""
+        if getattr(self, "_pool", None) is None:
+            self._pool = ProcessPoolExecutor(self.workers - 1, mp_context=multiprocessing.get_context("fork"),
+                                             initializer=_adopt, initargs=(self,))
+            weakref.finalize(self, self._pool.shutdown, wait=False, cancel_futures=True)
+        return self._pool
+
+    def __getstate__(self):
+        state = self.__dict__.copy()
+        state["_pool"] = None  # a copy starts its own workers
+        return state
 
     def eigen(self, theta: np.ndarray, n_modes: int, vectors: bool = False, rows=None):
         """Lowest `n_modes` elastic eigenpairs for a population theta (b, p), as the dense
@@ -192,4 +268,4 @@ class SparseModalSolver:
         return self._batch(theta, n_modes, rows, True)
 
 
-__all__ = ["SparseModalSolver", "default_workers"]
+__all__ = ["PARALLEL_MIN_DOFS", "SparseModalSolver", "default_workers"]

@@ -36,8 +36,9 @@ class Geometry:
     @classmethod
     def of(cls, model: FrameModel, elements: Sequence[Element]) -> "Geometry":
         """The geometry of `elements` of `model`."""
-        xi = np.array([[model.node(e.node_i).x, model.node(e.node_i).y] for e in elements])
-        xj = np.array([[model.node(e.node_j).x, model.node(e.node_j).y] for e in elements])
+        at = {n.id: (n.x, n.y) for n in model.nodes}  # not model.node(): O(n) per lookup
+        xi = np.array([at[e.node_i] for e in elements])
+        xj = np.array([at[e.node_j] for e in elements])
         d = xj - xi
         length = np.hypot(d[:, 0], d[:, 1])
         sec = [model.sections[e.section] for e in elements]

@@ -1,0 +1,210 @@
+"""The sparse solver path against the dense one, finite differences and OpenSeesPy.
+
+The dense batched path (full LAPACK eigen-decompositions, rigid modes projected out) is the
+reference: the sparse path (shift-invert Lanczos on one CSR pattern) must give the same
+frequencies to 1e-10 relative (1e-8 on the larger frames), the same mass-normalised shapes
+and the same eigenvalue sensitivities, on free-free and supported frames with springs,
+releases, lumped masses and parameters of every kind; a point's answer must not depend on
+the batch it comes in or on the number of worker processes.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.linalg
+
+import fe_problem as fp
+from fe_problem.assembly import SPARSE_MIN_DOFS, solver_path
+from fe_problem.model import Element, FrameModel, Material, Node, Section, Spring, Support
+from fe_problem.sparse import PARALLEL_MIN_DOFS
+from fe_problem.suite import storey_frame
+
+
+def grid_frame(bays: int, storeys: int) -> FrameModel:
+    """A regular steel frame fixed at its base (built here, independently of the benchmarks')."""
+    cols = bays + 1
+    nid = lambda s, c: s * cols + c + 1  # noqa: E731
+    nodes = tuple(Node(nid(s, c), 5.0 * c, 3.2 * s) for s in range(storeys + 1) for c in range(cols))
+    pairs = [(nid(s, c), nid(s + 1, c)) for s in range(storeys) for c in range(cols)]
+    pairs += [(nid(s, c), nid(s, c + 1)) for s in range(1, storeys + 1) for c in range(bays)]
+    return FrameModel(name=f"grid{bays}x{storeys}", nodes=nodes, materials={"s": Material(2.1e11, 7850.0, 0.3)},
+                      sections={"c": Section(1e-2, 2e-4)},
+                      elements=tuple(Element(k + 1, i, j, "c", "s") for k, (i, j) in enumerate(pairs)),
+                      supports=tuple(Support(nid(0, c), ("x", "y", "rz")) for c in range(cols)))
+
+
+def both(model, parameters=(), **kw):
+    return fp.AffineModel(model, parameters, solver="dense"), fp.AffineModel(model, parameters, solver="sparse", **kw)
+
+
+def assert_same_modes(dense, sparse, theta, n_modes, rtol=1e-10):
+    ld, pd = dense.eigen(theta, n_modes, vectors=True)
+    ls, ps = sparse.eigen(theta, n_modes, vectors=True)
+    np.testing.assert_allclose(ls, ld, rtol=rtol)
+    scale = np.abs(pd).max(axis=1, keepdims=True)
+    # each path signs a shape by its largest entry; on a symmetric frame two entries tie, so
+    # compare up to sign (and check the rule where the largest entry is clear)
+    sign = np.sign(np.einsum("bim,bim->bm", ps, pd))[:, None, :]
+    np.testing.assert_allclose(ps * sign / scale, pd / scale, atol=1e-7)
+    top2 = np.sort(np.abs(pd), axis=1)[:, -2:, :]
+    clear = (top2[:, 1] - top2[:, 0]) > 1e-6 * top2[:, 1]
+    assert np.all(sign[:, 0, :][clear] == 1.0)
+    lv, _ = sparse.eigen(theta, n_modes)  # eigenvalues only: the same numbers
+    np.testing.assert_allclose(lv, ls, rtol=1e-12)
+    return ls
+
+
+def hframe_with_everything():
+    """The H-frame with a flexible joint, a lumped mass, a spring to ground and a crack split."""
+    m = fp.load_model("hframe")
+    m = fp.release_element_end(m, 5, 3, 1e5)
+    m = fp.add_mass(m, 5, 0.15, 6e-5)
+    m = m.replace(springs=(Spring(1, (10, "y"), None, 2e4),))
+    return fp.split_element(m, 4, 0.37, 1e5)
+
+
+def test_free_free_hframe_forced_sparse_equals_dense():
+    m = fp.load_model("hframe")
+    pars = fp.element_moduli(m)
+    dense, sparse = both(m, pars)
+    assert (dense.path, sparse.path) == ("dense", "sparse")
+    assert sparse.n_rigid == dense.n_rigid == 3 and sparse.n_elastic == 36 and sparse.mechanism is None
+    theta = np.random.default_rng(1).uniform(6e10, 8e10, (4, 12))
+    lam = assert_same_modes(dense, sparse, theta, 12)
+    assert np.all(np.diff(lam, axis=1) > 0) and lam[0, 0] > 1e4  # no rigid mode left in
+
+
+def test_every_parameter_kind_on_a_frame_with_springs_releases_and_masses():
+    m = hframe_with_everything()
+    e0 = 7.1e10
+    pars = (fp.Parameter("modulus", (1, 2, 3), 6e10, 8e10, e0),
+            fp.Parameter("modulus", (7,), 1e9, 8e10, e0, profile="middle"),
+            fp.Parameter("density", (6, 9), 2000.0, 3500.0, 2700.0),
+            fp.Parameter("mass", (5,), 0.0, 1.0, 0.15),
+            fp.Parameter("spring", (1,), 0.0, 1e5, 2e4),
+            fp.Parameter("release", (5, 3), 1e3, 1e7, 1e5))
+    dense, sparse = both(m, pars)
+    assert not dense._solver.mass_constant and sparse.n_rigid == dense.n_rigid == 2  # the spring holds one
+    rng = np.random.default_rng(2)
+    lo, hi = np.array([p.lower for p in pars]), np.array([p.upper for p in pars])
+    theta = lo + (hi - lo) * rng.uniform(0.05, 0.95, (3, len(pars)))
+    # a stiff joint spring (up to 1e7 N m/rad) beside a varying mass: the dense path's
+    # mass-normalised operator keeps 4e-10 here, the sparse one 2e-11 of scipy's generalized eigh
+    lam = assert_same_modes(dense, sparse, theta, 10, rtol=1e-9)
+    for i in range(len(theta)):
+        k, mm = dense.stiffness(theta[i:i + 1])[0], dense.mass(theta[i:i + 1])[0]
+        ref = scipy.linalg.eigh(k, mm, eigvals_only=True)[2:12]
+        np.testing.assert_allclose(lam[i], ref, rtol=1e-10)
+    _, _, gd = dense.eigen_sensitivities(theta, 10)
+    _, _, gs = sparse.eigen_sensitivities(theta, 10)
+    scale = np.abs(gd).max(axis=(0, 1))  # per parameter: their units differ by 1e15
+    np.testing.assert_allclose(gs / scale, gd / scale, rtol=1e-6, atol=1e-8)
+
+
+def test_sparse_sensitivities_equal_finite_differences():
+    m = grid_frame(3, 4)
+    pars = fp.element_moduli(m, lower=1.5e11, upper=2.5e11)[:8] + (
+        fp.Parameter("density", tuple(range(9, 20)), 6000.0, 9000.0, 7850.0),)
+    sparse = fp.AffineModel(m, pars, solver="sparse")
+    x = np.append(np.linspace(1.8e11, 2.3e11, 8), 7000.0)
+    lam, _, g = sparse.eigen_sensitivities(x[None], 6)
+    for k in (0, 5, 8):
+        h = 1e-6 * x[k]
+        up, dn = x.copy(), x.copy()
+        up[k] += h
+        dn[k] -= h
+        fd = (sparse.eigen(up[None], 6)[0] - sparse.eigen(dn[None], 6)[0])[0] / (2 * h)
+        np.testing.assert_allclose(g[0, :, k], fd, rtol=1e-5, atol=1e-6 * np.abs(lam).max() / x[k])
+
+
+def test_supported_storey_frame_with_floor_masses():
+    m = storey_frame(40)  # 246 free DOFs, fixed base, lumped floor masses
+    pars = fp.element_moduli(m, lower=1.8e11, upper=2.4e11)
+    dense, sparse = both(m, pars)
+    assert dense.n_rigid == sparse.n_rigid == 0
+    theta = np.random.default_rng(3).uniform(1.8e11, 2.4e11, (2, len(pars)))
+    assert_same_modes(dense, sparse, theta, 10)
+
+
+def test_a_frame_of_1500_dofs_equals_the_dense_reference_to_1e_8():
+    m = grid_frame(9, 50)  # 1,500 free DOFs
+    dense, sparse = both(m)
+    assert sparse.n_free == 1500 and fp.AffineModel(m).path == "sparse"
+    assert_same_modes(dense, sparse, np.zeros((1, 0)), 10, rtol=1e-8)
+
+
+def test_a_mechanism_is_found_and_named_on_the_sparse_path_too():
+    m = fp.release_element_end(fp.load_model("hframe"), 5, 3, 0.0)  # a pin: a fourth zero mode
+    dense, sparse = both(m)
+    assert sparse.n_rigid == dense.n_rigid == 4
+    # the crossbar and right upright turn as one body: their rotations tie, so which four are
+    # named may differ; the count and the kind of motion may not
+    for system in (dense, sparse):
+        assert system.mechanism.startswith("1 mechanism motion(s) strain no element and no spring (moving most: node")
+        assert system.mechanism.count(" rz") == 4
+    assert_same_modes(dense, sparse, np.zeros((1, 0)), 8)
+
+
+def test_the_path_is_chosen_by_size_and_can_be_forced():
+    small, large = storey_frame(10), grid_frame(9, 10)
+    assert fp.AffineModel(small).path == "dense" and fp.AffineModel(large).path == "sparse"
+    assert fp.AffineModel(large).n_free == 300 > SPARSE_MIN_DOFS >= fp.AffineModel(small).n_free
+    assert solver_path(SPARSE_MIN_DOFS) == "dense" and solver_path(SPARSE_MIN_DOFS + 1) == "sparse"
+    assert solver_path(10, "sparse") == "sparse" and solver_path(10**6, "dense") == "dense"
+    assert solver_path(150, n_params=3000) == "sparse"  # a small model with very many parameters
+    with pytest.raises(ValueError, match="solver must be one of"):
+        fp.AffineModel(small, solver="banded")
+
+
+def test_a_point_does_not_depend_on_its_batch_or_the_worker_count():
+    m = grid_frame(9, 35)  # 1,050 free DOFs: batches go to worker processes
+    pars = fp.element_moduli(m, lower=1.8e11, upper=2.4e11)
+    one = fp.AffineModel(m, pars, workers=1)
+    two = fp.AffineModel(m, pars, workers=2)
+    assert one.n_free >= PARALLEL_MIN_DOFS and two.path == "sparse"
+    theta = np.random.default_rng(4).uniform(1.8e11, 2.4e11, (3, len(pars)))
+    rows = two.nodal_rows([(12, "x"), (40, "y"), (1, "x")])  # node 1 is supported: row -1
+    lam2, phi2 = two.eigen(theta, 8, vectors=True, rows=rows)
+    lam1, phi1 = one.eigen(theta, 8, vectors=True, rows=rows)
+    assert np.array_equal(lam1, lam2) and np.array_equal(phi1, phi2)
+    for i in range(3):
+        lam, phi = one.eigen(theta[i:i + 1], 8, vectors=True)
+        assert np.array_equal(lam[0], lam2[i]) and np.array_equal(one.at_rows(phi, rows)[0], phi2[i])
+    assert np.all(phi2[:, 2] == 0.0)
+
+
+def test_updating_problem_on_the_sparse_path_equals_the_dense_one():
+    truth = fp.crack_element(fp.load_model("hframe"), 7, 0.3, 3e4)
+    data = fp.synthetic_measurement(truth, n_modes=6, seed=1, model_name="hframe")
+    dense = fp.UpdatingProblem("hframe", data, shape_weight=0.5, solver="dense")
+    sparse = fp.UpdatingProblem("hframe", data, shape_weight=0.5, solver="sparse")
+    assert sparse.system.path == "sparse"
+    X = np.random.default_rng(5).uniform(dense.xl, dense.xu, (5, dense.n_var))
+    np.testing.assert_allclose(sparse.evaluate(X), dense.evaluate(X), rtol=1e-9)
+    ls, ld = sparse.least_squares(X[0]), dense.least_squares(X[0])
+    np.testing.assert_allclose(ls.residuals, ld.residuals, rtol=1e-9, atol=1e-14)
+    np.testing.assert_allclose(ls.jacobian, ld.jacobian, rtol=1e-7, atol=1e-9 * np.abs(ld.jacobian).max())
+    np.testing.assert_allclose(sparse.correlation(X[1]).mac, dense.correlation(X[1]).mac, rtol=1e-9)
+
+
+def test_modal_analysis_of_a_large_free_free_frame_takes_the_sparse_path():
+    m = grid_frame(8, 12).replace(supports=())  # 351 free DOFs, no supports: 3 rigid-body modes
+    res = fp.modal_analysis(m, 6)
+    dense = fp.AffineModel(m, solver="dense")
+    lam, phi = dense.eigen(np.zeros((1, 0)), 6, vectors=True)
+    assert res.n_rigid == 3 and fp.AffineModel(m).path == "sparse"
+    np.testing.assert_allclose((2 * np.pi * res.frequencies_hz) ** 2, lam[0], rtol=1e-10)
+    np.testing.assert_allclose(res.shapes, dense.expand(phi[0]), atol=1e-7 * np.abs(res.shapes).max())
+
+
+def test_a_300_dof_frame_on_the_sparse_path_agrees_with_opensees_to_1e_8():
+    from test_opensees import opensees_modes  # OpenSeesPy's full generalized LAPACK solver
+
+    m = grid_frame(9, 10)
+    res = fp.modal_analysis(m, 10)
+    assert fp.AffineModel(m).path == "sparse" and res.n_rigid == 0
+    hz, shapes, n_zero = opensees_modes(m, 10)
+    assert n_zero == 0
+    np.testing.assert_allclose(res.frequencies_hz, hz, rtol=1e-8)
+    assert np.all(np.diag(fp.mac(res.shapes, shapes)) > 1 - 1e-10)
