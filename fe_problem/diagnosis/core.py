@@ -191,7 +191,7 @@ def _pinned_moduli(cal: Calibration) -> tuple[PinnedParameter, ...]:
                    for e, v in zip(st.model.element_ids, e_nom))
     e0 = e_nom * cal.base.s
     lo, hi = e0 * 6.0 / 7.0, e0 * 8.0 / 7.0
-    if solver_path(len(st.local.dofmap.free)) == "dense":
+    if solver_path(len(st.local.dofmap.free), "auto", len(params)) == "dense":
         system = AffineModel(st.model, params)
 
         def residuals(z):  # z in [0, 1]^n: the moduli scaled into their bounds
