@@ -48,23 +48,31 @@ def _translation_dofs(model: FrameModel) -> list[tuple[int, str]]:
     return [(n.id, d) for n in model.nodes for d in model.layout.translations]
 
 
+#: Above this many elements a frame's numbers would cover it: only the cause's place is numbered.
+MAX_NUMBERED_ELEMENTS = 60
+
+
 def draw_numbered_frame(ax, model: FrameModel, cause_location: dict | None = None) -> None:
     """The undeformed frame in grey with its node numbers (plain) and element numbers (boxed);
-    the place a cause names (an element or a node) is marked in yellow."""
+    the place a cause names (an element or a node) is marked in yellow. A frame of more than
+    `MAX_NUMBERED_ELEMENTS` elements has only the cause's element and node numbered."""
     where = cause_location or {}
+    every = len(model.elements) <= MAX_NUMBERED_ELEMENTS
     xy = {n.id: (n.x, n.y) for n in model.nodes}
     for e in model.elements:
         seg = np.array([xy[e.node_i], xy[e.node_j]])
         if where.get("element") == e.id:
             ax.plot(seg[:, 0], seg[:, 1], color=CAUSE_COLOR, lw=7.0, alpha=0.8, zorder=0, solid_capstyle="butt")
         ax.plot(seg[:, 0], seg[:, 1], color="0.75", lw=1.0, zorder=1)
-        ax.text(*seg.mean(axis=0), str(e.id), fontsize=6.5, color="0.3", ha="center", va="center", zorder=6,
-                bbox={"boxstyle": "square,pad=0.15", "fc": "white", "ec": "0.6", "lw": 0.5, "alpha": 0.85})
+        if every or where.get("element") == e.id:
+            ax.text(*seg.mean(axis=0), str(e.id), fontsize=6.5, color="0.3", ha="center", va="center", zorder=6,
+                    bbox={"boxstyle": "square,pad=0.15", "fc": "white", "ec": "0.6", "lw": 0.5, "alpha": 0.85})
     for node in model.nodes:
         marked = where.get("node") == node.id
         ax.plot(node.x, node.y, "o", ms=9 if marked else 2.5, color=CAUSE_COLOR if marked else "0.55", zorder=1.5)
-        ax.annotate(str(node.id), (node.x, node.y), xytext=(3, 3), textcoords="offset points", fontsize=6.5,
-                    color="0.15", zorder=6)
+        if every or marked:
+            ax.annotate(str(node.id), (node.x, node.y), xytext=(3, 3), textcoords="offset points", fontsize=6.5,
+                        color="0.15", zorder=6)
 
 
 def _shape_layout(model: FrameModel, n_panels: int):
@@ -176,6 +184,7 @@ def plot_shapes(diag: Diagnosis, model: FrameModel, extended: FrameModel | None,
                fontsize=8.5, frameon=False)
     fig.suptitle(f"Mode shapes of {model.name} (amplitude arbitrary; measured shapes scaled onto the calibrated "
                  "model by least squares)\nnumbers: nodes, boxed: elements"
+                 + ("" if len(model.elements) <= MAX_NUMBERED_ELEMENTS else " (only the cause's place is numbered)")
                  + (f"; yellow: the cause's place ({location_text(where)})" if where else ""), fontsize=9)
     save_figure(fig, path)
     return path
