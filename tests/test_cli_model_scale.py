@@ -69,6 +69,7 @@ def test_save_round_trip_and_text_output(tmp_path, capsys):
     (["--frame", "2x2", "--floor-mass", "nan"], "--floor-mass: must be a finite number >= 0"),
     (["--frame", "2x2", "--base", "roller"], "--base: invalid choice"),
     (["hframe", "--solver", "fast"], "--solver: invalid choice"),
+    (["hframe", "--floor-mass", "100"], "--floor-mass describes a generated frame: give --frame BAYSxSTOREYS"),
     (["CRACKED", "--split", "2"], "crack at 0.5 of the length falls on a boundary between parts"),
 ])
 def test_bad_arguments_one_line_exit_2(tmp_path, args, says):

@@ -53,11 +53,12 @@ def add_arguments(p) -> None:
     g = p.add_argument_group("generated frames")
     g.add_argument("--frame", type=frame_size, metavar="BAYSxSTOREYS",
                    help="a regular planar steel frame instead of MODEL (fe_problem.regular_frame), e.g. 3x10")
-    g.add_argument("--bay-width", type=positive_float, default=6.0, metavar="M", help="bay width of --frame, m")
-    g.add_argument("--storey-height", type=positive_float, default=3.0, metavar="M", help="storey height of --frame, m")
-    g.add_argument("--base", choices=("fixed", "pinned"), default="fixed", help="the base nodes of --frame")
-    g.add_argument("--floor-mass", type=non_negative_float, default=0.0, metavar="KG",
-                   help="a lumped mass at every node of --frame above the base, kg")
+    g.add_argument("--bay-width", type=positive_float, metavar="M", help="bay width of --frame, m (default 6)")
+    g.add_argument("--storey-height", type=positive_float, metavar="M",
+                   help="storey height of --frame, m (default 3)")
+    g.add_argument("--base", choices=("fixed", "pinned"), help="the base nodes of --frame (default fixed)")
+    g.add_argument("--floor-mass", type=non_negative_float, metavar="KG",
+                   help="a lumped mass at every node of --frame above the base, kg (default 0: none)")
     p.add_argument("--split", type=positive_int, default=1, metavar="N",
                    help="split every element into N equal parts (fe_problem.split_elements)")
     p.add_argument("--save", metavar="PATH", help="write the model (generated, split) to this model file")
@@ -74,10 +75,16 @@ def build_model(args):
     if (args.model is None) == (args.frame is None):
         raise ValueError("give a MODEL (a shipped name or a model file) or --frame BAYSxSTOREYS, "
                          + ("not both" if args.model is not None else "got neither"))
+    frame_options = {"--bay-width": args.bay_width, "--storey-height": args.storey_height, "--base": args.base,
+                     "--floor-mass": args.floor_mass}
     if args.frame is not None:
         bays, storeys = args.frame
-        model = fp.regular_frame(bays, storeys, args.bay_width, args.storey_height, base=args.base,
-                                 floor_mass_kg=args.floor_mass)
+        model = fp.regular_frame(bays, storeys, 6.0 if args.bay_width is None else args.bay_width,
+                                 3.0 if args.storey_height is None else args.storey_height,
+                                 base=args.base or "fixed", floor_mass_kg=args.floor_mass or 0.0)
+    elif any(v is not None for v in frame_options.values()):
+        given = next(k for k, v in frame_options.items() if v is not None)
+        raise ValueError(f"{given} describes a generated frame: give --frame BAYSxSTOREYS with it, or leave it out")
     else:
         model = fp.load_model(args.model)
     if args.split > 1:
