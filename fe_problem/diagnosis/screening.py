@@ -29,6 +29,10 @@ from .local import Term
 from .residuals import Observations
 
 
+#: Floats of one chunk of the candidates' adjoint rows (8 bytes each: 64 MB).
+CHUNK_FLOATS = 2**23
+
+
 def _to_free(system: AffineModel, dofs: np.ndarray) -> np.ndarray:
     """Model DOF indices to rows of the free-DOF vector; a supported DOF maps to row n_free
     (a zero row appended to every free-DOF array)."""
@@ -43,11 +47,13 @@ def _groups(terms: list[Term]) -> dict[int, np.ndarray]:
     return {int(k): np.flatnonzero(sizes == k) for k in np.unique(sizes)}
 
 
-def first_order_modes(system: AffineModel, coords, n_modes: int, terms: list[Term]):
-    """Modes of `system` at x0 and their first-order change for each term.
+def first_order_modes(system: AffineModel, coords, n_modes: int, terms: list[Term], modes=None):
+    """Modes of `system` at x0 and the first-order change of modes `modes` (default: all
+    n_modes) for each term.
 
-    Returns lam (m,), shapes at `coords` (n_coord, m), d lam (c, m), d shapes (c, n_coord, m)
-    for the c terms. Memory: one free-DOF block of n_free x n_coord per mode."""
+    Returns lam (n_modes,), shapes at `coords` (n_coord, n_modes), d lam (c, len(modes)) and
+    d shapes (c, n_coord, len(modes)) for the c terms. Memory: those, and one free-DOF block
+    of n_free x n_coord at a time."""
     x0 = system.x0[None, :]
     lam, phi = system.eigen(x0, n_modes, vectors=True)
     lam, phi = lam[0], phi[0]
@@ -57,21 +63,26 @@ def first_order_modes(system: AffineModel, coords, n_modes: int, terms: list[Ter
     c_t = sp.csc_matrix((np.ones(ok.sum()), (rows[ok], np.flatnonzero(ok))), shape=(n, len(rows)))
     phi_c = np.where(ok[:, None], phi[np.clip(rows, 0, None)], 0.0)
     phi_z = np.vstack([phi, np.zeros((1, n_modes))])
-    dlam = np.zeros((len(terms), n_modes))
-    dshape = np.zeros((len(terms), len(rows), n_modes))
+    modes = np.arange(n_modes) if modes is None else np.asarray(modes, dtype=int)
+    dlam = np.zeros((len(terms), len(modes)))
+    dshape = np.zeros((len(terms), len(rows), len(modes)))
     groups = {k: (idx, _to_free(system, np.array([terms[i].dofs for i in idx])),
                   np.array([terms[i].dk for i in idx]), np.array([terms[i].dm for i in idx]),
                   np.array([terms[i].dm2 if terms[i].dm2 is not None else np.zeros_like(terms[i].dk) for i in idx]))
               for k, idx in _groups(terms).items()}
-    for i in range(n_modes):
+    for j, i in enumerate(modes):
         g = _adjoint(k0, m0, lam[i], phi[:, i], c_t)          # (n + 1, n_coord), last row zero
         for idx, free, dk, dm, dm2 in groups.values():
-            d = dk - lam[i] * dm + lam[i] ** 2 * dm2            # (c, k, k)
-            u = phi_z[free, i]                                   # (c, k)
-            r = np.einsum("ckl,cl->ck", d, u)
-            dlam[idx, i] = np.einsum("ck,ck->c", u, r)
-            c_i = 0.5 * np.einsum("ck,ckl,cl->c", u, -dm + 2.0 * lam[i] * dm2, u)
-            dshape[idx, :, i] = -np.einsum("ckq,ck->cq", g[free], r) + c_i[:, None] * phi_c[None, :, i]
+            step = max(1, CHUNK_FLOATS // (free.shape[1] * len(rows)))
+            for c in range(0, len(idx), step):                   # g[free] in chunks: bounded memory
+                sl = slice(c, c + step)
+                d = dk[sl] - lam[i] * dm[sl] + lam[i] ** 2 * dm2[sl]   # (c, k, k)
+                u = phi_z[free[sl], i]                           # (c, k)
+                r = np.einsum("ckl,cl->ck", d, u)
+                dlam[idx[sl], j] = np.einsum("ck,ck->c", u, r)
+                c_i = 0.5 * np.einsum("ck,ckl,cl->c", u, -dm[sl] + 2.0 * lam[i] * dm2[sl], u)
+                dshape[idx[sl], :, j] = (-np.einsum("ckq,ck->cq", g[free[sl]], r)
+                                         + c_i[:, None] * phi_c[None, :, i])
     return lam, phi_c, dlam, dshape
 
 
@@ -87,12 +98,20 @@ def _adjoint(k0, m0, lam: float, phi: np.ndarray, c_t) -> np.ndarray:
     return out
 
 
-def screen_linear(obs: Observations, base: Fit, lam: np.ndarray, phi_c: np.ndarray, dlam: np.ndarray,
-                  dshape: np.ndarray, step: float, upper: float) -> tuple[float, float]:
+def _moved(lam, phi_c, modes, dlam, dshape, step: float):
+    """Frequencies (Hz) and shapes at a step along first-order changes of modes `modes`."""
+    lam, phi_c = lam.copy(), phi_c.copy()
+    lam[modes] += step * dlam
+    phi_c[:, modes] += step * dshape
+    return frequencies_hz(lam), phi_c
+
+
+def screen_linear(obs: Observations, base: Fit, lam: np.ndarray, phi_c: np.ndarray, modes: np.ndarray,
+                  dlam: np.ndarray, dshape: np.ndarray, step: float, upper: float) -> tuple[float, float]:
     """`fit.screen` on first-order modes: the chi^2 drop a linearised model promises and its a,
-    from the profiled residuals at one small step with the baseline pairing held fixed."""
-    hz = frequencies_hz(lam + step * dlam)
-    moved = profiled(obs, hz, phi_c + step * dshape, base.pairing)
+    from the profiled residuals at one small step with the baseline pairing held fixed (so
+    only the paired `modes` need their changes)."""
+    moved = profiled(obs, *_moved(lam, phi_c, modes, dlam, dshape, step), base.pairing)
     j = (moved.residuals - base.residuals) / step
     jj = float(j @ j)
     if jj <= 0.0:
@@ -108,10 +127,11 @@ def screen_all(obs: Observations, base: Fit, model, coords, n_modes: int, cands)
     by a step or fits them outright."""
     with_term = [i for i, c in enumerate(cands) if c.term is not None]
     terms = [cands[i].term() for i in with_term]
-    lam, phi_c, dlam, dshape = first_order_modes(AffineModel(model), coords, n_modes, terms)
+    modes = np.unique(base.pairing[base.pairing >= 0])
+    lam, phi_c, dlam, dshape = first_order_modes(AffineModel(model), coords, n_modes, terms, modes)
     out = [(float("nan"), float("nan"))] * len(cands)
     for j, i in enumerate(with_term):
-        out[i] = screen_linear(obs, base, lam, phi_c, dlam[j], dshape[j], cands[i].step, cands[i].upper)
+        out[i] = screen_linear(obs, base, lam, phi_c, modes, dlam[j], dshape[j], cands[i].step, cands[i].upper)
     return out
 
 
@@ -128,9 +148,10 @@ def linear_bounded_moduli(obs: Observations, base: Fit, local, coords, n_modes: 
     terms = [local.stiffness(e.id, span[k]) for k, e in enumerate(model.elements)]
     mid = 0.5 * (rel_lo + rel_hi) * s * local.modulus       # z = 1/2
     start = model.with_element_moduli({e.id: float(mid[k]) for k, e in enumerate(model.elements)})
-    lam, phi_c, dlam, dshape = first_order_modes(AffineModel(start), coords, n_modes, terms)
+    modes = np.unique(base.pairing[base.pairing >= 0])
+    lam, phi_c, dlam, dshape = first_order_modes(AffineModel(start), coords, n_modes, terms, modes)
     r0 = obs.residuals(frequencies_hz(lam), phi_c, base.pairing)[0]
     h = 1e-4
-    jac = np.column_stack([(obs.residuals(frequencies_hz(lam + h * dlam[k]), phi_c + h * dshape[k],
-                                          base.pairing)[0] - r0) / h for k in range(len(terms))])
+    jac = np.column_stack([(obs.residuals(*_moved(lam, phi_c, modes, dlam[k], dshape[k], h), base.pairing)[0] - r0)
+                           / h for k in range(len(terms))])
     return lsq_linear(jac, jac @ np.full(len(terms), 0.5) - r0, bounds=(0.0, 1.0)).x
