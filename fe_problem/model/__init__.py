@@ -13,7 +13,7 @@ from .types import DIRECTIONS, Element, FrameModel, LumpedMass, Material, Node, 
 from .validate import ModelFileError
 
 __all__ = [
-    "DIRECTIONS", "Element", "FrameModel", "LumpedMass", "MODEL_FORMAT", "Material", "ModelFileError", "Node",
+    "BASES", "DIRECTIONS", "Element", "FrameModel", "LumpedMass", "MODEL_FORMAT", "Material", "ModelFileError", "Node",
     "Section", "Spring", "Support", "add_mass", "crack_element", "load_model", "model_from_dict", "model_to_dict",
     "regular_frame", "release_element_end", "save_model", "shipped_models", "split_element", "split_elements", "with_formulation",
 ]
