@@ -138,10 +138,12 @@ def screen_all(obs: Observations, base: Fit, model, coords, n_modes: int, cands)
 def linear_bounded_moduli(obs: Observations, base: Fit, local, coords, n_modes: int, rel_lo: float,
                           rel_hi: float) -> np.ndarray:
     """The bounded update of every element modulus in [rel_lo, rel_hi] x its calibrated value
-    (scaled into z in [0, 1]), linearised at the calibrated model: one bounded linear least-
-    squares step (`scipy.optimize.lsq_linear`) on the residual Jacobian of first-order modes.
-    Returns z (n_el,). For models where each element's own solve would cost too much."""
-    from scipy.optimize import lsq_linear
+    (scaled into z in [0, 1]), linearised at the calibrated model: the dense path's bounded
+    least-squares fit run on the residuals' first-order model (Jacobian from first-order
+    modes). Returns z (n_el,). For models where a finite-difference Jacobian (one solve per
+    element) would cost too much; with many more moduli than the data determine it pins more
+    of them than the nonlinear fit, which stops after 60 evaluations nearer its start."""
+    from scipy.optimize import least_squares
 
     s, model = base.s, local.model
     span = (rel_hi - rel_lo) * s * local.modulus            # Pa per unit z
@@ -154,4 +156,8 @@ def linear_bounded_moduli(obs: Observations, base: Fit, local, coords, n_modes: 
     h = 1e-4
     jac = np.column_stack([(obs.residuals(*_moved(lam, phi_c, modes, dlam[k], dshape[k], h), base.pairing)[0] - r0)
                            / h for k in range(len(terms))])
-    return lsq_linear(jac, jac @ np.full(len(terms), 0.5) - r0, bounds=(0.0, 1.0)).x
+    # the same bounded trust-region fit from the same start as the dense path (`least_squares`,
+    # z = 1/2, at most 60 evaluations), on the linearised residuals: where the data leave
+    # directions undetermined it stays near the start there, as the nonlinear fit does
+    return least_squares(lambda z: r0 + jac @ (z - 0.5), np.full(len(terms), 0.5), jac=lambda z: jac,
+                         bounds=(0.0, 1.0), max_nfev=60).x
