@@ -77,8 +77,12 @@ def scale_table(figures: dict) -> str:
         lines.append(f"\n{r['label']}: {r['slope']:.2f}{goal}")
     w1, w2 = per_item.get("batch_scale:3000:w1"), per_item.get("batch_scale:3000:w2")
     if w1 and w2:
+        cpu = ""
+        if "cpu_this_process_s" in w2:
+            cpu = (f"; CPU per point: {_ms(w1['cpu_this_process_s'])} in 1 process, "
+                   f"{_ms(w2['cpu_this_process_s'])} here + {_ms(w2['cpu_workers_s'])} in the worker with 2")
         lines.append(f"\nA batch of 4 points at 3,000 DOFs: {_ms(w1['min_s'])} per point with 1 process, "
-                     f"{_ms(w2['min_s'])} with 2 ({w1['min_s'] / w2['min_s']:.2f}x).")
+                     f"{_ms(w2['min_s'])} with 2 ({w1['min_s'] / w2['min_s']:.2f}x){cpu}.")
     return "\n".join(lines) + "\n"
 
 

@@ -8,8 +8,10 @@ fixed base) at three sizes, in one session:
   parameters), on the path `solver="auto"` chooses (sparse at these sizes);
 - `opensees_scale:N`: OpenSeesPy building the same frame (elasticBeamColumn, -cMass) and
   solving its lowest 10 modes with `ops.eigen(10)` (its default ARPACK solver);
-- `batch_scale:3000:wK`: a batch of 4 points at 3,000 DOFs with K worker processes (1, 2):
-  what the second core gives.
+- `batch_scale:3000:wK`: a batch of 4 points at 3,000 DOFs split over K processes (1, 2):
+  what the second core gives; the CPU time per point of this process and of the workers is
+  filed beside it (on a machine shared with other work the wall time shows what the scheduler
+  gave, the CPU times show how the work was split).
 
 conftest.py prints the ratio per size (goal: evaluate >= 5x faster at 3,000 and 9,000 DOFs)
 and the log-log slope of cost against DOFs of each code. Before timing, each size checks our
@@ -20,12 +22,17 @@ start vector) at 9,000, to 1e-8 relative; the difference to OpenSees is filed to
 
 from __future__ import annotations
 
+import os
+import time
+from pathlib import Path
+
 import numpy as np
 import pytest
 import scipy.linalg
 from scipy.sparse.linalg import eigsh
 
 import fe_problem as fp
+import fe_problem.sparse
 from fe_problem.modal import frequencies_hz
 from scale_frames import SIZES, opensees_frequencies, regular_frame
 
@@ -99,6 +106,17 @@ def test_opensees_rebuild_and_eigen(benchmark, record, n):
     record(f"opensees_scale:{n}", 1, n_dof=n, max_rel_diff_to_ours=diff, solver="ops.eigen(10), ARPACK")
 
 
+def _workers_cpu_s() -> float:
+    """CPU seconds used so far by the sparse solver's worker processes (Linux /proc)."""
+    if fe_problem.sparse._POOL is None:
+        return 0.0
+    total = 0
+    for pid in fe_problem.sparse._POOL._processes:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+        total += int(fields[11]) + int(fields[12])  # utime + stime, clock ticks
+    return total / os.sysconf("SC_CLK_TCK")
+
+
 @pytest.mark.parametrize("workers", [1, 2])
 @pytest.mark.benchmark(group="scale-batch")
 def test_batch_of_four_points(benchmark, record, workers):
@@ -107,8 +125,11 @@ def test_batch_of_four_points(benchmark, record, workers):
     problem.system.workers = workers
     try:
         f = benchmark.pedantic(problem.evaluate, args=(X,), rounds=3, warmup_rounds=1)
+        own, theirs = time.process_time(), _workers_cpu_s()  # where the CPU time goes, per point
+        problem.evaluate(X)
+        own, theirs = (time.process_time() - own) / len(X), (_workers_cpu_s() - theirs) / len(X)
         problem.system.workers = 1
         assert np.array_equal(f, problem.evaluate(X))  # the same numbers with any worker count
     finally:
         problem.system.workers = 1
-    record(f"batch_scale:3000:w{workers}", len(X), workers=workers)
+    record(f"batch_scale:3000:w{workers}", len(X), workers=workers, cpu_this_process_s=own, cpu_workers_s=theirs)

@@ -17,6 +17,7 @@ above (the crossover measured on this project's frames, see `SPARSE_MIN_DOFS`).
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sp
 
 from .model import FrameModel
 from .parameters import Parameter
@@ -101,7 +102,13 @@ class AffineModel:
             m0, dm = dense_terms(m_trip, n, p)
             self._solver = ModalSolver(k0, m0, dk, dm, self.x0, model.name)
         else:
-            self._solver = SparseModalSolver(k_trip, m_trip, n, self.x0, model.name, workers)
+            # the rigid-body motions the supports allow are zero modes however ill-conditioned
+            # the model (the eigenvalue test alone can miss them on a very fine mesh)
+            r, c, v, t = k_trip
+            k = sp.csr_matrix((v * np.append(self.x0, 1.0)[t], (r, c)), shape=(n, n))
+            allowed = self._rigid_allowed(k)
+            n_body = np.linalg.matrix_rank(allowed, tol=1e-9) if allowed.size else 0
+            self._solver = SparseModalSolver(k_trip, m_trip, n, self.x0, model.name, workers, min_zero=n_body)
         #: None, or what moves in the zero-energy motions that are not rigid-body motions
         self.mechanism: str | None = self._find_mechanism() if self.n_rigid else None
 
@@ -186,24 +193,28 @@ class AffineModel:
             null = vec[:, lam < ModalSolver.RIGID_TOL * max(lam.max(), 1e-300)]
         else:
             null = self._solver.zero_modes(self.x0)
-        m = self.model
-        rigid = np.zeros((self.dofmap.n_total, 3))
-        rigid[: self.dofmap.n_nodal] = m.layout.rigid_motions(np.array([(n.x, n.y) for n in m.nodes]))
-        for (_, node), dof in self.dofmap.hinges.items():  # a released end turns with the body
-            rigid[dof, 2] = 1.0
-        r = rigid[self.dofmap.free]
-        # the rigid motions the supports allow: combinations c with K r c = 0
-        _, sv, vt = np.linalg.svd(k @ r / max(abs(k).max(), 1e-300))
-        allowed = r @ vt[np.sum(sv > 1e-9):].T if sv.size else r
+        allowed = self._rigid_allowed(k)
         if null.shape[1] <= (np.linalg.matrix_rank(allowed, tol=1e-9) if allowed.size else 0):
             return None
-        q, _ = np.linalg.qr(allowed) if allowed.size else (np.zeros((len(r), 0)), None)
+        q, _ = np.linalg.qr(allowed) if allowed.size else (np.zeros((len(allowed), 0)), None)
         extra = null - q @ (q.T @ null)
         u = extra[:, np.argmax(np.linalg.norm(extra, axis=0))]
         names = self._dof_names()
         moving = [names[i] for i in np.argsort(-np.abs(u))[:4] if abs(u[i]) > 0.2 * np.abs(u).max()]
         return (f"{null.shape[1] - q.shape[1]} mechanism motion(s) strain no element and no spring "
                 f"(moving most: {', '.join(moving)})")
+
+    def _rigid_allowed(self, k) -> np.ndarray:
+        """The rigid-body motions the supports allow (n_free, r): combinations c of the free
+        structure's rigid motions with K r c = 0 (K dense or sparse)."""
+        m = self.model
+        rigid = np.zeros((self.dofmap.n_total, 3))
+        rigid[: self.dofmap.n_nodal] = m.layout.rigid_motions(np.array([(n.x, n.y) for n in m.nodes]))
+        for (_, node), dof in self.dofmap.hinges.items():  # a released end turns with the body
+            rigid[dof, 2] = 1.0
+        r = rigid[self.dofmap.free]
+        _, sv, vt = np.linalg.svd(k @ r / max(abs(k).max(), 1e-300), full_matrices=False)  # not an n x n U
+        return r @ vt[np.sum(sv > 1e-9):].T if sv.size else r
 
     def _dof_names(self) -> list[str]:
         """A name for every free DOF: 'node N dir' or 'the released end of element E at node N'."""

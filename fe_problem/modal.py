@@ -22,7 +22,8 @@ class ModalResult:
     frequencies_hz: (n_modes,) ascending; shapes: (n_dof, n_modes) on the nodal DOFs, mass-
     normalised (phi^T M phi = I over all DOFs), zero at supported DOFs; dofs: one
     (node id, direction) per row of `shapes`; n_rigid: zero-energy modes that were dropped;
-    mechanism: None, or which of those are mechanism motions rather than rigid-body motions.
+    mechanism: None, or which of those are mechanism motions rather than rigid-body motions;
+    path: the solver path that computed them ("dense" or "sparse", `AffineModel.path`).
     """
 
     frequencies_hz: np.ndarray
@@ -30,6 +31,7 @@ class ModalResult:
     dofs: tuple[tuple[int, str], ...]
     n_rigid: int
     mechanism: str | None = None
+    path: str = "dense"
 
     @property
     def eigenvalues(self) -> np.ndarray:
@@ -51,18 +53,19 @@ def frequencies_hz(eigenvalues: np.ndarray) -> np.ndarray:
 
 
 def modal_analysis(model: FrameModel | str, n_modes: int = 8, parameters: tuple[Parameter, ...] = (),
-                   theta=None, at_most: bool = False) -> ModalResult:
+                   theta=None, at_most: bool = False, solver: str = "auto") -> ModalResult:
     """The `n_modes` lowest elastic modes of `model` (a FrameModel, a shipped model name or a
     model file path).
 
     With `parameters` and `theta`, the modes of the model updated to those values. A model
     with fewer elastic modes raises ValueError, unless `at_most`: then all it has are returned
-    (compare ``len(result.frequencies_hz)`` with `n_modes`).
+    (compare ``len(result.frequencies_hz)`` with `n_modes`). `solver`: ``"auto"``, ``"dense"`` or
+    ``"sparse"`` (`AffineModel`).
     """
     model = load_model(model)
     if n_modes < 1:
         raise ValueError(f"n_modes must be >= 1, got {n_modes}")
-    system = AffineModel(model, tuple(parameters))
+    system = AffineModel(model, tuple(parameters), solver=solver)
     theta = system.x0 if theta is None else np.asarray(theta, dtype=float)
     if theta.shape != (system.n_params,):
         raise ValueError(f"theta must have shape ({system.n_params},), got {theta.shape}")
@@ -72,4 +75,5 @@ def modal_analysis(model: FrameModel | str, n_modes: int = 8, parameters: tuple[
     if at_most:
         n_modes = min(n_modes, system.n_elastic)
     lam, phi = system.eigen(theta[None, :], n_modes, vectors=True)
-    return ModalResult(frequencies_hz(lam[0]), system.expand(phi[0]), model.dofs, system.n_rigid, system.mechanism)
+    return ModalResult(frequencies_hz(lam[0]), system.expand(phi[0]), model.dofs, system.n_rigid, system.mechanism,
+                       system.path)

@@ -253,7 +253,7 @@ class UpdatingProblem:
         x = self.x0 if x is None else self.check_x(x, "x")[0]
         lam, phi = self.system.eigen(x[None], n_modes or self.n_model_modes, vectors=True)
         return ModalResult(frequencies_hz(lam[0]), self.system.expand(phi[0]), self.model.dofs,
-                           self.system.n_rigid)
+                           self.system.n_rigid, self.system.mechanism, self.system.path)
 
     def correlation(self, x=None) -> CorrelationReport:
         """Paired frequencies, errors, MAC and COMAC of the model at x (default x0): `correlate`

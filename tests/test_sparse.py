@@ -10,6 +10,8 @@ the batch it comes in or on the number of worker processes.
 
 from __future__ import annotations
 
+import tracemalloc
+
 import numpy as np
 import pytest
 import scipy.linalg
@@ -193,7 +195,7 @@ def test_modal_analysis_of_a_large_free_free_frame_takes_the_sparse_path():
     res = fp.modal_analysis(m, 6)
     dense = fp.AffineModel(m, solver="dense")
     lam, phi = dense.eigen(np.zeros((1, 0)), 6, vectors=True)
-    assert res.n_rigid == 3 and fp.AffineModel(m).path == "sparse"
+    assert res.n_rigid == 3 and res.path == "sparse" and fp.modal_analysis(m, 6, solver="dense").path == "dense"
     np.testing.assert_allclose((2 * np.pi * res.frequencies_hz) ** 2, lam[0], rtol=1e-10)
     np.testing.assert_allclose(res.shapes, dense.expand(phi[0]), atol=1e-7 * np.abs(res.shapes).max())
 
@@ -208,3 +210,93 @@ def test_a_300_dof_frame_on_the_sparse_path_agrees_with_opensees_to_1e_8():
     assert n_zero == 0
     np.testing.assert_allclose(res.frequencies_hz, hz, rtol=1e-8)
     assert np.all(np.diag(fp.mac(res.shapes, shapes)) > 1 - 1e-10)
+
+
+def test_a_long_thin_free_free_beam_keeps_its_three_rigid_modes_and_no_dense_matrix():
+    # 1,500 nodes 1 cm apart: K's condition number is about 1e13, so the rigid-body eigenvalues
+    # come out far from zero; they are known from the geometry and dropped all the same
+    n = 1500
+    m = FrameModel(name="thin", nodes=tuple(Node(i + 1, 0.01 * i, 0.0) for i in range(n)),
+                   materials={"m": Material(7e10, 2700.0, 0.33)}, sections={"s": Section(1e-4, 1e-9)},
+                   elements=tuple(Element(i + 1, i + 1, i + 2, "s", "m") for i in range(n - 1)))
+    tracemalloc.start()
+    try:
+        res = fp.modal_analysis(m, 4)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert res.n_rigid == 3 and res.mechanism is None
+    assert peak < 60 * 2**20  # one dense 4,500 x 4,500 matrix alone would be 162 MB
+    L = 0.01 * (n - 1)
+    beta_l = np.array([4.730040745, 7.853204624, 10.99560784, 14.13716549])  # free-free beam
+    exact = beta_l**2 / (2 * np.pi * L**2) * np.sqrt(7e10 * 1e-9 / (2700 * 1e-4))
+    np.testing.assert_allclose(res.frequencies_hz, exact, rtol=1e-5)
+
+
+def test_least_squares_with_hundreds_of_parameters_on_a_1000_dof_frame():
+    m = grid_frame(9, 35)
+    m = m.replace(measured_dofs=tuple((n, "x") for n in range(20, 361, 10)))
+    pars = fp.element_moduli(m, lower=1.8e11, upper=2.4e11)  # 665 parameters
+    rng = np.random.default_rng(6)
+    truth = rng.uniform(1.9e11, 2.3e11, len(pars))
+    data = fp.synthetic_measurement(m, 6, parameters=pars, theta=truth, seed=1)
+    problem = fp.UpdatingProblem(m, data, parameters=pars, n_model_modes=8)
+    assert problem.system.path == "sparse" and problem.n_var == 665 and problem.system.n_free == 1050
+    x = rng.uniform(1.9e11, 2.3e11, len(pars))
+    ls = problem.least_squares(x)
+    assert ls.jacobian.shape == (6, 665)
+    np.testing.assert_allclose(ls.f, problem.evaluate(x)[0], rtol=1e-12)
+    for k in (0, 333, 664):
+        h = 1e-3 * x[k]  # the eigen-solver's 1e-14 noise must stay far below the step's effect
+        up, dn = x.copy(), x.copy()
+        up[k] += h
+        dn[k] -= h
+        fd = (problem.residuals(up)[0] - problem.residuals(dn)[0]) / (2 * h)
+        np.testing.assert_allclose(ls.jacobian[:, k], fd, rtol=1e-4, atol=1e-6 * np.abs(ls.jacobian).max())
+
+
+def test_a_batch_survives_a_worker_process_that_dies():
+    import os
+    import signal
+    import time
+
+    import fe_problem.sparse as fs
+
+    m = grid_frame(9, 10)
+    system = fp.AffineModel(m, workers=2)
+    theta = np.zeros((4, 0))
+    for wait_s in (0.0, 1.0):  # the death seen when the results are collected, or already at submit
+        lam, _ = system.eigen(theta, 6)  # (re)starts the shared pool
+        for pid in list(fs._POOL._processes):
+            os.kill(pid, signal.SIGKILL)
+        time.sleep(wait_s)
+        again, _ = system.eigen(theta, 6)  # the dead worker's share done here, or by a new pool
+        assert np.array_equal(again, lam) and np.all(again == again[0])
+    assert np.array_equal(system.eigen(theta, 6)[0], lam) and fs._POOL is not None
+
+
+def test_a_lanczos_run_that_does_not_converge_is_retried_wider_then_named(monkeypatch):
+    import fe_problem.sparse as fs
+    from scipy.sparse.linalg import ArpackNoConvergence
+
+    system = fp.AffineModel(grid_frame(9, 10), workers=1)
+    reference, _ = system.eigen(np.zeros((1, 0)), 6)
+    real, calls = fs.eigsh, []
+
+    def flaky(*args, **kw):
+        calls.append(kw["ncv"])
+        if len(calls) == 1:
+            raise ArpackNoConvergence("ARPACK error -1: No convergence", np.zeros(0), np.zeros((0, 0)))
+        return real(*args, **kw)
+
+    monkeypatch.setattr(fs, "eigsh", flaky)
+    lam, _ = system.eigen(np.zeros((1, 0)), 6)
+    assert calls == [20, 40]
+    np.testing.assert_allclose(lam, reference, rtol=1e-12)
+
+    def never(*args, **kw):
+        raise ArpackNoConvergence("ARPACK error -1: No convergence", np.zeros(0), np.zeros((0, 0)))
+
+    monkeypatch.setattr(fs, "eigsh", never)
+    with pytest.raises(ValueError, match="'grid9x10': the Lanczos iteration for the lowest 6 modes did not converge"):
+        system.eigen(np.zeros((1, 0)), 6)
