@@ -117,3 +117,17 @@ def test_femu_diagnose_names_a_crack_in_a_1000_dof_frame(tmp_path):
     for label in filter(None, named):
         where = dict(part.split("=") for part in label.split("@")[1].split("(")[0].split(","))
         assert int(where["element"]) in parts and ("node" not in where or on_member(int(where["node"]))), label
+
+
+def test_screen_in_chunks_gives_the_same(monkeypatch):
+    from fe_problem.diagnosis import screening
+
+    cal = calibrate(HFRAME, measure(cracked(HFRAME, 7, 0.3, 2.0), "hframe"), 0.002, 0.02)
+    st = cal.setting
+    cands = all_candidates(st)
+    whole = screen_all(cal.obs, cal.base, st.model, st.coords, st.n_modes, cands)
+    monkeypatch.setattr(screening, "CHUNK_FLOATS", 200)  # a few candidates per chunk
+    assert len(screening.chunks(screening.baseline(fp.AffineModel(st.model), st.coords, st.n_modes, [0, 1]),
+                                len(cands))) > 10
+    parts = screen_all(cal.obs, cal.base, st.model, st.coords, st.n_modes, cands)
+    np.testing.assert_array_equal(np.array(parts, dtype=float), np.array(whole, dtype=float))

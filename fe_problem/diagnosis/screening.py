@@ -11,12 +11,15 @@ is the whole cost of a diagnosis. Here the step is taken on the first-order mode
   factorisation per mode of the bordered matrix [[K - lambda_i M, M phi_i], [phi_i^T M, 0]]
   with the measured coordinates as right-hand sides (Z_i is symmetric: an adjoint solve).
 
-So the cost is one factorisation per mode plus a few flops per candidate and coordinate, and
-memory one (n_free x n_coord) block at a time. The screened step then goes through the same
+So the cost is one factorisation per mode plus a few flops per candidate and coordinate; the
+memory is one (n_free x n_coord) block per paired mode and the changes of one chunk of
+candidates at a time (`CHUNK_FLOATS`). The screened step then goes through the same
 profiled residuals as `fit.screen` (`screen_linear`), so both screens rank on one scale.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
@@ -29,8 +32,8 @@ from .local import Term
 from .residuals import Observations
 
 
-#: Floats of one chunk of the candidates' adjoint rows (8 bytes each: 64 MB).
-CHUNK_FLOATS = 2**23
+#: Bytes of the first-order changes held at once (a chunk of candidates): 64 MB.
+CHUNK_FLOATS = 2**26 // 8
 
 
 def _to_free(system: AffineModel, dofs: np.ndarray) -> np.ndarray:
@@ -47,43 +50,67 @@ def _groups(terms: list[Term]) -> dict[int, np.ndarray]:
     return {int(k): np.flatnonzero(sizes == k) for k in np.unique(sizes)}
 
 
-def first_order_modes(system: AffineModel, coords, n_modes: int, terms: list[Term], modes=None):
-    """Modes of `system` at x0 and the first-order change of modes `modes` (default: all
-    n_modes) for each term.
+@dataclass(frozen=True, eq=False)
+class Baseline:
+    """A system's modes at x0 and, for the modes `modes`, the adjoint blocks G_i = Z_i C^T
+    (n_free + 1 rows, the last zero: the row of a supported DOF), one per mode."""
 
-    Returns lam (n_modes,), shapes at `coords` (n_coord, n_modes), d lam (c, len(modes)) and
-    d shapes (c, n_coord, len(modes)) for the c terms. Memory: those, and one free-DOF block
-    of n_free x n_coord at a time."""
-    x0 = system.x0[None, :]
-    lam, phi = system.eigen(x0, n_modes, vectors=True)
+    system: AffineModel
+    lam: np.ndarray        # (n_modes,) omega^2
+    phi_z: np.ndarray      # (n_free + 1, n_modes), a zero row last
+    phi_c: np.ndarray      # (n_coord, n_modes) at the measured coordinates
+    modes: np.ndarray      # the modes whose changes are computed
+    g: tuple               # (n_free + 1, n_coord) per mode in `modes`
+
+
+def baseline(system: AffineModel, coords, n_modes: int, modes=None) -> Baseline:
+    """The modes of `system` and one adjoint block per mode in `modes` (default all): one
+    sparse factorisation and n_coord solves per mode. Memory: n_free x n_coord per mode."""
+    lam, phi = system.eigen(system.x0[None, :], n_modes, vectors=True)
     lam, phi = lam[0], phi[0]
     k0, m0 = sp.csc_matrix(system.k0), sp.csc_matrix(system.m0)
-    n, rows = system.n_free, system.nodal_rows(coords)
+    rows = system.nodal_rows(coords)
     ok = rows >= 0
-    c_t = sp.csc_matrix((np.ones(ok.sum()), (rows[ok], np.flatnonzero(ok))), shape=(n, len(rows)))
+    c_t = sp.csc_matrix((np.ones(ok.sum()), (rows[ok], np.flatnonzero(ok))), shape=(system.n_free, len(rows)))
     phi_c = np.where(ok[:, None], phi[np.clip(rows, 0, None)], 0.0)
-    phi_z = np.vstack([phi, np.zeros((1, n_modes))])
     modes = np.arange(n_modes) if modes is None else np.asarray(modes, dtype=int)
-    dlam = np.zeros((len(terms), len(modes)))
-    dshape = np.zeros((len(terms), len(rows), len(modes)))
-    groups = {k: (idx, _to_free(system, np.array([terms[i].dofs for i in idx])),
-                  np.array([terms[i].dk for i in idx]), np.array([terms[i].dm for i in idx]),
-                  np.array([terms[i].dm2 if terms[i].dm2 is not None else np.zeros_like(terms[i].dk) for i in idx]))
-              for k, idx in _groups(terms).items()}
-    for j, i in enumerate(modes):
-        g = _adjoint(k0, m0, lam[i], phi[:, i], c_t)          # (n + 1, n_coord), last row zero
-        for idx, free, dk, dm, dm2 in groups.values():
-            step = max(1, CHUNK_FLOATS // (free.shape[1] * len(rows)))
-            for c in range(0, len(idx), step):                   # g[free] in chunks: bounded memory
-                sl = slice(c, c + step)
-                d = dk[sl] - lam[i] * dm[sl] + lam[i] ** 2 * dm2[sl]   # (c, k, k)
-                u = phi_z[free[sl], i]                           # (c, k)
-                r = np.einsum("ckl,cl->ck", d, u)
-                dlam[idx[sl], j] = np.einsum("ck,ck->c", u, r)
-                c_i = 0.5 * np.einsum("ck,ckl,cl->c", u, -dm[sl] + 2.0 * lam[i] * dm2[sl], u)
-                dshape[idx[sl], :, j] = (-np.einsum("ckq,ck->cq", g[free[sl]], r)
-                                         + c_i[:, None] * phi_c[None, :, i])
-    return lam, phi_c, dlam, dshape
+    g = tuple(_adjoint(k0, m0, lam[i], phi[:, i], c_t) for i in modes)
+    return Baseline(system, lam, np.vstack([phi, np.zeros((1, n_modes))]), phi_c, modes, g)
+
+
+def changes(base: Baseline, terms: list[Term]) -> tuple[np.ndarray, np.ndarray]:
+    """First-order changes of the baseline's modes `modes` for each term: d lam (c, m) and
+    d shapes at the measured coordinates (c, n_coord, m); callers pass terms in chunks."""
+    n_coord = base.phi_c.shape[0]
+    dlam = np.zeros((len(terms), len(base.modes)))
+    dshape = np.zeros((len(terms), n_coord, len(base.modes)))
+    for idx in _groups(terms).values():
+        free = _to_free(base.system, np.array([terms[i].dofs for i in idx]))
+        dk = np.array([terms[i].dk for i in idx])
+        dm = np.array([terms[i].dm for i in idx])
+        dm2 = np.array([terms[i].dm2 if terms[i].dm2 is not None else np.zeros_like(terms[i].dk) for i in idx])
+        for j, (i, g) in enumerate(zip(base.modes, base.g)):
+            lam = base.lam[i]
+            u = base.phi_z[free, i]                                       # (c, k)
+            r = np.einsum("ckl,cl->ck", dk - lam * dm + lam ** 2 * dm2, u)
+            dlam[idx, j] = np.einsum("ck,ck->c", u, r)
+            c_i = 0.5 * np.einsum("ck,ckl,cl->c", u, -dm + 2.0 * lam * dm2, u)
+            dshape[idx, :, j] = -np.einsum("ckq,ck->cq", g[free], r) + c_i[:, None] * base.phi_c[None, :, i]
+    return dlam, dshape
+
+
+def chunks(base: Baseline, n: int):
+    """Slices of range(n) whose `changes` fit in `CHUNK_FLOATS` floats."""
+    step = max(1, CHUNK_FLOATS // (base.phi_c.shape[0] * max(len(base.modes), 1)))
+    return [slice(c, min(c + step, n)) for c in range(0, n, step)]
+
+
+def first_order_modes(system: AffineModel, coords, n_modes: int, terms: list[Term], modes=None):
+    """Modes of `system` at x0 and the first-order change of modes `modes` (default: all
+    n_modes) for each term: lam (n_modes,), shapes at `coords` (n_coord, n_modes), d lam
+    (c, len(modes)) and d shapes (c, n_coord, len(modes))."""
+    base = baseline(system, coords, n_modes, modes)
+    return (base.lam, base.phi_c) + changes(base, terms)
 
 
 def _adjoint(k0, m0, lam: float, phi: np.ndarray, c_t) -> np.ndarray:
@@ -126,12 +153,15 @@ def screen_all(obs: Observations, base: Fit, model, coords, n_modes: int, cands)
     `model`; candidates without one (global effects) get (nan, nan): the caller screens them
     by a step or fits them outright."""
     with_term = [i for i, c in enumerate(cands) if c.term is not None]
-    terms = [cands[i].term() for i in with_term]
     modes = np.unique(base.pairing[base.pairing >= 0])
-    lam, phi_c, dlam, dshape = first_order_modes(AffineModel(model), coords, n_modes, terms, modes)
+    first = baseline(AffineModel(model), coords, n_modes, modes)
     out = [(float("nan"), float("nan"))] * len(cands)
-    for j, i in enumerate(with_term):
-        out[i] = screen_linear(obs, base, lam, phi_c, modes, dlam[j], dshape[j], cands[i].step, cands[i].upper)
+    for sl in chunks(first, len(with_term)):  # the changes of a chunk of candidates at a time
+        part = with_term[sl]
+        dlam, dshape = changes(first, [cands[i].term() for i in part])
+        for j, i in enumerate(part):
+            out[i] = screen_linear(obs, base, first.lam, first.phi_c, modes, dlam[j], dshape[j], cands[i].step,
+                                   cands[i].upper)
     return out
 
 
@@ -151,11 +181,16 @@ def linear_bounded_moduli(obs: Observations, base: Fit, local, coords, n_modes: 
     mid = 0.5 * (rel_lo + rel_hi) * s * local.modulus       # z = 1/2
     start = model.with_element_moduli({e.id: float(mid[k]) for k, e in enumerate(model.elements)})
     modes = np.unique(base.pairing[base.pairing >= 0])
-    lam, phi_c, dlam, dshape = first_order_modes(AffineModel(start), coords, n_modes, terms, modes)
+    first = baseline(AffineModel(start), coords, n_modes, modes)
+    lam, phi_c = first.lam, first.phi_c
     r0 = obs.residuals(frequencies_hz(lam), phi_c, base.pairing)[0]
     h = 1e-4
-    jac = np.column_stack([(obs.residuals(*_moved(lam, phi_c, modes, dlam[k], dshape[k], h), base.pairing)[0] - r0)
-                           / h for k in range(len(terms))])
+    columns = []
+    for sl in chunks(first, len(terms)):
+        dlam, dshape = changes(first, terms[sl])
+        columns += [(obs.residuals(*_moved(lam, phi_c, modes, dlam[k], dshape[k], h), base.pairing)[0] - r0) / h
+                    for k in range(len(dlam))]
+    jac = np.column_stack(columns)
     # the same bounded trust-region fit from the same start as the dense path (`least_squares`,
     # z = 1/2, at most 60 evaluations), on the linearised residuals: where the data leave
     # directions undetermined it stays near the start there, as the nonlinear fit does
