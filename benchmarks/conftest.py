@@ -38,6 +38,8 @@ RATIOS = (
     ("evaluate, 3,000-DOF frame: speed-up over OpenSeesPy", "opensees_scale:3000", "evaluate_scale:3000", 5.0),
     ("evaluate, 9,000-DOF frame: speed-up over OpenSeesPy", "opensees_scale:9000", "evaluate_scale:9000", 5.0),
     ("batch of 4 at 3,000 DOFs: 2 worker processes over 1", "batch_scale:3000:w1", "batch_scale:3000:w2", 1.0),
+    ("diagnosis screen per candidate, 1,092 DOFs: first-order over one exact step", "screen_step:1092",
+     "screen_first:1092", 1.0),
 )
 
 #: (label, figure key prefix, goal): the log-log slope of per-item time against DOFs over the

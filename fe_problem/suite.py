@@ -36,7 +36,7 @@ import numpy as np
 from .correlation import pair_modes
 from .modal_data import ModalData, synthetic_measurement
 from .modal import modal_analysis
-from .model import Element, FrameModel, LumpedMass, Material, Node, Section, Support, load_model, split_element
+from .model import FrameModel, load_model, regular_frame, split_elements
 from .parameters import element_moduli
 from .problem import UpdatingProblem
 
@@ -164,42 +164,19 @@ def id_seed(problem_id: str, purpose: str) -> int:
 # -- structures ------------------------------------------------------------------------------
 
 def split_hframe(parts: int) -> FrameModel:
-    """The H-frame with every element split into `parts` equal elements (new nodes and ids as
-    `split_element` gives them); ``parts = 1`` is the shipped model."""
-    if parts < 1:
-        raise ValueError(f"parts must be >= 1, got {parts}")
-    base = load_model("hframe")
-    model = base
-    for e in base.element_ids:
-        piece = e
-        for k in range(parts - 1):
-            model = split_element(model, piece, 1.0 / (parts - k))
-            piece = max(model.element_ids)
+    """The H-frame with every element split into `parts` equal elements (`split_elements`);
+    ``parts = 1`` is the shipped model."""
+    model = split_elements(load_model("hframe"), parts)
     return model.replace(name=f"hframe-split{parts}") if parts > 1 else model
 
 
 def storey_frame(storeys: int, storey_height_m: float = 3.0, bay_m: float = 6.0) -> FrameModel:
-    """A one-bay planar steel frame of `storeys` storeys fixed at its base: per storey two
-    columns (A 1.0e-2 m^2, I 1.0e-4 m^4) and a beam (A 8.0e-3 m^2, I 2.0e-4 m^4), E 210 GPa,
-    density 7850 kg/m^3, and 2000 kg floor mass at each storey node. Measured: x and y at every
-    storey node."""
-    if storeys < 1:
-        raise ValueError(f"storeys must be >= 1, got {storeys}")
-    nodes = tuple(Node(2 * s + c + 1, c * bay_m, s * storey_height_m) for s in range(storeys + 1) for c in (0, 1))
-    elements = []
-    for s in range(storeys):
-        left, right, up_l, up_r = 2 * s + 1, 2 * s + 2, 2 * s + 3, 2 * s + 4
-        elements += [Element(3 * s + 1, left, up_l, "column", "steel"),
-                     Element(3 * s + 2, right, up_r, "column", "steel"),
-                     Element(3 * s + 3, up_l, up_r, "beam", "steel")]
-    storey_nodes = [n.id for n in nodes[2:]]
-    return FrameModel(
-        name=f"frame{storeys}", nodes=nodes, materials={"steel": Material(2.1e11, 7850.0, 0.3)},
-        sections={"column": Section(1.0e-2, 1.0e-4), "beam": Section(8.0e-3, 2.0e-4)},
-        elements=tuple(elements), masses=tuple(LumpedMass(n, 2000.0) for n in storey_nodes),
-        supports=(Support(1, ("x", "y", "rz")), Support(2, ("x", "y", "rz"))),
-        measured_dofs=tuple((n, d) for n in storey_nodes for d in ("x", "y")),
-        description=f"one-bay {storeys}-storey steel frame, fixed base (femu suite)")
+    """A one-bay planar steel frame of `storeys` storeys fixed at its base (`regular_frame`'s
+    defaults): per storey two columns (A 1.0e-2 m^2, I 1.0e-4 m^4) and a beam (A 8.0e-3 m^2,
+    I 2.0e-4 m^4), E 210 GPa, density 7850 kg/m^3, and 2000 kg floor mass at each storey node.
+    Measured: x and y at every storey node."""
+    return regular_frame(1, storeys, bay_m, storey_height_m, floor_mass_kg=2000.0, name=f"frame{storeys}",
+                         description=f"one-bay {storeys}-storey steel frame, fixed base (femu suite)")
 
 
 @lru_cache(maxsize=16)

@@ -53,7 +53,7 @@ BAD_MODULES = {"raises_on_import.py": "raise RuntimeError('boom')\n",
 # 400-digit integer, STORE a store with one run, S a fresh store path.
 CASES = [
     # femu model
-    (["model"], "required: model"),
+    (["model"], "give a MODEL (a shipped name or a model file) or --frame BAYSxSTOREYS, got neither"),
     (["model", "nosuch"], "no model file 'nosuch'"),
     (["model", "hframe", "--modes", "0"], "--modes: must be at least 1"),
     (["model", "hframe", "--modes", "-3"], "--modes: must be at least 1"),

@@ -29,6 +29,7 @@ element ends meet, or two that are not in line (a corner), so any frame has its 
 from __future__ import annotations
 
 import dataclasses
+import functools
 from dataclasses import dataclass, field
 from typing import Callable, Iterator
 
@@ -39,6 +40,7 @@ from ..modal import frequencies_hz
 from ..model import FrameModel, Spring, add_mass, release_element_end, split_element, with_formulation
 from ..assembly import AffineModel
 from ..parameters import Parameter
+from .local import LocalMatrices, Term
 
 KINDS = ("stiffness_loss", "added_mass", "joint_flexibility", "shear_deformation", "stiffness_gain",
          "boundary_stiffness", "distributed_mass")
@@ -52,6 +54,17 @@ class Setting:
     model: FrameModel
     coords: tuple[tuple[int, str], ...]
     n_modes: int
+
+    @functools.cached_property
+    def local(self) -> LocalMatrices:
+        """The model's element matrices and DOFs, for the candidates' first-order terms."""
+        return LocalMatrices(self.model)
+
+
+def lazy_system(build: Callable[[], AffineModel]) -> Callable[[], AffineModel]:
+    """`build()` on the first call, the same system after: a candidate's own system is
+    assembled only if it is solved (on a large model most candidates are only screened)."""
+    return functools.lru_cache(maxsize=1)(build)
 
 
 def solve(system: AffineModel, theta: np.ndarray, coords, n_modes: int):
@@ -73,6 +86,7 @@ class Candidate:
     extend: Callable[[float], FrameModel]
     step: float                        # a small effect size for first-order sensitivities
     meta: dict = field(default_factory=dict)
+    term: Callable[[], Term] | None = None  # dK/da, dM/da at a = 0 (local.py); None: a global effect
 
     @property
     def label(self) -> str:
@@ -124,10 +138,11 @@ def stiffness_loss(st: Setting) -> Iterator[Candidate]:
         profiles = ("uniform",) if e.formulation != "euler-bernoulli" or e.crack_position else PROFILES
         for profile in profiles:
             e0 = st.model.element_modulus_pa(e.id)
-            system = AffineModel(st.model, (Parameter("modulus", (e.id,), 1e-3 * e0, e0, e0, profile=profile),))
+            system = lazy_system(lambda e=e, e0=e0, profile=profile: AffineModel(
+                st.model, (Parameter("modulus", (e.id,), 1e-3 * e0, e0, e0, profile=profile),)))
 
             def forward(a, system=system, e0=e0):
-                return solve(system, (e0 * (1.0 - np.asarray(a)))[:, None], st.coords, st.n_modes)
+                return solve(system(), (e0 * (1.0 - np.asarray(a)))[:, None], st.coords, st.n_modes)
 
             def estimate(a, s, e0=e0, profile=profile):
                 return {"stiffness_loss_pct": 100.0 * a, "modulus_ratio": 1.0 - a, "profile": profile,
@@ -142,16 +157,17 @@ def stiffness_loss(st: Setting) -> Iterator[Candidate]:
             yield Candidate("stiffness_loss", {"element": e.id}, 0.9,
                             np.array([0.0, 0.005, 0.01, 0.02, 0.04, 0.07, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7,
                                       0.8, 0.9]),
-                            forward, estimate, extend, step=0.01, meta={"profile": profile})
+                            forward, estimate, extend, step=0.01, meta={"profile": profile},
+                            term=lambda e=e, e0=e0, profile=profile: st.local.stiffness(e.id, -e0, profile))
 
 
 def added_mass(st: Setting) -> Iterator[Candidate]:
     total = st.model.total_mass_kg()
     for node in st.model.node_ids:
-        system = AffineModel(st.model, (Parameter("mass", (node,), 0.0, total, 0.0),))
+        system = lazy_system(lambda node=node: AffineModel(st.model, (Parameter("mass", (node,), 0.0, total, 0.0),)))
 
         def forward(a, system=system):
-            return solve(system, np.asarray(a, dtype=float)[:, None], st.coords, st.n_modes)
+            return solve(system(), np.asarray(a, dtype=float)[:, None], st.coords, st.n_modes)
 
         def estimate(a, s, node=node):
             return {"mass_kg": a, "mass_ratio": a / total}
@@ -161,7 +177,7 @@ def added_mass(st: Setting) -> Iterator[Candidate]:
 
         yield Candidate("added_mass", {"node": node}, 0.5 * total,
                         np.concatenate([[0.0], total * np.geomspace(1e-3, 0.5, 15)]),
-                        forward, estimate, extend, step=0.005 * total)
+                        forward, estimate, extend, step=0.005 * total, term=lambda node=node: st.local.node_mass(node))
 
 
 def joint_nodes(model: FrameModel) -> tuple[int, ...]:
@@ -178,7 +194,7 @@ def joint_nodes(model: FrameModel) -> tuple[int, ...]:
 
 
 def joint_flexibility(st: Setting) -> Iterator[Candidate]:
-    baseline = AffineModel(st.model)
+    baseline = lazy_system(lambda: AffineModel(st.model))
     for node in joint_nodes(st.model):
         for e in st.model.elements:
             if node not in (e.node_i, e.node_j):
@@ -186,15 +202,15 @@ def joint_flexibility(st: Setting) -> Iterator[Candidate]:
             if (node == e.node_i and e.release_i is not None) or (node == e.node_j and e.release_j is not None):
                 continue
             ref = _bending_compliance_ref(st.model, e.id)
-            released = release_element_end(st.model, e.id, node, ref)
-            system = AffineModel(released, (Parameter("release", (e.id, node), 0.0, 1e12 * ref, ref),))
+            system = lazy_system(lambda e=e, node=node, ref=ref: AffineModel(
+                release_element_end(st.model, e.id, node, ref), (Parameter("release", (e.id, node), 0.0, 1e12 * ref, ref),)))
 
             def forward(a, system=system, ref=ref):
                 a = np.asarray(a, dtype=float)
-                hz, shapes = solve(system, (ref / np.maximum(a, 1e-12))[:, None], st.coords, st.n_modes)
+                hz, shapes = solve(system(), (ref / np.maximum(a, 1e-12))[:, None], st.coords, st.n_modes)
                 rigid = a <= 0.0
                 if rigid.any():  # a = 0 is the rigid joint: the unextended model itself
-                    hz0, sh0 = solve(baseline, np.zeros((1, 0)), st.coords, st.n_modes)
+                    hz0, sh0 = solve(baseline(), np.zeros((1, 0)), st.coords, st.n_modes)
                     hz[rigid], shapes[rigid] = hz0[0], sh0[0]
                 return hz, shapes
 
@@ -207,13 +223,14 @@ def joint_flexibility(st: Setting) -> Iterator[Candidate]:
 
             yield Candidate("joint_flexibility", {"node": node, "element": e.id}, 50.0,
                             np.concatenate([[0.0], np.geomspace(1e-3, 50.0, 18)]),
-                            forward, estimate, extend, step=0.01)
+                            forward, estimate, extend, step=0.01,
+                            term=lambda e=e, node=node, ref=ref: st.local.joint(e.id, node, ref))
 
 
 def shear_deformation(st: Setting) -> Iterator[Candidate]:
     if all(e.formulation == "timoshenko" for e in st.model.elements):
         return
-    baseline = AffineModel(st.model)
+    baseline = lazy_system(lambda: AffineModel(st.model))
 
     def model_at(a: float) -> FrameModel:
         sections = {k: dataclasses.replace(v, shear_coefficient=v.shear_coefficient / a)
@@ -222,7 +239,7 @@ def shear_deformation(st: Setting) -> Iterator[Candidate]:
 
     def forward(a):
         a = np.atleast_1d(np.asarray(a, dtype=float))
-        out = [solve(AffineModel(model_at(v)) if v > 0 else baseline, np.zeros((1, 0)), st.coords, st.n_modes)
+        out = [solve(AffineModel(model_at(v)) if v > 0 else baseline(), np.zeros((1, 0)), st.coords, st.n_modes)
                for v in a]
         return np.concatenate([o[0] for o in out]), np.concatenate([o[1] for o in out])
 
@@ -238,10 +255,10 @@ def stiffness_gain(st: Setting) -> Iterator[Candidate]:
     """A member stiffer than its model: its modulus times (1 + a), uniform over the element."""
     for e in st.model.elements:
         e0 = st.model.element_modulus_pa(e.id)
-        system = AffineModel(st.model, (Parameter("modulus", (e.id,), 1e-3 * e0, 10 * e0, e0),))
+        system = lazy_system(lambda e=e, e0=e0: AffineModel(st.model, (Parameter("modulus", (e.id,), 1e-3 * e0, 10 * e0, e0),)))
 
         def forward(a, system=system, e0=e0):
-            return solve(system, (e0 * (1.0 + np.asarray(a)))[:, None], st.coords, st.n_modes)
+            return solve(system(), (e0 * (1.0 + np.asarray(a)))[:, None], st.coords, st.n_modes)
 
         def estimate(a, s, e0=e0):
             return {"stiffness_gain_pct": 100.0 * a, "modulus_ratio": 1.0 + a, "modulus_pa": s * e0 * (1.0 + a)}
@@ -249,7 +266,7 @@ def stiffness_gain(st: Setting) -> Iterator[Candidate]:
         yield Candidate("stiffness_gain", {"element": e.id}, 3.0,
                         np.array([0.0, 0.01, 0.02, 0.05, 0.1, 0.2, 0.35, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0]),
                         forward, estimate, lambda a, e=e, e0=e0: st.model.with_element_moduli({e.id: e0 * (1 + a)}),
-                        step=0.01)
+                        step=0.01, term=lambda e=e, e0=e0: st.local.stiffness(e.id, e0))
 
 
 def _reference_stiffness(st: Setting) -> float:
@@ -267,11 +284,12 @@ def boundary_stiffness(st: Setting) -> Iterator[Candidate]:
         for direction in ("x", "y"):
             if (node, direction) in fixed:
                 continue
-            with_spring = st.model.replace(springs=st.model.springs + (Spring(sid, (node, direction), None, 0.0),))
-            system = AffineModel(with_spring, (Parameter("spring", (sid,), 0.0, 1e3 * k_ref, 0.0),))
+            system = lazy_system(lambda node=node, direction=direction: AffineModel(
+                st.model.replace(springs=st.model.springs + (Spring(sid, (node, direction), None, 0.0),)),
+                (Parameter("spring", (sid,), 0.0, 1e3 * k_ref, 0.0),)))
 
             def forward(a, system=system):
-                return solve(system, (k_ref * np.asarray(a, dtype=float))[:, None], st.coords, st.n_modes)
+                return solve(system(), (k_ref * np.asarray(a, dtype=float))[:, None], st.coords, st.n_modes)
 
             def estimate(a, s):
                 return {"stiffness_n_per_m": s * k_ref * a, "stiffness_ratio": a}
@@ -281,19 +299,22 @@ def boundary_stiffness(st: Setting) -> Iterator[Candidate]:
 
             yield Candidate("boundary_stiffness", {"node": node, "direction": direction}, 100.0,
                             np.concatenate([[0.0], np.geomspace(1e-4, 100.0, 16)]), forward, estimate, extend,
-                            step=1e-3)
+                            step=1e-3, term=lambda node=node, direction=direction:
+                            st.local.ground_spring(node, direction, k_ref))
 
 
 def distributed_mass(st: Setting) -> Iterator[Candidate]:
     """Mass spread evenly along an element: its density times (1 + a)."""
+    total = st.model.total_mass_kg()
     for e in st.model.elements:
         rho0 = st.model.materials[e.material].density_kg_m3
         m_e = rho0 * st.model.sections[e.section].area_m2 * st.model.element_length_m(e.id)
-        upper = max(0.5 * st.model.total_mass_kg() / m_e, 0.1)
-        system = AffineModel(st.model, (Parameter("density", (e.id,), 0.0, rho0 * (1 + upper), rho0),))
+        upper = max(0.5 * total / m_e, 0.1)
+        system = lazy_system(lambda e=e, rho0=rho0, upper=upper: AffineModel(
+            st.model, (Parameter("density", (e.id,), 0.0, rho0 * (1 + upper), rho0),)))
 
         def forward(a, system=system, rho0=rho0):
-            return solve(system, (rho0 * (1.0 + np.asarray(a)))[:, None], st.coords, st.n_modes)
+            return solve(system(), (rho0 * (1.0 + np.asarray(a)))[:, None], st.coords, st.n_modes)
 
         def estimate(a, s, m_e=m_e, e=e):
             return {"mass_kg": a * m_e, "mass_per_length_kg_m": a * m_e / st.model.element_length_m(e.id),
@@ -308,7 +329,7 @@ def distributed_mass(st: Setting) -> Iterator[Candidate]:
 
         yield Candidate("distributed_mass", {"element": e.id}, upper,
                         np.concatenate([[0.0], upper * np.geomspace(1e-3, 1.0, 14)]), forward, estimate, extend,
-                        step=0.01 * upper)
+                        step=0.01 * upper, term=lambda e=e, rho0=rho0: st.local.density_change(e.id, rho0))
 
 
 #: kind -> function(Setting) yielding Candidates. Extend this to add a kind.

@@ -41,16 +41,17 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.stats import chi2 as chi2_dist
 
-from ..assembly import AffineModel
+from ..assembly import AffineModel, solver_path
 from ..correlation import correlate
 from ..modal_data import DataFileError, ModalData, load_modal_data
 from ..model import FrameModel, load_model
-from ..parameters import element_moduli
+from ..parameters import Parameter
 from .candidates import Candidate, Setting, all_candidates, scale_stiffness, solve
 from .fit import Fit, chi2_batch, fit, profiled, screen
 from .record import Cause, CandidateFit, Diagnosis, Gain, Noise, PinnedParameter, Residuals, Selection
 from .verdict import profile_interval, verdict
 from .residuals import Observations
+from .screening import linear_bounded_moduli, screen_all
 
 ALPHA = 0.01
 DEFAULT_FREQ_NOISE = 0.002
@@ -179,21 +180,31 @@ def residuals_of(cal: Calibration) -> Residuals:
 
 
 def _pinned_moduli(cal: Calibration) -> tuple[PinnedParameter, ...]:
-    """Element moduli a bounded update (+-1/7 of the calibrated value) drives to a bound."""
+    """Element moduli a bounded update (+-1/7 of the calibrated value) drives to a bound.
+
+    Where a solve is cheap (the dense path) the update is a nonlinear least-squares fit; on a
+    larger model (hundreds of moduli, a finite-difference Jacobian of as many solves) it is
+    linearised at the calibrated model from one set of first-order modes (screening.py)."""
     st, obs = cal.setting, cal.obs
-    params = element_moduli(st.model)
-    system = AffineModel(st.model, params)
-    e0 = system.x0 * cal.base.s
+    e_nom = np.array([st.model.element_modulus_pa(e) for e in st.model.element_ids])
+    params = tuple(Parameter("modulus", (e,), 1e-3 * v, 1e3 * v, v, name=f"E{e}")
+                   for e, v in zip(st.model.element_ids, e_nom))
+    e0 = e_nom * cal.base.s
     lo, hi = e0 * 6.0 / 7.0, e0 * 8.0 / 7.0
+    if solver_path(len(st.local.dofmap.free), "auto", len(params)) == "dense":
+        system = AffineModel(st.model, params)
 
-    def residuals(z):  # z in [0, 1]^12: the moduli scaled into their bounds
-        hz, sh = solve(system, (lo + z * (hi - lo))[None], st.coords, st.n_modes)
-        return obs.residuals(hz[0], sh[0], cal.base.pairing)[0]
+        def residuals(z):  # z in [0, 1]^n: the moduli scaled into their bounds
+            hz, sh = solve(system, (lo + z * (hi - lo))[None], st.coords, st.n_modes)
+            return obs.residuals(hz[0], sh[0], cal.base.pairing)[0]
 
-    res = least_squares(residuals, np.full(len(params), 0.5), bounds=(0.0, 1.0), diff_step=1e-4, max_nfev=60)
+        z_best = least_squares(residuals, np.full(len(params), 0.5), bounds=(0.0, 1.0), diff_step=1e-4,
+                               max_nfev=60).x
+    else:
+        z_best = linear_bounded_moduli(obs, cal.base, st.local, st.coords, st.n_modes, 6.0 / 7.0, 8.0 / 7.0)
     return tuple(PinnedParameter(p.label, p.targets[0], "lower" if z <= 0.005 else "upper",
                                  float(lo[k] + z * (hi - lo)[k]))
-                 for k, (p, z) in enumerate(zip(params, res.x)) if z <= 0.005 or z >= 0.995)
+                 for k, (p, z) in enumerate(zip(params, z_best)) if z <= 0.005 or z >= 0.995)
 
 
 # == 2. screen and fit ==========================================================================
@@ -214,15 +225,35 @@ def screen_and_fit(cal: Calibration, kinds, n_fit: int | None, keep=None) -> Scr
     first-order screen misjudges them, being far from linear) and the two best screened
     of every kind (a kind is never judged by another's linearisation)."""
     cands = [c for c in all_candidates(cal.setting, kinds) if keep is None or keep(c)]
-    screened = [screen(cal.obs, c, cal.base) for c in cands]
+    screened = screen_candidates(cal, cands)
+    order, chosen = to_fit(cands, screened, n_fit)
+    fitted = {i: fit(cal.obs, cands[i], screened[i][1]) for i in order if i in chosen}
+    order = [i for i in order if i in fitted] + [i for i in order if i not in fitted]
+    return Screening(cands, screened, order, fitted)
+
+
+def to_fit(cands: list[Candidate], screened: list[tuple[float, float]], n_fit: int | None) -> tuple[list[int], set[int]]:
+    """The screening order (largest first-order drop first) and the candidates to fit: the
+    `n_fit` first (None: all), every global one, and the two first of every kind."""
     order = sorted(range(len(cands)), key=lambda i: -screened[i][0])
     chosen = set(order if n_fit is None else order[:n_fit])
     chosen |= {i for i in order if cands[i].location is None}
     for kind in {c.kind for c in cands}:
         chosen |= set([i for i in order if cands[i].kind == kind][:2])
-    fitted = {i: fit(cal.obs, cands[i], screened[i][1]) for i in order if i in chosen}
-    order = [i for i in order if i in fitted] + [i for i in order if i not in fitted]
-    return Screening(cands, screened, order, fitted)
+    return order, chosen
+
+
+def screen_candidates(cal: Calibration, cands: list[Candidate]) -> list[tuple[float, float]]:
+    """Every candidate's first-order (chi^2 drop, a). Where a solve is cheap (the model takes
+    the dense path) each candidate is screened by one exact step (`fit.screen`); on a larger
+    model, from one set of modes and each candidate's first-order term (screening.py), so no
+    candidate builds or solves its own system; a candidate without a term (a global effect)
+    is screened by a step."""
+    st = cal.setting
+    if solver_path(len(st.local.dofmap.free)) == "dense" or not cands:
+        return [screen(cal.obs, c, cal.base) for c in cands]
+    first = screen_all(cal.obs, cal.base, st.model, st.coords, st.n_modes, cands)
+    return [screen(cal.obs, c, cal.base) if c.term is None else f for c, f in zip(cands, first)]
 
 
 # == 3. select ==================================================================================

@@ -11,6 +11,7 @@ springs) and newton-metres per radian (rotational springs).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from dataclasses import dataclass, field
 from typing import Any
@@ -140,19 +141,29 @@ class FrameModel:
         """Element ids in model order."""
         return tuple(e.id for e in self.elements)
 
+    # Lookups by id are dictionaries built once per model (a frozen value): O(1), so a model
+    # of thousands of nodes is assembled and validated in linear time.
+    @functools.cached_property
+    def _node_pos(self) -> dict[int, int]:
+        return {n.id: k for k, n in enumerate(self.nodes)}
+
+    @functools.cached_property
+    def _element_pos(self) -> dict[int, int]:
+        return {e.id: k for k, e in enumerate(self.elements)}
+
     def node(self, node_id: int) -> Node:
         """The node with this id (KeyError if none)."""
-        for n in self.nodes:
-            if n.id == node_id:
-                return n
-        raise KeyError(f"model {self.name!r} has no node {node_id}")
+        k = self._node_pos.get(node_id)
+        if k is None:
+            raise KeyError(f"model {self.name!r} has no node {node_id}")
+        return self.nodes[k]
 
     def element(self, element_id: int) -> Element:
         """The element with this id (KeyError if none)."""
-        for e in self.elements:
-            if e.id == element_id:
-                return e
-        raise KeyError(f"model {self.name!r} has no element {element_id}")
+        k = self._element_pos.get(element_id)
+        if k is None:
+            raise KeyError(f"model {self.name!r} has no element {element_id}")
+        return self.elements[k]
 
     @property
     def dofs(self) -> tuple[tuple[int, str], ...]:
@@ -166,10 +177,10 @@ class FrameModel:
 
     def node_position(self, node_id: int) -> int:
         """Position of a node in `nodes` (0-based); KeyError if the model has no such node."""
-        ids = self.node_ids
-        if node_id not in ids:
+        k = self._node_pos.get(node_id)
+        if k is None:
             raise KeyError(f"model {self.name!r} has no node {node_id}")
-        return ids.index(node_id)
+        return k
 
     def dof_index(self, node_id: int, direction: str) -> int:
         """Position of a nodal DOF in `dofs`."""

@@ -72,8 +72,9 @@ def validate(m: FrameModel) -> None:
                                      f"+-{RANGES['coordinate']:g}, got {shown(v)}")
     _validate_tables(m)
     _check_ids(src, "elements", [e.id for e in m.elements])
+    idset = set(m.node_ids)
     for e in m.elements:
-        _validate_element(m, e)
+        _validate_element(m, e, idset)
     _validate_nodal(m)
     _check_connected(m)
 
@@ -112,9 +113,8 @@ def _validate_tables(m: FrameModel) -> None:
         _positive(sec.shear_coefficient, f"{src}: section {name!r} 'shear_coefficient'")
 
 
-def _validate_element(m: FrameModel, e) -> None:
+def _validate_element(m: FrameModel, e, idset: set) -> None:
     where = f"{m.source}: element {e.id}"
-    idset = set(m.node_ids)
     for n in (e.node_i, e.node_j):
         if n not in idset:
             raise ModelFileError(f"{where}: field 'nodes': unknown node {n}")
@@ -150,7 +150,11 @@ def _validate_element(m: FrameModel, e) -> None:
 def _check_dof(m: FrameModel, dof: Any, where: str) -> None:
     if not (isinstance(dof, tuple) and len(dof) == 2):
         raise ModelFileError(f"{where}: a DOF is [node id, direction], got {dof!r}")
-    if dof[0] not in m.node_ids:
+    try:
+        known = dof[0] in m._node_pos  # a dict: linear time over many measured DOFs
+    except TypeError:  # an unhashable node id read from a file
+        known = False
+    if not known:
         raise ModelFileError(f"{where}: unknown node {dof[0]!r}")
     if dof[1] not in m.layout.names:
         raise ModelFileError(f"{where}: unknown direction {dof[1]!r}; use one of {m.layout.names}")

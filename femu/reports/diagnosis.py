@@ -48,23 +48,44 @@ def _translation_dofs(model: FrameModel) -> list[tuple[int, str]]:
     return [(n.id, d) for n in model.nodes for d in model.layout.translations]
 
 
+#: Above this many measured coordinates the COMAC bars name only the three lowest.
+MAX_NAMED_COORDINATES = 40
+
+#: Above this many elements a frame's numbers would cover it: only the cause's place is numbered.
+MAX_NUMBERED_ELEMENTS = 60
+
+
+def _joined(curves: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Curves (n, k, 2) as one polyline (x, y) broken by NaN: one line to draw, not n (a frame
+    of hundreds of elements in eight panels would otherwise be thousands of lines)."""
+    gap = np.full((curves.shape[0], 1, 2), np.nan)
+    xy = np.concatenate([curves, gap], axis=1).reshape(-1, 2)
+    return xy[:, 0], xy[:, 1]
+
+
 def draw_numbered_frame(ax, model: FrameModel, cause_location: dict | None = None) -> None:
     """The undeformed frame in grey with its node numbers (plain) and element numbers (boxed);
-    the place a cause names (an element or a node) is marked in yellow."""
+    the place a cause names (an element or a node) is marked in yellow. A frame of more than
+    `MAX_NUMBERED_ELEMENTS` elements has only the cause's element and node numbered."""
     where = cause_location or {}
+    every = len(model.elements) <= MAX_NUMBERED_ELEMENTS
     xy = {n.id: (n.x, n.y) for n in model.nodes}
-    for e in model.elements:
-        seg = np.array([xy[e.node_i], xy[e.node_j]])
+    segs = np.array([[xy[e.node_i], xy[e.node_j]] for e in model.elements])
+    ax.plot(*_joined(segs), color="0.75", lw=1.0, zorder=1)
+    for e, seg in zip(model.elements, segs):
         if where.get("element") == e.id:
             ax.plot(seg[:, 0], seg[:, 1], color=CAUSE_COLOR, lw=7.0, alpha=0.8, zorder=0, solid_capstyle="butt")
-        ax.plot(seg[:, 0], seg[:, 1], color="0.75", lw=1.0, zorder=1)
-        ax.text(*seg.mean(axis=0), str(e.id), fontsize=6.5, color="0.3", ha="center", va="center", zorder=6,
-                bbox={"boxstyle": "square,pad=0.15", "fc": "white", "ec": "0.6", "lw": 0.5, "alpha": 0.85})
+        if every or where.get("element") == e.id:
+            ax.text(*seg.mean(axis=0), str(e.id), fontsize=6.5, color="0.3", ha="center", va="center", zorder=6,
+                    bbox={"boxstyle": "square,pad=0.15", "fc": "white", "ec": "0.6", "lw": 0.5, "alpha": 0.85})
+    ax.plot([n.x for n in model.nodes], [n.y for n in model.nodes], "o", ms=2.5, color="0.55", zorder=1.5, ls="none")
     for node in model.nodes:
         marked = where.get("node") == node.id
-        ax.plot(node.x, node.y, "o", ms=9 if marked else 2.5, color=CAUSE_COLOR if marked else "0.55", zorder=1.5)
-        ax.annotate(str(node.id), (node.x, node.y), xytext=(3, 3), textcoords="offset points", fontsize=6.5,
-                    color="0.15", zorder=6)
+        if marked:
+            ax.plot(node.x, node.y, "o", ms=9, color=CAUSE_COLOR, zorder=1.5)
+        if every or marked:
+            ax.annotate(str(node.id), (node.x, node.y), xytext=(3, 3), textcoords="offset points", fontsize=6.5,
+                        color="0.15", zorder=6)
 
 
 def _shape_layout(model: FrameModel, n_panels: int):
@@ -120,9 +141,8 @@ def _draw_mode(ax, diag: Diagnosis, model: FrameModel, extended: FrameModel | No
         return _finish_panel(ax, title)
     t = calibrated.at(_translation_dofs(model))[:, p]
     scale = SHAPE_AMPLITUDE * size / np.max(np.hypot(t[0::2], t[1::2]))
-    for n, seg in enumerate(deformed_frame(model, calibrated.shapes[:, p], scale)):
-        ax.plot(seg[:, 0], seg[:, 1], color=CALIBRATED_COLOR, lw=2.0, zorder=2,
-                label="calibrated model" if n == 0 else None)
+    ax.plot(*_joined(deformed_frame(model, calibrated.shapes[:, p], scale)), color=CALIBRATED_COLOR, lw=2.0,
+            zorder=2, label="calibrated model")
     title.append(f"calibrated{'' if p == i else f' (mode {p + 1})'} {c.model_hz[i]:.2f} Hz"
                  + (f", MAC {c.mac[i]:.4f}" if np.isfinite(c.mac[i]) else ""))
     if ext is not None:
@@ -130,9 +150,8 @@ def _draw_mode(ax, diag: Diagnosis, model: FrameModel, extended: FrameModel | No
         te = ext.at(_translation_dofs(model))
         q = int(np.argmax(mac(t[:, None], te)[0]))
         a = float(te[:, q] @ t / (te[:, q] @ te[:, q]))
-        for n, seg in enumerate(deformed_frame(extended, a * ext.shapes[:, q], scale)):
-            ax.plot(seg[:, 0], seg[:, 1], color=EXTENDED_COLOR, lw=1.6, ls="--", zorder=3,
-                    label=f"extended model ({best_label(diag)})" if n == 0 else None)
+        ax.plot(*_joined(deformed_frame(extended, a * ext.shapes[:, q], scale)), color=EXTENDED_COLOR, lw=1.6,
+                ls="--", zorder=3, label=f"extended model ({best_label(diag)})")
         title.append(f"extended {ext.frequencies_hz[q]:.2f} Hz")
     if data.has_shape[i]:
         _draw_measured(ax, model, data, i, calibrated.at(data.dofs)[:, p], scale)
@@ -176,6 +195,7 @@ def plot_shapes(diag: Diagnosis, model: FrameModel, extended: FrameModel | None,
                fontsize=8.5, frameon=False)
     fig.suptitle(f"Mode shapes of {model.name} (amplitude arbitrary; measured shapes scaled onto the calibrated "
                  "model by least squares)\nnumbers: nodes, boxed: elements"
+                 + ("" if len(model.elements) <= MAX_NUMBERED_ELEMENTS else " (only the cause's place is numbered)")
                  + (f"; yellow: the cause's place ({location_text(where)})" if where else ""), fontsize=9)
     save_figure(fig, path)
     return path
@@ -236,12 +256,15 @@ def plot_correlation(diag: Diagnosis, path: Path) -> Path | None:
         return None
     cm = np.asarray(c.comac, dtype=float)
     mm = np.asarray(c.mac_matrix, dtype=float)
-    fig, axes = figure(11.0, 4.2, 1, 2, width_ratios=[max(len(cm), 4), mm.shape[1] * 0.9])
+    # many coordinates (a large model): the bars share the width with the MAC matrix as 24
+    # would, and only the three lowest are named
+    fig, axes = figure(11.0, 4.2, 1, 2, width_ratios=[min(max(len(cm), 4), 24), mm.shape[1] * 0.9])
     ax = axes[0, 0]
     order_low = np.argsort(cm)[:3]
     colors = [MEASURED_COLOR if k in order_low else CALIBRATED_COLOR for k in range(len(cm))]
     ax.bar(np.arange(len(cm)), cm, color=colors, edgecolor="k", lw=0.4)
-    ax.set_xticks(np.arange(len(cm)), coordinate_labels(diag), rotation=60, fontsize=8)
+    named = np.arange(len(cm)) if len(cm) <= MAX_NAMED_COORDINATES else np.sort(order_low)
+    ax.set_xticks(named, [coordinate_labels(diag)[k] for k in named], rotation=60, fontsize=8)
     lo = min(float(cm.min()), 0.98)
     ax.set_ylim(max(0.0, lo - 0.2 * (1 - lo)), 1.0005)
     ax.set_xlabel("measured coordinate (node number, direction); red: the three lowest")

@@ -1,0 +1,200 @@
+"""First-order screening of every candidate from one set of modes (large models).
+
+`fit.screen` judges a candidate by one exact step: one eigen-solve of the candidate's own
+system each. On a large model (thousands of candidates, each system thousands of DOFs) that
+is the whole cost of a diagnosis. Here the step is taken on the first-order modes instead:
+
+- eigenvalues: d lambda_i = phi_i^T D_i phi_i (D_i: the candidate's `Term`, local.py);
+- shapes at the measured coordinates C: C d phi_i = -G_i^T (D_i phi_i) + c_i C phi_i (Nelson's
+  derivative with the particular part M-orthogonal to phi_i), where G_i = Z_i C^T and
+  Z_i = sum_{j != i} phi_j phi_j^T / (lambda_j - lambda_i) is applied through one sparse
+  factorisation per mode of the bordered matrix [[K - lambda_i M, M phi_i], [phi_i^T M, 0]]
+  with the measured coordinates as right-hand sides (Z_i is symmetric: an adjoint solve).
+
+So the cost is one factorisation per mode plus a few flops per candidate and coordinate; the
+memory is one (n_free x n_coord) block per paired mode and the changes of one chunk of
+candidates at a time (`CHUNK_FLOATS`). The screened step then goes through the same
+profiled residuals as `fit.screen` (`screen_linear`), so both screens rank on one scale.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.linalg import splu
+
+from ..assembly import AffineModel
+from ..modal import frequencies_hz
+from .fit import Fit, profiled
+from .local import Term
+from .residuals import Observations
+
+
+#: Bytes of the first-order changes held at once (a chunk of candidates): 64 MB.
+CHUNK_FLOATS = 2**26 // 8
+
+
+def _to_free(system: AffineModel, dofs: np.ndarray) -> np.ndarray:
+    """Model DOF indices to rows of the free-DOF vector; a supported DOF maps to row n_free
+    (a zero row appended to every free-DOF array)."""
+    pos = np.full(system.dofmap.n_total, system.n_free)
+    pos[system.dofmap.free] = np.arange(system.n_free)
+    return pos[dofs]
+
+
+def _groups(terms: list[Term]) -> dict[int, np.ndarray]:
+    """Candidate indices grouped by the number of DOFs their term touches (one einsum each)."""
+    sizes = np.array([len(t.dofs) for t in terms])
+    return {int(k): np.flatnonzero(sizes == k) for k in np.unique(sizes)}
+
+
+@dataclass(frozen=True, eq=False)
+class Baseline:
+    """A system's modes at x0 and, for the modes `modes`, the adjoint blocks G_i = Z_i C^T
+    (n_free + 1 rows, the last zero: the row of a supported DOF), one per mode."""
+
+    system: AffineModel
+    lam: np.ndarray        # (n_modes,) omega^2
+    phi_z: np.ndarray      # (n_free + 1, n_modes), a zero row last
+    phi_c: np.ndarray      # (n_coord, n_modes) at the measured coordinates
+    modes: np.ndarray      # the modes whose changes are computed
+    g: tuple               # (n_free + 1, n_coord) per mode in `modes`
+
+
+def baseline(system: AffineModel, coords, n_modes: int, modes=None) -> Baseline:
+    """The modes of `system` and one adjoint block per mode in `modes` (default all): one
+    sparse factorisation and n_coord solves per mode. Memory: n_free x n_coord per mode."""
+    lam, phi = system.eigen(system.x0[None, :], n_modes, vectors=True)
+    lam, phi = lam[0], phi[0]
+    k0, m0 = sp.csc_matrix(system.k0), sp.csc_matrix(system.m0)
+    rows = system.nodal_rows(coords)
+    ok = rows >= 0
+    c_t = sp.csc_matrix((np.ones(ok.sum()), (rows[ok], np.flatnonzero(ok))), shape=(system.n_free, len(rows)))
+    phi_c = np.where(ok[:, None], phi[np.clip(rows, 0, None)], 0.0)
+    modes = np.arange(n_modes) if modes is None else np.asarray(modes, dtype=int)
+    g = tuple(_adjoint(k0, m0, lam[i], phi[:, i], c_t) for i in modes)
+    return Baseline(system, lam, np.vstack([phi, np.zeros((1, n_modes))]), phi_c, modes, g)
+
+
+def changes(base: Baseline, terms: list[Term]) -> tuple[np.ndarray, np.ndarray]:
+    """First-order changes of the baseline's modes `modes` for each term: d lam (c, m) and
+    d shapes at the measured coordinates (c, n_coord, m); callers pass terms in chunks."""
+    n_coord = base.phi_c.shape[0]
+    dlam = np.zeros((len(terms), len(base.modes)))
+    dshape = np.zeros((len(terms), n_coord, len(base.modes)))
+    for idx in _groups(terms).values():
+        free = _to_free(base.system, np.array([terms[i].dofs for i in idx]))
+        dk = np.array([terms[i].dk for i in idx])
+        dm = np.array([terms[i].dm for i in idx])
+        dm2 = np.array([terms[i].dm2 if terms[i].dm2 is not None else np.zeros_like(terms[i].dk) for i in idx])
+        for j, (i, g) in enumerate(zip(base.modes, base.g)):
+            lam = base.lam[i]
+            u = base.phi_z[free, i]                                       # (c, k)
+            r = np.einsum("ckl,cl->ck", dk - lam * dm + lam ** 2 * dm2, u)
+            dlam[idx, j] = np.einsum("ck,ck->c", u, r)
+            c_i = 0.5 * np.einsum("ck,ckl,cl->c", u, -dm + 2.0 * lam * dm2, u)
+            dshape[idx, :, j] = -np.einsum("ckq,ck->cq", g[free], r) + c_i[:, None] * base.phi_c[None, :, i]
+    return dlam, dshape
+
+
+def chunks(base: Baseline, n: int):
+    """Slices of range(n) whose `changes` fit in `CHUNK_FLOATS` floats."""
+    step = max(1, CHUNK_FLOATS // (base.phi_c.shape[0] * max(len(base.modes), 1)))
+    return [slice(c, min(c + step, n)) for c in range(0, n, step)]
+
+
+def first_order_modes(system: AffineModel, coords, n_modes: int, terms: list[Term], modes=None):
+    """Modes of `system` at x0 and the first-order change of modes `modes` (default: all
+    n_modes) for each term: lam (n_modes,), shapes at `coords` (n_coord, n_modes), d lam
+    (c, len(modes)) and d shapes (c, n_coord, len(modes))."""
+    base = baseline(system, coords, n_modes, modes)
+    return (base.lam, base.phi_c) + changes(base, terms)
+
+
+def _adjoint(k0, m0, lam: float, phi: np.ndarray, c_t) -> np.ndarray:
+    """G = Z C^T (n + 1 rows, the last zero) for one mode, through the bordered matrix."""
+    n = k0.shape[0]
+    b = m0 @ phi
+    bordered = sp.bmat([[k0 - lam * m0, sp.csc_matrix(b[:, None])], [sp.csc_matrix(b[None, :]), None]], format="csc")
+    rhs = c_t.toarray() - np.outer(b, phi @ c_t.toarray())   # P C^T: the part M-orthogonal to phi
+    sol = splu(bordered).solve(np.vstack([rhs, np.zeros((1, rhs.shape[1]))]))
+    out = sol.copy()
+    out[n] = 0.0
+    return out
+
+
+def _moved(lam, phi_c, modes, dlam, dshape, step: float):
+    """Frequencies (Hz) and shapes at a step along first-order changes of modes `modes`."""
+    lam, phi_c = lam.copy(), phi_c.copy()
+    lam[modes] += step * dlam
+    phi_c[:, modes] += step * dshape
+    return frequencies_hz(lam), phi_c
+
+
+def screen_linear(obs: Observations, base: Fit, lam: np.ndarray, phi_c: np.ndarray, modes: np.ndarray,
+                  dlam: np.ndarray, dshape: np.ndarray, step: float, upper: float) -> tuple[float, float]:
+    """`fit.screen` on first-order modes: the chi^2 drop a linearised model promises and its a,
+    from the profiled residuals at one small step with the baseline pairing held fixed (so
+    only the paired `modes` need their changes)."""
+    moved = profiled(obs, *_moved(lam, phi_c, modes, dlam, dshape, step), base.pairing)
+    j = (moved.residuals - base.residuals) / step
+    jj = float(j @ j)
+    if jj <= 0.0:
+        return 0.0, 0.0
+    a = min(max(-float(base.residuals @ j) / jj, 0.0), upper)
+    drop = base.chi2 - float(np.sum((base.residuals + a * j) ** 2))
+    return max(drop, 0.0), a
+
+
+def screen_all(obs: Observations, base: Fit, model, coords, n_modes: int, cands) -> list[tuple[float, float]]:
+    """(chi^2 drop, a) of every candidate with a first-order term, from one set of modes of
+    `model`; candidates without one (global effects) get (nan, nan): the caller screens them
+    by a step or fits them outright."""
+    with_term = [i for i, c in enumerate(cands) if c.term is not None]
+    modes = np.unique(base.pairing[base.pairing >= 0])
+    first = baseline(AffineModel(model), coords, n_modes, modes)
+    out = [(float("nan"), float("nan"))] * len(cands)
+    for sl in chunks(first, len(with_term)):  # the changes of a chunk of candidates at a time
+        part = with_term[sl]
+        dlam, dshape = changes(first, [cands[i].term() for i in part])
+        for j, i in enumerate(part):
+            out[i] = screen_linear(obs, base, first.lam, first.phi_c, modes, dlam[j], dshape[j], cands[i].step,
+                                   cands[i].upper)
+    return out
+
+
+def linear_bounded_moduli(obs: Observations, base: Fit, local, coords, n_modes: int, rel_lo: float,
+                          rel_hi: float) -> np.ndarray:
+    """The bounded update of every element modulus in [rel_lo, rel_hi] x its calibrated value
+    (scaled into z in [0, 1]), linearised at the calibrated model: the dense path's bounded
+    least-squares fit run on the residuals' first-order model (Jacobian from first-order
+    modes). Returns z (n_el,). For models where a finite-difference Jacobian (one solve per
+    element) would cost too much; with many more moduli than the data determine it pins more
+    of them than the nonlinear fit, which stops after 60 evaluations nearer its start."""
+    from scipy.optimize import least_squares
+
+    s, model = base.s, local.model
+    span = (rel_hi - rel_lo) * s * local.modulus            # Pa per unit z
+    terms = [local.stiffness(e.id, span[k]) for k, e in enumerate(model.elements)]
+    mid = 0.5 * (rel_lo + rel_hi) * s * local.modulus       # z = 1/2
+    start = model.with_element_moduli({e.id: float(mid[k]) for k, e in enumerate(model.elements)})
+    modes = np.unique(base.pairing[base.pairing >= 0])
+    first = baseline(AffineModel(start), coords, n_modes, modes)
+    lam, phi_c = first.lam, first.phi_c
+    r0 = obs.residuals(frequencies_hz(lam), phi_c, base.pairing)[0]
+    h = 1e-4
+    columns = []
+    for sl in chunks(first, len(terms)):
+        dlam, dshape = changes(first, terms[sl])
+        columns += [(obs.residuals(*_moved(lam, phi_c, modes, dlam[k], dshape[k], h), base.pairing)[0] - r0) / h
+                    for k in range(len(dlam))]
+    jac = np.column_stack(columns)
+    # the same bounded trust-region fit from the same start as the dense path (`least_squares`,
+    # z = 1/2, at most 60 evaluations), on the linearised residuals: where the data leave
+    # directions undetermined it stays near the start there, as the nonlinear fit does; the
+    # trust-region steps by LSMR (an SVD of the residuals x moduli Jacobian per step took most
+    # of a 2,000-DOF diagnosis)
+    return least_squares(lambda z: r0 + jac @ (z - 0.5), np.full(len(terms), 0.5), jac=lambda z: jac,
+                         bounds=(0.0, 1.0), max_nfev=60, tr_solver="lsmr").x
