@@ -100,14 +100,14 @@ class AffineModel:
         self._check_mass(m_trip)
         # the rigid-body motions the supports allow are zero modes however ill-conditioned the
         # model (an eigenvalue test alone can miss them, or take a real mode for one, on a fine mesh)
-        r, c, v, t = k_trip
-        k = sp.csr_matrix((v * np.append(self.x0, 1.0)[t], (r, c)), shape=(n, n))
-        allowed = self._rigid_allowed(k)
-        n_body = np.linalg.matrix_rank(allowed, tol=1e-9) if allowed.size else 0
+        n_body = self._n_rigid_motions(k_trip, self.x0)
         if self.path == "dense":
             k0, dk = dense_terms(k_trip, n, p)
             m0, dm = dense_terms(m_trip, n, p)
-            self._solver = ModalSolver(k0, m0, dk, dm, self.x0, model.name, n_body=n_body)
+            # the ones no term strains at any theta (a spring to ground that is a parameter, 0
+            # at x0, strains one at other theta): these are projected out for good
+            n_null = self._n_rigid_motions(k_trip, np.where(self.x0 != 0.0, self.x0, self.upper))
+            self._solver = ModalSolver(k0, m0, dk, dm, self.x0, model.name, n_body=n_body, n_null=n_null)
         else:
             self._solver = SparseModalSolver(k_trip, m_trip, n, self.x0, model.name, workers, min_zero=n_body)
         #: None, or what moves in the zero-energy motions that are not rigid-body motions
@@ -204,6 +204,14 @@ class AffineModel:
         moving = [names[i] for i in np.argsort(-np.abs(u))[:4] if abs(u[i]) > 0.2 * np.abs(u).max()]
         return (f"{null.shape[1] - q.shape[1]} mechanism motion(s) strain no element and no spring "
                 f"(moving most: {', '.join(moving)})")
+
+    def _n_rigid_motions(self, k_trip, theta: np.ndarray) -> int:
+        """How many rigid-body motions the supports and springs allow at `theta` (p,)."""
+        r, c, v, t = k_trip
+        n = len(self.dofmap.free)
+        k = sp.csr_matrix((v * np.append(theta, 1.0)[t], (r, c)), shape=(n, n))
+        allowed = self._rigid_allowed(k)
+        return int(np.linalg.matrix_rank(allowed, tol=1e-9)) if allowed.size else 0
 
     def _rigid_allowed(self, k) -> np.ndarray:
         """The rigid-body motions the supports allow (n_free, r): combinations c of the free

@@ -33,10 +33,10 @@ def take_rows(phi: np.ndarray, rows) -> np.ndarray:
 class ModalSolver:
     """Eigen-solves of K0 + sum theta_k dK_k, M0 + sum theta_k dM_k (free DOFs only).
 
-    Zero-energy modes are dropped: the `n_body` rigid-body motions the supports allow (known
-    from the geometry) and any other motion nothing strains at the initial parameters `x0` (a
-    mechanism); `n_rigid` counts them and `n_elastic` the modes left. `name` names the model in
-    errors.
+    Zero-energy modes are dropped: the `n_body` rigid-body motions the supports allow at the
+    initial parameters `x0` (known from the geometry; `n_null` of them, default all, strained by
+    no term at any theta) and any other motion nothing strains at `x0` (a mechanism); `n_rigid`
+    counts them and `n_elastic` the modes left. `name` names the model in errors.
     """
 
     #: An eigenvalue below this fraction of the 12th lowest is a zero-energy mode (the sparse
@@ -45,11 +45,11 @@ class ModalSolver:
     ZERO_TOL = 1e-8
 
     def __init__(self, k0: np.ndarray, m0: np.ndarray, dk: np.ndarray, dm: np.ndarray, x0: np.ndarray,
-                 name: str, n_body: int = 0):
+                 name: str, n_body: int = 0, n_null: int | None = None):
         self.k0, self.m0, self.dk, self.dm, self.name = k0, m0, dk, dm, name
         self.n_free = k0.shape[0]
         self.mass_constant = not np.any(dm)
-        n_fixed_null = self._project(n_body) if self.mass_constant else 0
+        n_fixed_null = self._project(n_body if n_null is None else n_null) if self.mass_constant else 0
         lam = np.linalg.eigvalsh(self.operator(x0[None, :]))[0]
         # zero modes left in the solve: the rigid-body motions not projected out, and any other
         # motion no element strains at x0 (a mechanism)
@@ -60,23 +60,23 @@ class ModalSolver:
         self.n_rigid = self._skip + n_fixed_null                      # rigid-body modes dropped
         self.n_elastic = self.n_free - self.n_rigid
 
-    def _project(self, n_body: int) -> int:
+    def _project(self, n_null: int) -> int:
         """Set up the mass-normalised operator without the rigid-body motions; returns the
         directions dropped."""
         # Work in mass-normalised coordinates once: A = L^-1 K L^-T with M0 = L L^T.
         self._linv = np.linalg.inv(cholesky(self.m0, self.name))
         a0 = self._linv @ self.k0 @ self._linv.T
         da = self._linv @ self.dk @ self._linv.T        # (p, n, n); matmul, not a 3-operand einsum (O(p n^4))
-        # The rigid-body motions (the supports allow `n_body` of them, known from the geometry)
-        # strain nothing for any theta: project them out once, so each solve is smaller (39 -> 36
-        # DOFs for the free-free H-frame). They are the `n_body` directions on which every term,
+        # The rigid-body motions that no term strains (`n_null` of them, known from the geometry)
+        # are zero modes for any theta: project them out once, so each solve is smaller (39 -> 36
+        # DOFs for the free-free H-frame). They are the `n_null` directions on which every term,
         # each normalised by its own size (dA_k is per unit of theta_k, whose range can be
         # anything), is smallest: the terms' own numerical null space. Their number comes from
         # the geometry, not from a tolerance: on a fine mesh a real bending mode is 1e-12 of the
         # axial stiffness, and a tolerance took it for a rigid-body mode.
         terms = [t / np.linalg.norm(t) for t in (a0, *da) if np.linalg.norm(t) > 0]
         _, _, vt = np.linalg.svd(np.vstack(terms), full_matrices=False)  # not the (p n)^2 U
-        self._q = vt[: self.n_free - n_body].T      # (n_free, n_kept) orthonormal
+        self._q = vt[: self.n_free - n_null].T      # (n_free, n_kept) orthonormal
         self._a0 = self._q.T @ a0 @ self._q
         k = self._q.shape[1]
         self._da_flat = (self._q.T @ da @ self._q).reshape(len(self.dk), k * k)
