@@ -178,7 +178,7 @@ def dense_bytes(n_dof: int, n_params: int) -> int:
 def check_dense_size(model: FrameModel, n_params: int) -> None:
     """ValueError naming the model, its size and the limit if the dense path would need more
     than `MAX_DENSE_BYTES`: refused up front, never a machine run out of memory."""
-    n = DofMap.of(model).n_total
+    n = model.n_dof + sum((e.release_i is not None) + (e.release_j is not None) for e in model.elements)  # as DofMap
     need = dense_bytes(n, n_params)
     if need > MAX_DENSE_BYTES:
         raise ValueError(f"{model.source or model.name}: {len(model.nodes)} nodes, {n} DOFs and {n_params} "
@@ -203,6 +203,9 @@ class AffineModel(ModalSolver):
         self.dofmap = asm.dofmap
         k0, m0 = asm.constant()
         f = self.dofmap.free
+        if f.size == 0:
+            raise ValueError(f"{model.source or model.name}: every DOF is supported, so the model has no mode: "
+                             "remove a support")
         self._check_mass(m0[np.ix_(f, f)] + np.einsum("p,pij->ij", self.x0, asm.dm[:, f][:, :, f]))
         super().__init__(k0[np.ix_(f, f)], m0[np.ix_(f, f)], asm.dk[:, f][:, :, f], asm.dm[:, f][:, :, f],
                          self.x0, model.name)

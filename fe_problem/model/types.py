@@ -13,6 +13,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any
 
 from ..dofs import DEFAULT_LAYOUT, DofLayout
@@ -140,12 +141,14 @@ class FrameModel:
         """Element ids in model order."""
         return tuple(e.id for e in self.elements)
 
+    @cached_property
+    def _node_positions(self) -> dict[int, int]:
+        """Node id -> position in `nodes` (built once: lookups stay O(1) in models of many nodes)."""
+        return {n.id: i for i, n in enumerate(self.nodes)}
+
     def node(self, node_id: int) -> Node:
         """The node with this id (KeyError if none)."""
-        for n in self.nodes:
-            if n.id == node_id:
-                return n
-        raise KeyError(f"model {self.name!r} has no node {node_id}")
+        return self.nodes[self.node_position(node_id)]
 
     def element(self, element_id: int) -> Element:
         """The element with this id (KeyError if none)."""
@@ -166,10 +169,10 @@ class FrameModel:
 
     def node_position(self, node_id: int) -> int:
         """Position of a node in `nodes` (0-based); KeyError if the model has no such node."""
-        ids = self.node_ids
-        if node_id not in ids:
-            raise KeyError(f"model {self.name!r} has no node {node_id}")
-        return ids.index(node_id)
+        try:
+            return self._node_positions[node_id]
+        except (KeyError, TypeError):  # TypeError: an unhashable id
+            raise KeyError(f"model {self.name!r} has no node {node_id}") from None
 
     def dof_index(self, node_id: int, direction: str) -> int:
         """Position of a nodal DOF in `dofs`."""
