@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .elements import element_matrices, profile_stiffness
-from .model import FrameModel
+from .model import FrameModel, ModelFileError
 from .parameters import Parameter
 from .solver import ModalSolver
 
@@ -181,7 +181,7 @@ def check_dense_size(model: FrameModel, n_params: int) -> None:
     n = model.n_dof + sum((e.release_i is not None) + (e.release_j is not None) for e in model.elements)  # as DofMap
     need = dense_bytes(n, n_params)
     if need > MAX_DENSE_BYTES:
-        raise ValueError(f"{model.source or model.name}: {len(model.nodes)} nodes, {n} DOFs and {n_params} "
+        raise ModelFileError(f"{model.source or model.name}: {len(model.nodes)} nodes, {n} DOFs and {n_params} "
                          f"parameters need about {need / 2**30:.1f} GiB as dense matrices, more than the "
                          f"{MAX_DENSE_BYTES / 2**30:.0f} GiB limit (fe_problem.assembly.MAX_DENSE_BYTES); "
                          "use a coarser model or fewer parameters")
@@ -204,7 +204,7 @@ class AffineModel(ModalSolver):
         k0, m0 = asm.constant()
         f = self.dofmap.free
         if f.size == 0:
-            raise ValueError(f"{model.source or model.name}: every DOF is supported, so the model has no mode: "
+            raise ModelFileError(f"{model.source or model.name}: every DOF is supported, so the model has no mode: "
                              "remove a support")
         self._check_mass(m0[np.ix_(f, f)] + np.einsum("p,pij->ij", self.x0, asm.dm[:, f][:, :, f]))
         super().__init__(k0[np.ix_(f, f)], m0[np.ix_(f, f)], asm.dk[:, f][:, :, f], asm.dm[:, f][:, :, f],
@@ -213,12 +213,12 @@ class AffineModel(ModalSolver):
         self.mechanism: str | None = self._find_mechanism() if self.n_rigid else None
 
     def _check_mass(self, m: np.ndarray) -> None:
-        """ValueError naming the model and the DOFs, if some free DOF carries no mass."""
+        """ModelFileError naming the model and the DOFs, if some free DOF carries no mass."""
         massless = np.flatnonzero(np.diag(m) <= 0.0)
         if massless.size:
             names = self._dof_names()
             shown = ", ".join(names[i] for i in massless[:4]) + (" ..." if massless.size > 4 else "")
-            raise ValueError(f"{self.model.source or self.model.name}: {massless.size} DOF(s) carry no mass "
+            raise ModelFileError(f"{self.model.source or self.model.name}: {massless.size} DOF(s) carry no mass "
                              f"({shown}): connect the node to an element with density, give it a lumped mass "
                              "with rotary inertia, or support that DOF")
 
