@@ -346,8 +346,10 @@ def run(name: str, problem, budget: int, seed: int, time_limit_s: float | None =
 
 
 def _problem_count(problem) -> int | None:
-    """The problem's own count of evaluated points, if it keeps one (UpdatingProblem does)."""
-    n = getattr(problem, "n_evals", None)
+    """The problem's own count of evaluated points, if it keeps one: UpdatingProblem's
+    `points_evaluated` (which a plugin that reaches the problem cannot reset by a public name), or
+    another problem's `n_evals`."""
+    n = getattr(problem, "points_evaluated", getattr(problem, "n_evals", None))
     return int(n) if isinstance(n, (int, np.integer)) and not isinstance(n, bool) else None
 
 

@@ -20,7 +20,7 @@ import numpy as np
 import scipy.linalg
 import scipy.sparse as sp
 
-from .model import FrameModel
+from .model import FrameModel, ModelFileError
 from .parameters import Parameter
 from .solver import ModalSolver, take_rows
 from .sparse import SparseModalSolver
@@ -63,12 +63,12 @@ def dense_bytes(n_dof: int, n_params: int) -> int:
 
 
 def check_dense_size(model: FrameModel, n_params: int) -> None:
-    """ValueError naming the model, its size and the limit if the dense path would need more
+    """ModelFileError naming the model, its size and the limit if the dense path would need more
     than `MAX_DENSE_BYTES`: refused up front, never a machine run out of memory."""
     n = DofMap.of(model).n_total
     need = dense_bytes(n, n_params)
     if need > MAX_DENSE_BYTES:
-        raise ValueError(f"{model.source or model.name}: {len(model.nodes)} nodes, {n} DOFs and {n_params} "
+        raise ModelFileError(f"{model.source or model.name}: {len(model.nodes)} nodes, {n} DOFs and {n_params} "
                          f"parameters need about {need / 2**30:.1f} GiB as dense matrices, more than the "
                          f"{MAX_DENSE_BYTES / 2**30:.0f} GiB limit (fe_problem.assembly.MAX_DENSE_BYTES); "
                          "use a coarser model or fewer parameters")
@@ -93,6 +93,9 @@ class AffineModel:
         terms = Terms(model, self.parameters)
         self.dofmap = terms.dofmap
         n, p = len(self.dofmap.free), len(self.parameters)
+        if n == 0:
+            raise ModelFileError(f"{model.source or model.name}: every DOF is supported, so the model has no mode: "
+                                 "remove a support")
         self.path = solver_path(n, solver, p)
         if self.path == "dense":
             check_dense_size(model, p)
@@ -171,7 +174,7 @@ class AffineModel:
         return self._solver.eigen_sensitivities(theta, n_modes, rows)
 
     def _check_mass(self, m_trip) -> None:
-        """ValueError naming the model and the DOFs, if some free DOF carries no mass at x0."""
+        """ModelFileError naming the model and the DOFs, if some free DOF carries no mass at x0."""
         r, c, v, t = m_trip
         d = r == c
         scale = np.append(self.x0, 1.0)[t[d]]  # term -1 (the constant part) takes the last entry: 1
@@ -180,7 +183,7 @@ class AffineModel:
         if massless.size:
             names = self._dof_names()
             shown = ", ".join(names[i] for i in massless[:4]) + (" ..." if massless.size > 4 else "")
-            raise ValueError(f"{self.model.source or self.model.name}: {massless.size} DOF(s) carry no mass "
+            raise ModelFileError(f"{self.model.source or self.model.name}: {massless.size} DOF(s) carry no mass "
                              f"({shown}): connect the node to an element with density, give it a lumped mass "
                              "with rotary inertia, or support that DOF")
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import stat
 from pathlib import Path
 
 import numpy as np
@@ -44,35 +45,57 @@ def dumps(obj, indent: int | None = 1) -> str:
     return json.dumps(jsonable(obj), indent=indent, allow_nan=False)
 
 
-#: The largest JSON file the project reads (bytes): model, data and record files are far smaller.
-MAX_JSON_BYTES = 256 * 2**20
+#: The largest JSON file the project reads (bytes): model, data and record files are far smaller
+#: (a model at the dense path's size limit with 100 measured modes is about 20 MB), and parsing
+#: one of this size takes under 1 GB of memory.
+MAX_JSON_BYTES = 64 * 2**20
+
+
+def _no_duplicate_keys(pairs):
+    """An object hook that refuses a key given twice (JSON keeps the last one, silently)."""
+    obj = dict(pairs)
+    if len(obj) != len(pairs):
+        seen = set()
+        twice = next(k for k, _ in pairs if k in seen or seen.add(k))
+        raise ValueError(f"key {twice!r} is given twice in one object")
+    return obj
+
+
+def _read_bounded(path: Path, error) -> bytes:
+    """The bytes of the regular file at `path`, at most MAX_JSON_BYTES of them (a device such
+    as /dev/zero or a named pipe would never end or never start)."""
+    if path.is_dir():
+        raise error(f"{path}: is a directory, not a file")
+    if path.exists() and not stat.S_ISREG(path.stat().st_mode):
+        raise error(f"{path}: not a regular file (a device, a pipe or a socket); name a JSON file")
+    with open(path, "rb") as fh:
+        raw = fh.read(MAX_JSON_BYTES + 1)
+    if len(raw) > MAX_JSON_BYTES:
+        raise error(f"{path}: larger than the {MAX_JSON_BYTES} bytes a JSON file may have")
+    return raw
 
 
 def read_json_file(path: Path, error: type[Exception] = ValueError):
     """The JSON value in the file at `path`, or `error` (a ValueError subclass) with a one-line
-    message naming the file and what is wrong: unreadable (a directory, no permission), too
-    large, not UTF-8 (with the byte offset), not JSON (with line and column), nested too deep,
-    a number too large to hold."""
+    message naming the file and what is wrong: unreadable (a directory, a device, no
+    permission), too large, not UTF-8 (with the byte offset), not JSON (with line and column),
+    a key given twice, nested too deep, a number too large to hold. A UTF-8 byte-order mark is
+    accepted."""
     path = Path(path)
     try:
-        if path.is_dir():
-            raise error(f"{path}: is a directory, not a file")
-        size = path.stat().st_size
-        if size > MAX_JSON_BYTES:
-            raise error(f"{path}: {size} bytes is larger than the {MAX_JSON_BYTES} a JSON file may have")
-        raw = path.read_bytes()
+        raw = _read_bounded(path, error)
     except OSError as exc:
         raise error(f"{path}: cannot be read ({exc.strerror or exc})") from None
     try:
-        text = raw.decode("utf-8")
+        text = raw.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
         raise error(f"{path}: not UTF-8 text (byte 0x{raw[exc.start]:02x} at offset {exc.start}); "
                     "save the file as UTF-8") from None
     try:
-        return json.loads(text)
+        return json.loads(text, object_pairs_hook=_no_duplicate_keys)
     except json.JSONDecodeError as exc:
         raise error(f"{path}: not valid JSON ({exc})") from None
     except RecursionError:
         raise error(f"{path}: JSON nested too deeply to read") from None
-    except ValueError as exc:  # e.g. an integer of more than 4300 digits
+    except ValueError as exc:  # a key given twice, an integer of more than 4300 digits
         raise error(f"{path}: not valid JSON ({exc})") from None

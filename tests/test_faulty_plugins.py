@@ -48,6 +48,19 @@ class ReachesTheProblemThroughAClosure:
         objective(_points(bounds, rng, 1))
 
 
+class FindsTheProblemAndResetsItsCount:
+    """Finds the problem among all live objects, evaluates behind the harness and sets the
+    problem's own public counter back."""
+
+    def minimize(self, objective, bounds, budget, rng):
+        import gc
+
+        problem = next(o for o in gc.get_objects() if type(o).__name__ == "UpdatingProblem")
+        problem.evaluate(_points(bounds, rng, 500))
+        problem.n_evals = 0
+        objective(_points(bounds, rng, 1))
+
+
 class ResetsTheCounter:
     def minimize(self, objective, bounds, budget, rng):
         objective(_points(bounds, rng, 100))
@@ -149,6 +162,8 @@ class RaisesABaseException:
     (ReachesTheProblemThroughAClosure, "failed", "budget bypassed: the problem evaluated 501 points but the run was "
                                                  "charged 1", 1),
     (ResetsTheCounter, "failed", "'n_evals' is read-only", 100),
+    (FindsTheProblemAndResetsItsCount, "failed", "budget bypassed: the problem evaluated 501 points but the run was "
+                                                 "charged 1", 1),
     (ResetsTheHiddenCounter, "failed", "budget bypassed: the problem evaluated 500 points but the run was "
                                        "charged 100", 100),
     (RaisesItsBudget, "failed", "budget overrun: 500 evaluations charged against a budget of 300", 500),

@@ -11,6 +11,8 @@ measured. The spread of each mode over its stable orders is its uncertainty (in 
 
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -53,8 +55,8 @@ def _band(frfs: FRFSet, band_hz, n_modes):
     """Band (lo, hi) in Hz and the mask of its lines, checked against the file."""
     f = frfs.frequency_hz
     lo, hi = (float(f[0]), float(f[-1])) if band_hz is None else (float(band_hz[0]), float(band_hz[1]))
-    if not (lo < hi):
-        raise ValueError(f"--band {lo} {hi}: the low end must be below the high end")
+    if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+        raise ValueError(f"--band {lo} {hi}: two finite frequencies (Hz), the low end below the high end")
     if hi <= f[0] or lo >= f[-1]:
         raise ValueError(f"--band {lo} {hi} Hz lies outside the measured lines of {frfs.sources[0]} "
                          f"({f[0]:g} to {f[-1]:g} Hz)")
@@ -117,6 +119,9 @@ def identify(frfs: FRFSet, model=None, band_hz=None, n_modes: int | None = None,
     """
     from fe_problem import ModalData, load_model
 
+    if not (isinstance(max_order, int) and 1 <= max_order <= P.MAX_ORDER_LIMIT):
+        raise ValueError(f"--max-order: must be a whole number from 1 to {P.MAX_ORDER_LIMIT}, got {max_order!r}")
+    named_by_file = model is None
     if model is None:
         if not frfs.model:
             raise FRFFileError(f"{frfs.sources[0]}: the FRF file names no model (UFF ID line 1 'model: NAME', "
@@ -126,7 +131,12 @@ def identify(frfs: FRFSet, model=None, band_hz=None, n_modes: int | None = None,
         if not Path(model).is_absolute() and beside.is_file():
             model = str(beside)
     model_ref = model if isinstance(model, str) else model.name
-    model = load_model(model)
+    try:
+        model = load_model(model)
+    except (ValueError, FileNotFoundError) as exc:  # the model the FRF file names: say which file named it
+        if not named_by_file:
+            raise
+        raise FRFFileError(f"{frfs.sources[0]}: field 'model' {model_ref!r}: {exc}") from None
     check_coordinates(frfs, model)
     (lo, hi), keep = _band(frfs, band_hz, n_modes)
     freq, frf = frfs.frequency_hz[keep], frfs.frf[:, keep]

@@ -141,7 +141,10 @@ def uff_datasets(path: str | Path, dataset_type: int, what: str, error=FRFFileEr
     dataset). One reader for any UFF dataset type (uff.py's dataset 55 reader could use it too)."""
     import pyuff
 
+    from ..modal_data.uff import uff_dataset_lines
+
     path = Path(path)
+    opened_at = uff_dataset_lines(path, dataset_type, error)  # a file cut short or damaged: refused here
     try:
         uff = pyuff.UFF(str(path))
         types = [int(t) for t in uff.get_set_types()]
@@ -151,11 +154,15 @@ def uff_datasets(path: str | Path, dataset_type: int, what: str, error=FRFFileEr
     if not blocks:
         raise error(f"{path}: no dataset {dataset_type} ({what}) in the file; it holds dataset type(s) "
                     f"{sorted(set(types))}")
+    if len(blocks) != len(opened_at):
+        raise error(f"{path}: the file holds {len(opened_at)} datasets {dataset_type} but only {len(blocks)} can be "
+                    "read: it is damaged (cut short or edited)")
     for k, block in enumerate(blocks, 1):
         try:
             yield k, uff.read_sets(block)
         except Exception as exc:
-            raise error(f"{path}: dataset {dataset_type} #{k}: cannot be read ({exc})") from None
+            raise error(f"{path}: dataset {dataset_type} #{k} (line {opened_at[k - 1]}): cannot be read "
+                        f"({str(exc).strip() or type(exc).__name__}; a value that is no number?)") from None
 
 
 def read_uff58(path: str | Path) -> FRFSet:
@@ -231,26 +238,40 @@ def read_npz(path: str | Path) -> FRFSet:
     path = Path(path)
     try:
         z = np.load(path, allow_pickle=False)
-    except Exception as exc:
-        raise FRFFileError(f"{path}: not a readable .npz file ({exc})") from None
-    with z:
-        need = ("frequency_hz", "frf", "response_node", "response_dir", "reference_node", "reference_dir")
-        missing = [k for k in need if k not in z.files]
-        if missing:
-            raise FRFFileError(f"{path}: missing array(s) {missing} (see docs/identify.md)")
-        form = str(z["form"]) if "form" in z.files else "accelerance"
-        if form not in DEFAULT_UNITS:
-            raise FRFFileError(f"{path}: field 'form' {form!r} is not accelerance, mobility or receptance")
-        dirs = [str(d) for d in z["response_dir"]]
-        for k, d in enumerate(dirs):
-            if d not in UFF_DIRECTION:
-                raise FRFFileError(f"{path}: channel {k + 1}: direction {d!r} is not one of {_NAMES_TEXT}")
-        ref = (int(z["reference_node"]), str(z["reference_dir"]))
-        frfs = FRFSet(np.asarray(z["frequency_hz"], float), np.asarray(z["frf"], complex),
-                      tuple((int(n), d) for n, d in zip(z["response_node"], dirs)), ref, form,
-                      str(z["units"]) if "units" in z.files else DEFAULT_UNITS[form],
-                      (str(z["model"]) or None) if "model" in z.files else None, (str(path),))
-    return _checked(frfs)
+    except Exception:
+        raise FRFFileError(f"{path}: not a readable .npz file (a zip archive of numpy arrays without objects, "
+                           "as numpy.savez writes)") from None
+    if not isinstance(z, np.lib.npyio.NpzFile):
+        raise FRFFileError(f"{path}: a single .npy array, not an .npz archive of named arrays")
+    try:
+        with z:
+            return _checked(_npz_set(z, path))
+    except (ValueError, TypeError, OverflowError) as exc:  # a field of the wrong type: an object array, text as node
+        if isinstance(exc, FRFFileError):
+            raise
+        raise FRFFileError(f"{path}: an array of the wrong type or shape ({exc}); see docs/identify.md") from None
+
+
+def _npz_set(z, path: Path) -> FRFSet:
+    """The FRFSet of the arrays of an open .npz file (not yet checked)."""
+    need = ("frequency_hz", "frf", "response_node", "response_dir", "reference_node", "reference_dir")
+    missing = [k for k in need if k not in z.files]
+    if missing:
+        raise FRFFileError(f"{path}: missing array(s) {missing} (see docs/identify.md)")
+    form = str(z["form"]) if "form" in z.files else "accelerance"
+    if form not in DEFAULT_UNITS:
+        raise FRFFileError(f"{path}: field 'form' {form!r} is not accelerance, mobility or receptance")
+    dirs = [str(d) for d in z["response_dir"]]
+    for k, d in enumerate(dirs):
+        if d not in UFF_DIRECTION:
+            raise FRFFileError(f"{path}: channel {k + 1}: direction {d!r} is not one of {_NAMES_TEXT}")
+    if not np.iscomplexobj(z["frf"]):
+        raise FRFFileError(f"{path}: array 'frf' holds real values; an FRF needs complex values")
+    ref = (int(z["reference_node"]), str(z["reference_dir"]))
+    return FRFSet(np.asarray(z["frequency_hz"], float), np.asarray(z["frf"], complex),
+                  tuple((int(n), d) for n, d in zip(z["response_node"], dirs)), ref, form,
+                  str(z["units"]) if "units" in z.files else DEFAULT_UNITS[form],
+                  (str(z["model"]) or None) if "model" in z.files else None, (str(path),))
 
 
 def write_csv(frfs: FRFSet, path: str | Path) -> Path:
@@ -271,7 +292,10 @@ def write_csv(frfs: FRFSet, path: str | Path) -> Path:
 def read_csv(path: str | Path) -> FRFSet:
     """The FRFs of a CSV file in the layout of the module docstring."""
     path = Path(path)
-    lines = path.read_text().splitlines()
+    try:
+        lines = path.read_bytes().decode("utf-8-sig").splitlines()
+    except UnicodeDecodeError as exc:
+        raise FRFFileError(f"{path}: not UTF-8 text (byte at offset {exc.start}); save the file as UTF-8") from None
     meta = {}
     for line in lines:
         if line.startswith("#") and ":" in line:
@@ -289,11 +313,15 @@ def read_csv(path: str | Path) -> FRFSet:
         if len(parts) != 3 or parts[0] != "re" or parts_im != ["im"] + parts[1:] or parts[2] not in UFF_DIRECTION:
             raise FRFFileError(f"{path}: channel {k // 2 + 1}: columns {cols[k]!r}, {cols[k + 1]!r} are not "
                                f"'re NODE DIR', 'im NODE DIR' with DIR one of {_NAMES_TEXT}")
+        if not parts[1].isdigit():
+            raise FRFFileError(f"{path}: channel {k // 2 + 1}: column {cols[k]!r}: node {parts[1]!r} is not a node id")
         coords.append((int(parts[1]), parts[2]))
     ref = meta["reference"].split()
     form = meta.get("form", "accelerance")
-    if len(ref) != 2 or ref[1] not in UFF_DIRECTION or form not in DEFAULT_UNITS:
+    if len(ref) != 2 or not ref[0].isdigit() or ref[1] not in UFF_DIRECTION or form not in DEFAULT_UNITS:
         raise FRFFileError(f"{path}: bad '# reference: {meta['reference']}' or '# form: {form}'")
+    if not any(ln.strip() and not ln.startswith("#") for ln in lines[lines.index(header) + 1:]):
+        raise FRFFileError(f"{path}: no frequency lines after the header")
     try:
         table = np.loadtxt(path, delimiter=",", comments="#", skiprows=1 + sum(ln.startswith("#") for ln in lines),
                            ndmin=2)
@@ -318,6 +346,8 @@ def read_frf(*paths: str | Path) -> FRFSet:
         p = Path(p)
         if not p.exists():
             raise FileNotFoundError(f"no FRF file {str(p)!r}")
+        if not p.is_file():
+            raise FRFFileError(f"{p}: not a regular file (a directory, a device or a pipe); name an FRF file")
         suffix = p.suffix.lower()
         reader = {".npz": read_npz, ".csv": read_csv}.get(suffix, read_uff58)
         sets.append(reader(p))

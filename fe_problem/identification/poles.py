@@ -20,6 +20,7 @@ from .shapes import windowed_residues
 
 #: Defaults of the selection, documented in docs/identify.md
 MAX_ORDER = 40            # highest LSCF order (pole pairs); polynomial orders 2, 4, ..., 2 x MAX_ORDER
+MAX_ORDER_LIMIT = 200     # the highest max_order accepted: LSCF time and memory grow with it
 TOL_FREQUENCY = 0.005     # relative frequency change between consecutive orders
 TOL_DAMPING = 0.10        # relative damping change between consecutive orders
 MIN_MAC = 0.98            # residue-vector MAC between consecutive orders

@@ -12,6 +12,12 @@ from ..model.validate import is_number, shown
 from .types import DATA_FORMAT, DataFileError, ModalData
 
 
+#: The frequencies a measured mode may have (Hz): a value outside is a unit error or a typo.
+FREQUENCY_RANGE_HZ = (1e-6, 1e9)
+#: The most modes and measured coordinates a data file may hold (a modal test has far fewer).
+MAX_MODES, MAX_DOFS = 10_000, 100_000
+
+
 def _err(source: str, msg: str) -> DataFileError:
     return DataFileError(f"{source}: {msg}")
 
@@ -30,17 +36,21 @@ def modal_data_from_dict(d: Any, source: str = "<memory>") -> ModalData:
     dofs = []
     if not isinstance(d["dofs"], list) or not d["dofs"]:
         raise _err(source, "field 'dofs' must be a non-empty list of [node id, direction]")
+    if len(d["dofs"]) > MAX_DOFS:
+        raise _err(source, f"field 'dofs': {len(d['dofs'])} coordinates are more than the {MAX_DOFS} a data file may hold")
     for i, x in enumerate(d["dofs"]):
         if not (isinstance(x, list) and len(x) == 2 and isinstance(x[0], int) and not isinstance(x[0], bool)):
-            raise _err(source, f"field 'dofs'[{i}]: expected [node id, direction], got {x!r}")
-        if x[1] not in SPATIAL:
-            raise _err(source, f"field 'dofs'[{i}]: unknown direction {x[1]!r}, use one of {list(SPATIAL)}")
+            raise _err(source, f"field 'dofs'[{i}]: expected [node id, direction], got {shown(x)}")
+        if not isinstance(x[1], str) or x[1] not in SPATIAL:
+            raise _err(source, f"field 'dofs'[{i}]: unknown direction {shown(x[1])}, use one of {list(SPATIAL)}")
         dofs.append((x[0], x[1]))
     if len(set(dofs)) != len(dofs):
         raise _err(source, "field 'dofs' lists a coordinate twice")
     modes = d["modes"]
     if not isinstance(modes, list) or not modes:
         raise _err(source, "field 'modes' must be a non-empty list")
+    if len(modes) > MAX_MODES:
+        raise _err(source, f"field 'modes': {len(modes)} modes are more than the {MAX_MODES} a data file may hold")
     freqs = np.empty(len(modes))
     shapes = np.full((len(dofs), len(modes)), np.nan)
     for k, mode in enumerate(modes):
@@ -50,6 +60,9 @@ def modal_data_from_dict(d: Any, source: str = "<memory>") -> ModalData:
         f = mode["frequency_hz"]
         if not is_number(f) or f <= 0:
             raise _err(source, f"{where}.frequency_hz: must be a finite number > 0, got {shown(f)}")
+        if not FREQUENCY_RANGE_HZ[0] <= f <= FREQUENCY_RANGE_HZ[1]:
+            raise _err(source, f"{where}.frequency_hz: {f:g} Hz is outside the range [{FREQUENCY_RANGE_HZ[0]:g}, "
+                               f"{FREQUENCY_RANGE_HZ[1]:g}] Hz a measured mode may have")
         freqs[k] = f
         s = mode.get("shape")
         if s is None:

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from ..model import FrameModel, load_model, shipped_models
+from ..model.validate import shown
 
 #: The format tag of a JSON modal-data file.
 DATA_FORMAT = "femu.modal-data/1"
@@ -84,7 +85,7 @@ class ModalData:
         ids = set(model.node_ids)
         for i, (node, d) in enumerate(self.dofs):
             if node not in ids:
-                raise DataFileError(f"{self.source}: field 'dofs'[{i}]: node {node} is not in model {model.name!r}")
+                raise DataFileError(f"{self.source}: field 'dofs'[{i}]: node {shown(node)} is not in model {model.name!r}")
             if d not in model.layout.names:
                 raise DataFileError(f"{self.source}: field 'dofs'[{i}]: unknown direction {d!r}; the nodes of model "
                                     f"{model.name!r} have {list(model.layout.names)}")

@@ -92,17 +92,28 @@ def write_uff55(data: ModalData, path: str | Path) -> Path:
 HEADER_DATASETS = frozenset({151, 164, 15, 2411, 82, 2412, 18, 2420})
 
 
-def _count_datasets(path: Path, kind: int) -> int:
-    """How many datasets of type `kind` the text of UFF file `path` holds, checking its
-    structure on the way: every dataset opens with a line '    -1', then a line with its type
-    number, and closes with '    -1'. DataFileError (naming the line) for a file cut short (a
-    dataset with no closing delimiter, a last line cut in the middle) or a damaged type line."""
+#: The largest UFF file read (bytes): pyuff holds the whole text in memory several times over.
+MAX_UFF_BYTES = 512 * 2**20
+
+
+def uff_dataset_lines(path: Path, kind: int, error=DataFileError) -> list[int]:
+    """The lines (1-based) where the datasets of type `kind` open in the UFF file `path`, checking
+    its structure on the way: every dataset opens with a line '    -1', then a line with its type
+    number, and closes with '    -1'. `error` (naming the file and the line) for a file that is
+    no regular file or too large, a file cut short (a dataset with no closing delimiter, a last
+    line cut in the middle) or a damaged type line. Datasets of other types among those of
+    `kind` (any type but the header, units and geometry datasets before the first of `kind`)
+    are named in a warning: one of them may be a damaged dataset of `kind`."""
     try:
+        if not path.is_file():
+            raise error(f"{path}: not a regular file (a directory, a device or a pipe); name a UFF file")
+        if path.stat().st_size > MAX_UFF_BYTES:
+            raise error(f"{path}: larger than the {MAX_UFF_BYTES} bytes a UFF file may have")
         text = path.read_bytes().decode("latin-1")
     except OSError as exc:
-        raise DataFileError(f"{path}: cannot be read ({exc.strerror or exc})") from None
+        raise error(f"{path}: cannot be read ({exc.strerror or exc})") from None
     lines = text.splitlines()
-    count, inside, opened, others = 0, False, 0, {}
+    opened_at, inside, opened, others = [], False, 0, {}
     for number, line in enumerate(lines, 1):
         if line.strip() != "-1":
             continue
@@ -113,18 +124,21 @@ def _count_datasets(path: Path, kind: int) -> int:
         head_line = lines[number] if number < len(lines) else ""
         head = head_line.split()
         if not head or not head[0].isdigit():
-            raise DataFileError(f"{path}: line {number + 1}: the dataset opened at line {number} has no type number "
-                                f"(found {head_line.strip()[:20]!r}): the file is damaged or cut short")
-        count += int(head[0]) == kind
-        others[int(head[0])] = others.get(int(head[0]), 0) + (int(head[0]) != kind)
+            raise error(f"{path}: line {number + 1}: the dataset opened at line {number} has no type number "
+                        f"(found {head_line.strip()[:20]!r}): the file is damaged or cut short")
+        t = int(head[0])
+        if t == kind:
+            opened_at.append(number)
+        elif t not in HEADER_DATASETS or opened_at:
+            others[t] = others.get(t, 0) + 1
     if inside:
-        raise DataFileError(f"{path}: the dataset opened at line {opened} is never closed by '    -1': the file is cut "
-                            "short or damaged")
-    ignored = {t: n for t, n in others.items() if n and t not in HEADER_DATASETS}
-    if ignored and count:
-        warnings.warn(f"{path}: ignored {sum(ignored.values())} dataset(s) of type(s) {sorted(ignored)} among the "
-                      f"{count} datasets {kind}: if one was meant to be a mode, the file is damaged", stacklevel=3)
-    return count
+        raise error(f"{path}: the dataset opened at line {opened} is never closed by '    -1': the file is cut "
+                    "short or damaged")
+    if others and opened_at:
+        warnings.warn(f"{path}: ignored {sum(others.values())} dataset(s) of type(s) {sorted(others)} among the "
+                      f"{len(opened_at)} datasets {kind}: if one was meant to be a dataset {kind}, the file is damaged",
+                      stacklevel=3)
+    return opened_at
 
 
 def read_uff55(path: str | Path, model: str | None = None, layout: DofLayout = DEFAULT_LAYOUT) -> ModalData:
@@ -140,7 +154,8 @@ def read_uff55(path: str | Path, model: str | None = None, layout: DofLayout = D
         raise FileNotFoundError(f"no data file {str(path)!r}")
     if path.is_dir():
         raise DataFileError(f"{path}: is a directory, not a UFF file")
-    n_raw = _count_datasets(path, 55)
+    opened_at = uff_dataset_lines(path, 55)
+    n_raw = len(opened_at)
     try:
         uff = pyuff.UFF(str(path))
         types = [int(t) for t in uff.get_set_types()]
@@ -159,7 +174,7 @@ def read_uff55(path: str | Path, model: str | None = None, layout: DofLayout = D
     nodes, model_id, source = None, "", ""
     freqs, shapes = [], []
     for k, block in enumerate(blocks, 1):
-        where = f"{path}: dataset 55 #{k}"
+        where = f"{path}: dataset 55 #{k} (line {opened_at[k - 1]})"
         try:
             ds = uff.read_sets(block)
         except Exception as exc:

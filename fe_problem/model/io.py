@@ -126,12 +126,15 @@ def model_from_dict(d: dict, source: str = "<memory>") -> FrameModel:
         directions = _get(s, "directions", where)
         if not isinstance(directions, list):
             raise ModelFileError(f"{where}: field 'directions' must be a list such as [\"x\", \"y\"], "
-                                 f"got {directions!r}")
+                                 f"got {shown(directions)}")
         supports.append(Support(_int(_get(s, "node", where), f"{where} field 'node'"), tuple(directions)))
     measured = tuple(_dof(x, f"{source}: measured_dofs[{i}]") for i, x in enumerate(d.get("measured_dofs", [])))
     exc = d.get("excitation")
+    name = d.get("name", Path(source).stem)
+    if not isinstance(name, str) or not name.strip():
+        raise ModelFileError(f"{source}: field 'name' must be a non-empty string, got {shown(name)}")
     return FrameModel(
-        name=str(d.get("name", Path(source).stem)), nodes=tuple(nodes), materials=materials, sections=sections,
+        name=name, nodes=tuple(nodes), materials=materials, sections=sections,
         elements=tuple(elements), masses=tuple(masses), springs=tuple(springs), supports=tuple(supports),
         measured_dofs=measured, excitation=_dof(exc, f"{source}: excitation") if exc is not None else None,
         description=str(d.get("description", "")), source=source)

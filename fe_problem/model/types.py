@@ -153,17 +153,14 @@ class FrameModel:
 
     def node(self, node_id: int) -> Node:
         """The node with this id (KeyError if none)."""
-        k = self._node_pos.get(node_id)
-        if k is None:
-            raise KeyError(f"model {self.name!r} has no node {node_id}")
-        return self.nodes[k]
+        return self.nodes[self.node_position(node_id)]
 
     def element(self, element_id: int) -> Element:
         """The element with this id (KeyError if none)."""
-        k = self._element_pos.get(element_id)
-        if k is None:
-            raise KeyError(f"model {self.name!r} has no element {element_id}")
-        return self.elements[k]
+        try:
+            return self.elements[self._element_pos[element_id]]
+        except (KeyError, TypeError):  # TypeError: an unhashable id
+            raise KeyError(f"model {self.name!r} has no element {element_id}") from None
 
     @property
     def dofs(self) -> tuple[tuple[int, str], ...]:
@@ -177,10 +174,10 @@ class FrameModel:
 
     def node_position(self, node_id: int) -> int:
         """Position of a node in `nodes` (0-based); KeyError if the model has no such node."""
-        k = self._node_pos.get(node_id)
-        if k is None:
-            raise KeyError(f"model {self.name!r} has no node {node_id}")
-        return k
+        try:
+            return self._node_pos[node_id]
+        except (KeyError, TypeError):  # TypeError: an unhashable id
+            raise KeyError(f"model {self.name!r} has no node {node_id}") from None
 
     def dof_index(self, node_id: int, direction: str) -> int:
         """Position of a nodal DOF in `dofs`."""

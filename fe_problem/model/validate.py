@@ -4,6 +4,7 @@ file, the item and the field."""
 from __future__ import annotations
 
 import math
+from collections import Counter
 from typing import TYPE_CHECKING, Any
 
 from ..elements import formulation, formulations
@@ -33,13 +34,14 @@ def shown(value: Any, limit: int = 60) -> str:
 
 
 def _duplicates(ids: list) -> list:
-    return sorted({i for i in ids if ids.count(i) > 1})
+    return sorted(i for i, n in Counter(ids).items() if n > 1)
 
 
 #: The physical ranges a model's values must lie in (SI units): a value outside is a typo or a
 #: unit error, and would leave the matrices too ill-conditioned to solve in double precision.
 RANGES = {
     "coordinate": 1e6,                      # |x|, |y| in m
+    "length": 1e-6,                         # the shortest element, m
     "youngs_modulus_pa": (1e3, 1e13), "density_kg_m3": (1e-3, 1e6),
     "area_m2": (1e-12, 1e3), "inertia_m4": (1e-24, 1e6),
     "mass_kg": 1e9, "inertia_kg_m2": 1e9, "stiffness": 1e15, "release": 1e15,
@@ -72,9 +74,9 @@ def validate(m: FrameModel) -> None:
                                      f"+-{RANGES['coordinate']:g}, got {shown(v)}")
     _validate_tables(m)
     _check_ids(src, "elements", [e.id for e in m.elements])
-    idset = set(m.node_ids)
+    nodes = {n.id: n for n in m.nodes}
     for e in m.elements:
-        _validate_element(m, e, idset)
+        _validate_element(m, e, nodes)
     _validate_nodal(m)
     _check_connected(m)
 
@@ -113,10 +115,10 @@ def _validate_tables(m: FrameModel) -> None:
         _positive(sec.shear_coefficient, f"{src}: section {name!r} 'shear_coefficient'")
 
 
-def _validate_element(m: FrameModel, e, idset: set) -> None:
+def _validate_element(m: FrameModel, e, nodes: dict) -> None:
     where = f"{m.source}: element {e.id}"
     for n in (e.node_i, e.node_j):
-        if n not in idset:
+        if n not in nodes:
             raise ModelFileError(f"{where}: field 'nodes': unknown node {n}")
     if e.node_i == e.node_j:
         raise ModelFileError(f"{where}: both ends at node {e.node_i}")
@@ -142,14 +144,18 @@ def _validate_element(m: FrameModel, e, idset: set) -> None:
         if not formulation(e.formulation).supports_crack:
             cracked = [f for f in formulations() if formulation(f).supports_crack]
             raise ModelFileError(f"{where}: a crack needs formulation {' or '.join(map(repr, cracked))}")
-    a, b = m.node(e.node_i), m.node(e.node_j)
-    if math.hypot(b.x - a.x, b.y - a.y) <= 0:
+    a, b = nodes[e.node_i], nodes[e.node_j]
+    length = math.hypot(b.x - a.x, b.y - a.y)
+    if length <= 0:
         raise ModelFileError(f"{where}: zero length (nodes {e.node_i} and {e.node_j} coincide)")
+    if length < RANGES["length"]:
+        raise ModelFileError(f"{where}: length {length:.3g} m (nodes {e.node_i} and {e.node_j}) is below the "
+                             f"{RANGES['length']:g} m an element may have (coordinates are in metres)")
 
 
 def _check_dof(m: FrameModel, dof: Any, where: str) -> None:
     if not (isinstance(dof, tuple) and len(dof) == 2):
-        raise ModelFileError(f"{where}: a DOF is [node id, direction], got {dof!r}")
+        raise ModelFileError(f"{where}: a DOF is [node id, direction], got {shown(dof)}")
     try:
         known = dof[0] in m._node_pos  # a dict: linear time over many measured DOFs
     except TypeError:  # an unhashable node id read from a file

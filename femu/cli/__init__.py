@@ -36,9 +36,17 @@ class HelpFormatter(argparse.RawDescriptionHelpFormatter):
         return text + " (default: %(default)s)"
 
 
+class ArgumentParser(argparse.ArgumentParser):
+    """argparse's parser, whose usage errors are one line (``femu COMMAND: error: ...``, naming
+    the argument) and exit code 2, as every other error of the command; `--help` is unchanged."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {' '.join(message.split())} (see `{self.prog} --help`)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of `femu` with every command's sub-parser."""
-    p = argparse.ArgumentParser(prog="femu", formatter_class=HelpFormatter,
+    p = ArgumentParser(prog="femu", formatter_class=HelpFormatter,
                                 description="FE model updating of planar frames: models, optimizer "
                                 "benchmarks, studies, reports and diagnosis. `femu COMMAND --help` "
                                 "describes each command's arguments.")
@@ -49,7 +57,7 @@ def build_parser() -> argparse.ArgumentParser:
         sp = sub.add_parser(name, help=doc.splitlines()[0] if doc else None, description=doc or None,
                             formatter_class=HelpFormatter)
         module.add_arguments(sp)
-        sp.set_defaults(func=module.run)
+        sp.set_defaults(func=module.run, command_parser=sp)
     return p
 
 
@@ -61,7 +69,9 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
 def main(argv=None) -> int:
     """Run `femu` with ``argv`` (default: the command line); returns the exit code."""
     warnings.showwarning = _show_warning
-    args = build_parser().parse_args(argv)
+    args, extra = build_parser().parse_known_args(argv)
+    if extra:  # named by the command's own parser: "femu study: error: unrecognized arguments: ..."
+        args.command_parser.error(f"unrecognized arguments: {' '.join(extra)}")
     try:
         return int(args.func(args) or 0)
     except BrokenPipeError:  # `femu results ... | head`: the reader left; not an error of ours

@@ -29,6 +29,7 @@ import psutil
 
 from adapters.harness import RECORD_FORMAT, RunResult
 from fe_problem.jsonutil import dumps, read_json_file
+from fe_problem.model.validate import is_number, shown
 
 
 #: Seconds after which a claim file that cannot be read counts as stale.
@@ -50,7 +51,7 @@ def _is_int(v) -> bool:
 
 
 def _is_num(v) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+    return is_number(v)  # a finite int or float, not a bool; an int too large for a float is not
 
 
 def check_record(d, key: str) -> str | None:
@@ -62,7 +63,7 @@ def check_record(d, key: str) -> str | None:
         return f"field 'format': {d.get('format')!r} is not {RECORD_FORMAT!r}"
     for name in ("optimizer", "problem", "variant"):
         if not isinstance(d.get(name), str) or not d.get(name):
-            return f"field {name!r}: must be a non-empty string, got {d.get(name)!r}"
+            return f"field {name!r}: must be a non-empty string, got {shown(d.get(name))}"
     checks = (("seed", _is_int(d.get("seed")) and d.get("seed", -1) >= 0, "an integer >= 0"),
               ("budget", _is_int(d.get("budget")) and d.get("budget", 0) >= 1, "an integer >= 1"),
               ("n_evals", _is_int(d.get("n_evals")) and 0 <= d.get("n_evals", -1) <= max(d["budget"], 0)
@@ -76,16 +77,21 @@ def check_record(d, key: str) -> str | None:
               ("trace", _trace_ok(d.get("trace", [])), "a list of [n_evals, f] pairs, n_evals increasing"))
     for name, ok, need in checks:
         if not ok:
-            return f"field {name!r}: must be {need}, got {d.get(name)!r}"[:300]
+            return f"field {name!r}: must be {need}, got {shown(d.get(name))}"
     if not (d.get("f_opt") is None or _is_num(d["f_opt"])):
-        return f"field 'f_opt': must be a finite number or null, got {d.get('f_opt')!r}"
+        return f"field 'f_opt': must be a finite number or null, got {shown(d.get('f_opt'))}"
     for name in ("wall_s", "cpu_s", "fe_s", "fe_cpu_s", "opt_cpu_s"):
         if not (_is_num(d.get(name, 0.0)) and d.get(name, 0.0) >= 0):
-            return f"field {name!r}: must be a number of seconds >= 0, got {d.get(name)!r}"
+            return f"field {name!r}: must be a number of seconds >= 0, got {shown(d.get(name))}"
     if not (_is_int(d.get("n_jacobians", 0)) and d.get("n_jacobians", 0) >= 0):
-        return f"field 'n_jacobians': must be an integer >= 0, got {d.get('n_jacobians')!r}"
+        return f"field 'n_jacobians': must be an integer >= 0, got {shown(d.get('n_jacobians'))}"
     if d.get("x0", "none") not in ("none", "all"):
-        return f"field 'x0': must be none or all, got {d.get('x0')!r}"
+        return f"field 'x0': must be none or all, got {shown(d.get('x0'))}"
+    for name, ok, need in (("error", d.get("error") is None or isinstance(d["error"], str), "a string or null"),
+                           ("host", isinstance(d.get("host", ""), str), "a string"),
+                           ("versions", isinstance(d.get("versions", {}), dict), "an object of library -> version")):
+        if not ok:
+            return f"field {name!r}: must be {need}, got {shown(d.get(name))}"
     expected = run_key(d["variant"], d["optimizer"], d["budget"], d["seed"])
     if expected != key:
         return f"its fields (variant, optimizer, budget, seed) make the key {expected!r}, not the file's name {key!r}"
