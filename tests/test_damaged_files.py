@@ -134,8 +134,11 @@ def test_a_json_file_above_the_size_limit_is_refused_unread(tmp_path, capsys):
     _one_error_line(capsys, ["model", str(f)], f"{f}: larger than the {MAX_JSON_BYTES} bytes")
 
 
-def test_a_model_of_30000_nodes_is_refused_by_size_not_left_to_run(tmp_path, capsys):
-    n = 30_000  # validation and the size check are linear in the nodes (they were quadratic: a hang)
+def test_a_model_of_30000_nodes_is_refused_by_size_on_the_dense_path_not_left_to_run(tmp_path, capsys):
+    """Loading, validation and the size check are linear in the nodes (they were quadratic: a
+    hang). The dense path refuses it by its size; the automatic choice takes the sparse path
+    (which solves it: `femu model` on it takes seconds, tests/test_cli_model_scale.py)."""
+    n = 30_000
     d = {"format": "femu.model/1", "name": "long",
          "nodes": [{"id": i + 1, "x": 0.01 * i, "y": 0.0} for i in range(n)],
          "elements": [{"id": i + 1, "nodes": [i + 1, i + 2], "section": "s", "material": "m"} for i in range(n - 1)],
@@ -143,9 +146,23 @@ def test_a_model_of_30000_nodes_is_refused_by_size_not_left_to_run(tmp_path, cap
          "materials": {"m": {"youngs_modulus_pa": 7e10, "density_kg_m3": 2700, "poisson_ratio": 0.33}}}
     f = tmp_path / "long.model.json"
     f.write_text(json.dumps(d))
+    model = fp.load_model(f)
     with pytest.raises(fp.ModelFileError, match="30000 nodes, 90000 DOFs"):
+        fp.modal_analysis(model, solver="dense")
+    _one_error_line(capsys, ["model", str(f), "--solver", "dense"], "GiB limit")
+    assert fp.assembly.solver_path(model.n_dof) == "sparse"
+
+
+def test_a_model_above_the_sparse_limit_is_refused_by_size(tmp_path, capsys, monkeypatch):
+    """The sparse path is bounded too (fe_problem.assembly.MAX_SPARSE_DOFS, 250,000 free DOFs):
+    shown here with the limit lowered, on the 8-bay 20-storey frame `femu model` makes."""
+    f = tmp_path / "frame.model.json"
+    assert main(["model", "--frame", "8x20", "--save", str(f)]) == 0
+    capsys.readouterr()
+    monkeypatch.setattr(fp.assembly, "MAX_SPARSE_DOFS", 400)
+    with pytest.raises(fp.ModelFileError, match=r"frame.model.json: 189 nodes, 540 free DOFs: more than the 400"):
         fp.modal_analysis(fp.load_model(f))
-    _one_error_line(capsys, ["model", str(f)], "GiB limit")
+    _one_error_line(capsys, ["model", str(f)], "fe_problem.assembly.MAX_SPARSE_DOFS")
 
 
 # -- modal data -----------------------------------------------------------------------------------
