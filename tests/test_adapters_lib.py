@@ -1,4 +1,5 @@
-"""The library optimizers (pymoo GA, PySwarms PSO, scipy dual annealing, pycma CMA-ES) under
+"""The library optimizers (pymoo GA, PySwarms PSO, scipy dual annealing, pycma CMA-ES, nevergrad
+NGOpt, optuna CMA-ES and TPE) under
 the harness on the paper's H-frame problem: exact budgets, seeds that fix a run exactly in any
 process, silence, and real progress."""
 
@@ -13,7 +14,7 @@ import pytest
 import adapters
 from adapters.variants import make_problem
 
-LIBRARY = ["pymoo-ga", "pyswarms-pso", "scipy-sa", "cma-es"]
+LIBRARY = ["pymoo-ga", "pyswarms-pso", "scipy-sa", "cma-es", "nevergrad-ngopt", "optuna-cmaes", "optuna-tpe"]
 
 
 def record(name, seed, budget, **options):
