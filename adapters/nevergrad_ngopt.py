@@ -4,6 +4,9 @@ ask/tell interface, in the unit cube."""
 
 from __future__ import annotations
 
+import random
+import threading
+import time
 import warnings
 from contextlib import contextmanager
 
@@ -37,6 +40,10 @@ class NevergradNGOpt:
     def minimize(self, objective, bounds, budget, rng: np.random.Generator, x0=None, num_workers: int = 1):
         """Ask `num_workers` points, evaluate them as one batch, tell their values; until the
         harness stops the run (or NGOpt has used its budget)."""
+        with _global_rngs_kept():
+            self._minimize(objective, bounds, budget, rng, x0, num_workers)
+
+    def _minimize(self, objective, bounds, budget, rng, x0, num_workers) -> None:
         import nevergrad as ng
 
         f, _ = unit_scaled(objective, bounds)
@@ -45,7 +52,8 @@ class NevergradNGOpt:
             (np.asarray(x0, dtype=float) - xl) / (xu - xl), 0.0, 1.0)
         param = ng.p.Array(init=init, lower=0.0, upper=1.0)
         param.random_state = np.random.RandomState(int(rng.integers(2**32)))
-        with seeded_global_rngs(rng), _metamodel_scalars(), warnings.catch_warnings():
+        with seeded_global_rngs(rng), _metamodel_scalars(), _seeded_cma_fmin(), _recast_threads_stopped(), \
+                warnings.catch_warnings():
             # for short budgets NGOpt picks scipy's COBYLA with settings scipy corrects and warns
             # about (RHOEND, MAXFUN): nevergrad's choice, nothing a user of this plugin can act on
             warnings.filterwarnings("ignore", message="COBYLA: Invalid", category=UserWarning)
@@ -55,12 +63,49 @@ class NevergradNGOpt:
             # nevergrad then falls back to its base optimizer
             warnings.filterwarnings("ignore", message="(overflow|invalid value) encountered",
                                     category=RuntimeWarning, module=r"scipy\.optimize")
+            started = set(threading.enumerate())
             opt = ng.optimizers.NGOpt(parametrization=param, budget=int(budget), num_workers=int(num_workers))
             while opt.num_ask < int(budget):
                 asked = [opt.ask() for _ in range(min(int(num_workers), int(budget) - opt.num_ask))]
                 values = f(np.array([c.value for c in asked]))
                 for c, v in zip(asked, values):
                     opt.tell(c, float(v))
+                    _recast_threads_settled(started)
+
+
+@contextmanager
+def _global_rngs_kept():
+    """numpy's and Python's global generator states put back when the block ends: nevergrad
+    draws from numpy's global generator also when its parametrization is built, before the run's
+    generators are seeded."""
+    np_state, py_state = np.random.get_state(), random.getstate()
+    try:
+        yield
+    finally:
+        np.random.set_state(np_state)
+        random.setstate(py_state)
+
+
+@contextmanager
+def _seeded_cma_fmin():
+    """nevergrad's CmaFmin2 (in NGOpt's choices, e.g. under MetaModel at 12 parameters) calls
+    ``cma.fmin`` without a seed, and pycma then seeds numpy's global generator from the clock:
+    for the run, a call without a seed gets one drawn from numpy's global generator, which the
+    run has seeded."""
+    import cma
+
+    fmin = cma.fmin
+
+    def seeded(*args, options=None, **kwargs):
+        options = dict(options or {})
+        options.setdefault("seed", int(np.random.randint(1, 2**31)))
+        return fmin(*args, options=options, **kwargs)
+
+    cma.fmin = seeded
+    try:
+        yield
+    finally:
+        cma.fmin = fmin
 
 
 def _size_one_float(value) -> float:
@@ -87,3 +132,35 @@ def _metamodel_scalars():
             del metamodel.float
         else:
             metamodel.float = previous
+
+
+def _recast_threads_settled(before: set) -> None:
+    """Waits until every recast thread nevergrad started (those not in `before`) has posted its
+    next point or ended. Such a thread (e.g. the CMA of NGOpt's MetaModel, run by cma.fmin2)
+    draws from numpy's global generator after each tell, as does the main thread when it asks
+    next (MetaModel's inner optimizers seed themselves from it): without the wait, the two
+    interleave as the scheduler pleases and a seed does not fix the run."""
+    from nevergrad.optimization.recaster import _MessagingThread
+
+    for thread in set(threading.enumerate()) - before:
+        if isinstance(thread, _MessagingThread):
+            while thread.is_alive() and thread.messages_ask.empty():
+                time.sleep(1e-5)
+
+
+@contextmanager
+def _recast_threads_stopped():
+    """Stops, when the block ends, the threads nevergrad started in it for its recast optimizers
+    (scipy's COBYLA, Powell, ... run in a thread that waits for the next tell): the harness ends
+    a run by raising in the middle of NGOpt's budget, and such a thread would otherwise wait for
+    ever and keep the process from exiting."""
+    from nevergrad.optimization.recaster import _MessagingThread
+
+    before = set(threading.enumerate())
+    try:
+        yield
+    finally:
+        for thread in set(threading.enumerate()) - before:
+            if isinstance(thread, _MessagingThread):
+                thread.stop()
+                thread.join(timeout=10)
