@@ -98,3 +98,18 @@ def test_restarts_spend_the_budget_when_the_library_stops(name, options, longest
     first = record(name, 3, budget, **options)
     assert first[:2] == ("ok", budget)
     assert record(name, 3, budget, **options) == first
+
+
+def test_ngopt_with_its_threaded_cma_is_fixed_by_the_seed(spawned):
+    # at 12 parameters and 1,000 evaluations NGOpt picks a MetaModel over CmaFmin2, whose pycma
+    # runs in a thread of nevergrad's, unseeded: before the adapter seeded it and ordered the
+    # threads' draws, two runs with one seed differed
+    import nevergrad as ng
+
+    chosen = ng.optimizers.NGOpt(parametrization=ng.p.Array(shape=(12,), lower=0.0, upper=1.0), budget=1000)
+    assert "CmaFmin2" in str(chosen._select_optimizer_cls())
+    worker = spawned.submit(record_in_worker, "nevergrad-ngopt", 3, 1000)
+    first = record("nevergrad-ngopt", 3, 1000)
+    assert first[:2] == ("ok", 1000)
+    assert record("nevergrad-ngopt", 3, 1000) == first
+    assert worker.result(timeout=300)[0] == first
