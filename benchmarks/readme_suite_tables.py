@@ -51,6 +51,12 @@ def comparison(stats: dict, metric: str = "auc") -> str:
             + ", ".join(f"{p['a']}/{p['b']} ({p['p_holm']:.2g})" for p in same))
 
 
+def costs(stats: dict) -> str:
+    c = stats["costs"]
+    return ("median CPU seconds per run, FE / optimizer: "
+            + ", ".join(f"{s} {c[s]['median_fe_s']:.2g} / {c[s]['median_opt_s']:.2g}" for s in stats["solvers"]))
+
+
 def main(path: str) -> None:
     with open(path) as fh:
         stats = json.load(fh)
@@ -59,6 +65,7 @@ def main(path: str) -> None:
     print(f"Fixed budget, median [q1, q3] of J - f_opt after {stats['budget']} evaluations:\n\n"
           f"{fixed_budget_table(stats)}\n")
     print(comparison(stats))
+    print(costs(stats))
 
 
 if __name__ == "__main__":
