@@ -1,5 +1,5 @@
-"""The library optimizers (pymoo GA, PySwarms PSO, scipy dual annealing, pycma CMA-ES, nevergrad
-NGOpt, optuna CMA-ES and TPE) under
+"""The library optimizers (pymoo GA, DEAP's stock GA, PySwarms PSO, scipy dual annealing, pycma
+CMA-ES, nevergrad NGOpt, optuna CMA-ES and TPE; random search for seeds) under
 the harness on the paper's H-frame problem: exact budgets, seeds that fix a run exactly in any
 process, silence, and real progress."""
 
@@ -14,7 +14,8 @@ import pytest
 import adapters
 from adapters.variants import make_problem
 
-LIBRARY = ["pymoo-ga", "pyswarms-pso", "scipy-sa", "cma-es", "nevergrad-ngopt", "optuna-cmaes", "optuna-tpe"]
+LIBRARY = ["pymoo-ga", "deap-ga-stock", "pyswarms-pso", "scipy-sa", "cma-es", "nevergrad-ngopt", "optuna-cmaes",
+           "optuna-tpe"]
 
 
 def record(name, seed, budget, **options):
@@ -46,7 +47,7 @@ def test_spends_exactly_the_budget_inside_the_bounds(name):
     assert 0 < r.fe_s <= r.wall_s
 
 
-@pytest.mark.parametrize("name", LIBRARY)
+@pytest.mark.parametrize("name", LIBRARY + ["random-search"])
 def test_seed_fixes_the_run_in_process_and_in_a_spawned_worker(name, spawned):
     worker = spawned.submit(record_in_worker, name, 7, 250)
     np.random.seed(1)
