@@ -52,7 +52,7 @@ def jacobian_cost(n_var: int) -> int:
 def population_for_budget(n_var: int, budget: int) -> int:
     """A GA population for `budget` evaluations on `n_var` parameters: about 100 generations
     (budget // 100), at least 10 and n_var // 2, at most 100 (20 for 2,000 evaluations on up to
-    40 parameters, 48 on 96). Measured on the paper problem in docs/adapters.md."""
+    40 parameters, 48 on 96). See docs/suite.md, "Adapter settings"."""
     return int(min(100, max(10, int(budget) // 100, int(n_var) // 2)))
 
 

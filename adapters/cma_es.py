@@ -25,7 +25,7 @@ class CMAES:
             (11 with 12 parameters, 17 with 96).
         incpopsize (2): factor on the population at each IPOP restart.
         bipop (False): BIPOP instead of IPOP (measured on the paper problem at 2,000
-            evaluations: no better; see docs/adapters.md).
+            evaluations: no better).
         restarts (1000): the most restarts; enough that the harness's budget always ends the run.
         cma_options (None): further pycma options (see cma.CMAOptions()), e.g.
             {"tolfun": 1e-12}.

@@ -12,7 +12,8 @@ from functools import lru_cache
 from importlib.metadata import PackageNotFoundError, version
 
 #: Distributions a run's numbers depend on (their versions go into every run record).
-RUN_LIBRARIES = ("femu-bench", "numpy", "scipy", "pymoo", "deap", "pyswarms", "cma", "ioh")
+RUN_LIBRARIES = ("femu-bench", "numpy", "scipy", "pymoo", "deap", "pyswarms", "cma", "ioh", "nevergrad",
+                 "scikit-learn", "optuna", "cmaes")  # scikit-learn: nevergrad's MetaModel
 
 
 @lru_cache(maxsize=None)

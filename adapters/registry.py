@@ -33,6 +33,9 @@ BUILTINS = {
     "random-search": "adapters.random_search:RandomSearch",
     "cma-es": "adapters.cma_es:CMAES",
     "sensitivity": "adapters.sensitivity:Sensitivity",
+    "nevergrad-ngopt": "adapters.nevergrad_ngopt:NevergradNGOpt",
+    "optuna-cmaes": "adapters.optuna_samplers:OptunaCmaEs",
+    "optuna-tpe": "adapters.optuna_samplers:OptunaTPE",
 }
 
 
