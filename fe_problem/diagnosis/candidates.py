@@ -7,7 +7,9 @@ not part of a candidate.
 
 Kinds (the set is open: add a function to `CANDIDATE_KINDS` that yields Candidates):
 
-- ``stiffness_loss`` at an element: its modulus times (1 - a), a in [0, 0.9].
+- ``stiffness_loss`` at an element: its modulus times (1 - a), a in [0, 0.9]; or a weak zone
+  about a section depth wide at one of nine positions along it, its bending stiffness times
+  (1 - a), a in [0, 0.99] (a crack; zones.py).
 - ``added_mass`` at a node: a lumped mass of a kg (x and y), a up to half the model's mass.
 - ``joint_flexibility`` at a node where members meet: one element end released and tied to
   the node by a rotational spring k = (E I / L)_element / a (a: the joint's compliance
@@ -34,11 +36,11 @@ from typing import Callable, Iterator
 
 import numpy as np
 
-from ..elements import PROFILES
 from ..modal import frequencies_hz
-from ..model import FrameModel, Spring, add_mass, release_element_end, split_element, with_formulation
+from ..model import FrameModel, Spring, add_mass, release_element_end, with_formulation
 from ..assembly import AffineModel
 from ..parameters import Parameter
+from . import zones
 
 KINDS = ("stiffness_loss", "added_mass", "joint_flexibility", "shear_deformation", "stiffness_gain",
          "boundary_stiffness", "distributed_mass")
@@ -91,25 +93,6 @@ def scale_stiffness(model: FrameModel, s: float) -> FrameModel:
     return model.replace(elements=elements, springs=springs)
 
 
-def _profiled_model(model: FrameModel, element_id: int, e0: float, a: float, profile: str) -> FrameModel:
-    """The element split in four parts, each with the mean modulus of E0 (1 - a w(xi)) over it.
-
-    A model file has one modulus per element; four parts carry a linear profile closely
-    (the extension's exact affine form is what the diagnosis fitted)."""
-    w0, wm, w1 = PROFILES[profile]
-    out = model
-    ids = [element_id]
-    for k in range(3):  # split the last part at 1/(4-k) of its length: four equal parts
-        out = split_element(out, ids[-1], 1.0 / (4 - k))
-        ids.append(max(out.element_ids))
-    moduli = {}
-    for k, eid in enumerate(ids):
-        xi = (k + 0.5) / 4.0
-        w = np.interp(xi, [0.0, 0.5, 1.0], [w0, wm, w1])
-        moduli[eid] = e0 * (1.0 - a * w)
-    return out.with_element_moduli(moduli)
-
-
 def _bending_compliance_ref(model: FrameModel, element_id: int) -> float:
     """(E I / L) of an element, N m/rad: the scale of a joint spring at its end."""
     e = model.element(element_id)
@@ -117,32 +100,49 @@ def _bending_compliance_ref(model: FrameModel, element_id: int) -> float:
 
 
 def stiffness_loss(st: Setting) -> Iterator[Candidate]:
-    """A loss of modulus in one element, spread uniformly, decaying linearly from one end, or
-    peaking at mid-length (a crack softens the part of the element around it most); the
-    place is the element either way."""
+    """A loss of modulus in one element, spread uniformly over it, or concentrated in a weak
+    zone about a section depth wide at one of nine positions along it (a crack; zones.py);
+    the place is the element either way."""
+    shared: dict = {}
     for e in st.model.elements:
-        profiles = ("uniform",) if e.formulation != "euler-bernoulli" or e.crack_position else PROFILES
-        for profile in profiles:
-            e0 = st.model.element_modulus_pa(e.id)
-            system = AffineModel(st.model, (Parameter("modulus", (e.id,), 1e-3 * e0, e0, e0, profile=profile),))
+        e0 = st.model.element_modulus_pa(e.id)
+        system = AffineModel(st.model, (Parameter("modulus", (e.id,), 1e-3 * e0, e0, e0),))
 
-            def forward(a, system=system, e0=e0):
-                return solve(system, (e0 * (1.0 - np.asarray(a)))[:, None], st.coords, st.n_modes)
+        def forward(a, system=system, e0=e0):
+            return solve(system, (e0 * (1.0 - np.asarray(a)))[:, None], st.coords, st.n_modes)
 
-            def estimate(a, s, e0=e0, profile=profile):
-                return {"stiffness_loss_pct": 100.0 * a, "modulus_ratio": 1.0 - a, "profile": profile,
-                        "modulus_pa": s * e0 * (1.0 - a)}
+        def estimate(a, s, e0=e0):
+            return {"stiffness_loss_pct": 100.0 * a, "modulus_ratio": 1.0 - a, "profile": "uniform",
+                    "modulus_pa": s * e0 * (1.0 - a)}
 
-            def extend(a, e=e, e0=e0, profile=profile):
-                if profile == "uniform":
-                    return st.model.with_element_moduli({e.id: e0 * (1.0 - a)})
-                # a profiled loss is written as the element split in four, each part at its mean modulus
-                return _profiled_model(st.model, e.id, e0, a, profile)
+        yield Candidate("stiffness_loss", {"element": e.id}, 0.9,
+                        np.array([0.0, 0.005, 0.01, 0.02, 0.04, 0.07, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7,
+                                  0.8, 0.9]),
+                        forward, estimate, lambda a, e=e, e0=e0: st.model.with_element_moduli({e.id: e0 * (1.0 - a)}),
+                        step=0.01, meta={"profile": "uniform"})
+        if e.formulation != "euler-bernoulli" or e.crack_position is not None or e.weak_zone is not None:
+            continue
+        yield from _zone_candidates(st, e, e0, shared)
 
-            yield Candidate("stiffness_loss", {"element": e.id}, 0.9,
-                            np.array([0.0, 0.005, 0.01, 0.02, 0.04, 0.07, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7,
-                                      0.8, 0.9]),
-                            forward, estimate, extend, step=0.01, meta={"profile": profile})
+
+def _zone_candidates(st: Setting, e, e0: float, shared: dict) -> Iterator[Candidate]:
+    """The weak-zone losses of element e (see zones.py); a: the zone's loss of bending stiffness."""
+    for start, end, forward in zones.zone_forwards(st.model, e.id, st.coords, st.n_modes, shared):
+        centre = 0.5 * (start + end)
+
+        def estimate(a, s, start=start, end=end, centre=centre):
+            ei = s * e0 * st.model.sections[e.section].inertia_m4
+            width = (end - start) * st.model.element_length_m(e.id)
+            return {"stiffness_loss_pct": 100.0 * a, "modulus_ratio": 1.0 - a, "profile": "zone",
+                    "zone_position": centre, "zone_start": start, "zone_end": end,
+                    "modulus_pa": s * e0 * (1.0 - a),
+                    "equivalent_crack_stiffness_nm_per_rad": ei * (1.0 - a) / (a * width) if a > 0 else float("inf")}
+
+        def extend(a, start=start, end=end):
+            return zones.with_zone(st.model, e.id, start, end, 1.0 - a)
+
+        yield Candidate("stiffness_loss", {"element": e.id}, zones.UPPER, zones.GRID, forward, estimate, extend,
+                        step=0.01, meta={"profile": f"zone {centre:.2f}"})
 
 
 def added_mass(st: Setting) -> Iterator[Candidate]:

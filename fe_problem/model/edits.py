@@ -58,6 +58,6 @@ def crack_element(model: FrameModel, element_id: int, position: float, stiffness
 
 def with_formulation(model: FrameModel, formulation: str) -> FrameModel:
     """A copy with every element using `formulation` ('euler-bernoulli' or 'timoshenko').
-    Cracked elements stay Euler-Bernoulli (a crack needs that formulation)."""
-    return model.replace(elements=tuple(e if e.crack_position is not None else dataclasses.replace(e, formulation=formulation)
-                                        for e in model.elements))
+    Cracked elements and elements with a weak zone stay Euler-Bernoulli (they need that formulation)."""
+    return model.replace(elements=tuple(e if e.crack_position is not None or e.weak_zone is not None
+                                        else dataclasses.replace(e, formulation=formulation) for e in model.elements))
