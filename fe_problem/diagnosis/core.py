@@ -105,10 +105,21 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
         warnings.append(v.explanation)
     if len(rounds.causes) > 1:
         extended = rounds.model
-        if cause.identifiable:  # the first cause's size refitted jointly with the others
-            cause = dataclasses.replace(cause, estimate=rounds.causes[0].estimate)
+        cause = _first(cause, rounds.causes[0])
     return Diagnosis(cause, alternatives, residuals_of(cal), rounds.gain, tuple(sel.rows.values()), sel.selection,
                      extended, tuple(warnings), rounds.causes, v, noise)
+
+
+def _first(cause: Cause, first) -> Cause:
+    """The cause as the rounds leave it: chosen again with the other causes in the model (it may
+    be a neighbour of the first round's best, or tie no more), its size refitted jointly."""
+    if first.identifiable:
+        return Cause(first.kind, first.location, first.estimate, True, first.p_adjusted, first.label)
+    if first.indistinguishable == cause.indistinguishable:
+        return cause
+    return Cause(first.kind, first.location, {}, False, first.p_adjusted, None, first.indistinguishable,
+                 f"{len(first.indistinguishable)} candidates explain the data equally well with the other causes "
+                 f"in the model (chi^2 within {AMBIGUITY_CHI2:.1f} of the best): the data cannot tell them apart")
 
 
 def _check(model: FrameModel, data: ModalData) -> None:

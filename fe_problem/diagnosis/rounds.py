@@ -46,35 +46,91 @@ def _with(base: FrameModel, st: Setting, picks: list[tuple[str, str]], sizes: li
 
 def further_causes(cal, found, sel, cause: Cause, kinds, n_fit, alpha: float, max_causes: int) -> Rounds:
     """Add causes one by one after the first (see the module docstring)."""
-    from .core import calibrate, gain, screen_and_fit, select
+    from .core import gain
 
     st, obs = cal.setting, cal.obs
     c0, f0 = found.candidates[sel.best], found.fitted[sel.best]
+    # a first round whose candidates tie goes on with its best: a second effect's misfit can be
+    # what blurs the first choice; the revisit below chooses it again once the second is in
     picks, sizes, ps = [(c0.kind, c0.label)], [f0.a], [cause.p_adjusted]
-    places = [(c0.kind, c0.location)]
+    ties: list[tuple[str, ...]] = [() if cause.identifiable else cause.indistinguishable]
     extra: list[Found] = []
-    noise = (obs.freq_noise, obs.shape_noise)
-    while cause.identifiable and len(picks) < max_causes:
-        cal_k = calibrate(_with(st.model, st, picks, sizes), cal.data, *noise)
-        found_k = screen_and_fit(cal_k, kinds, n_fit, keep=lambda c: _new_place(c, st.model, places))
-        if not found_k.candidates:
+    while len(picks) < max_causes:
+        step = _next_cause(cal, st, picks, sizes, kinds, n_fit, alpha)
+        if step is None:
             break
-        sel_k = select(cal_k, found_k, alpha)
-        if sel_k.selection.p_adjusted >= alpha:
+        if isinstance(step, Found):  # significant, but its candidates tie: a last, unplaced entry
+            extra.append(step)
             break
-        ck = found_k.candidates[sel_k.best]
-        tied = [i for i in found_k.fitted
-                if (found_k.fitted[i].chi2 - found_k.fitted[sel_k.best].chi2) / sel_k.dispersion < _ambiguity()]
-        if len({(found_k.candidates[i].kind, str(found_k.candidates[i].location)) for i in tied}) > 1:
-            extra.append(Found("undetermined", None, {}, {}, None, sel_k.selection.p_adjusted, False,
-                               tuple(found_k.candidates[i].label for i in tied)))
-            break
-        picks.append((ck.kind, ck.label))
-        sizes.append(found_k.fitted[sel_k.best].a)
-        ps.append(sel_k.selection.p_adjusted)
-        places.append((ck.kind, ck.location))
+        pick, a, p = step
+        picks.append(pick)
+        sizes.append(a)
+        ps.append(p)
+        ties.append(())
         sizes = _joint_refit(obs, st, picks, sizes)
-    return _finish(cal, st, obs, picks, sizes, ps, cause, extra, gain)
+        picks, sizes, ps, ties = _revisit(cal, st, picks, sizes, ps, ties, kinds, n_fit, alpha)
+    return _finish(cal, st, obs, picks, sizes, ps, ties, extra, gain)
+
+
+def _next_cause(cal, st: Setting, picks, sizes, kinds, n_fit, alpha: float, skip: int = -1):
+    """The next cause against the model extended by `picks` (but number `skip`): None if nothing
+    is significant, a `Found` "undetermined" if its candidates tie, else ((kind, label), a, p)."""
+    from .core import calibrate, screen_and_fit, select
+
+    obs = cal.obs
+    others = [(k, lab) for j, (k, lab) in enumerate(picks) if j != skip]
+    places = [(k, _location(lab)) for k, lab in others]
+    cal_k = calibrate(_with(st.model, st, picks, sizes, skip), cal.data, obs.freq_noise, obs.shape_noise)
+    found_k = screen_and_fit(cal_k, kinds, n_fit, keep=lambda c: _new_place(c, st.model, places))
+    if not found_k.candidates:
+        return None
+    sel_k = select(cal_k, found_k, alpha)
+    if sel_k.selection.p_adjusted >= alpha:
+        return None
+    ck = found_k.candidates[sel_k.best]
+    tied = _tied(found_k, sel_k)
+    if len({(found_k.candidates[i].kind, str(found_k.candidates[i].location)) for i in tied}) > 1:
+        return _undetermined(found_k, tied, sel_k.selection.p_adjusted)
+    return (ck.kind, ck.label), found_k.fitted[sel_k.best].a, sel_k.selection.p_adjusted
+
+
+def _tied(found, sel) -> list[int]:
+    """The fitted candidates within the ambiguity margin of the best, best first."""
+    best = found.fitted[sel.best].chi2
+    return sorted((i for i in found.fitted if (found.fitted[i].chi2 - best) / sel.dispersion < _ambiguity()),
+                  key=lambda i: found.fitted[i].chi2)
+
+
+def _undetermined(found, tied: list[int], p: float) -> Found:
+    """The entry for tied candidates: their kind and place where all agree, else undetermined/None."""
+    cands = [found.candidates[i] for i in tied]
+    kind = cands[0].kind if len({c.kind for c in cands}) == 1 else "undetermined"
+    where = cands[0].location if len({str(c.location) for c in cands}) == 1 else None
+    return Found(kind, where, {}, {}, None, p, False, tuple(c.label for c in cands))
+
+
+def _revisit(cal, st: Setting, picks, sizes, ps, ties, kinds, n_fit, alpha: float):
+    """Choose every earlier cause again with the others in the model (at most two sweeps): a
+    first choice made while a second effect was unexplained may be its neighbour or tie with
+    it. A cause is replaced when another candidate explains the data better given the others;
+    its tie is what is left of it given the others."""
+    for _ in range(2):
+        changed = False
+        for j in range(len(picks) - 1):
+            step = _next_cause(cal, st, picks, sizes, kinds, n_fit, alpha, skip=j)
+            if step is None:
+                continue
+            if isinstance(step, Found):
+                ties[j] = step.indistinguishable
+                continue
+            ties[j] = ()
+            if step[0] != picks[j]:
+                picks[j], sizes[j], ps[j] = step
+                changed = True
+        if not changed:
+            break
+        sizes = _joint_refit(cal.obs, st, picks, sizes)
+    return picks, sizes, ps, ties
 
 
 def _ambiguity() -> float:
@@ -119,19 +175,38 @@ def _joint_refit(obs, st: Setting, picks, sizes) -> list[float]:
     return sizes
 
 
-def _finish(cal, st, obs, picks, sizes, ps, cause: Cause, extra, gain) -> Rounds:
+def _finish(cal, st, obs, picks, sizes, ps, ties, extra, gain) -> Rounds:
     """Each cause's estimate and profile interval (the others at their sizes), the final fit,
-    the final model and the held-out gain of the last cause (the others at their sizes)."""
+    the final model and the held-out gain of the last cause (the others at their sizes); a
+    cause whose candidates tie (`ties`) is reported as not identifiable with them."""
     out, final, cand = [], None, None
     for j, (kind, label) in enumerate(picks):
         cand = _candidate_on(_with(st.model, st, picks, sizes, skip=j), st, kind, label)
         f = fit(obs, cand, sizes[j])
         final = f if final is None or f.chi2 < final.chi2 else final
+        if ties[j] and len({_answer(t) for t in ties[j]}) > 1:
+            kinds = {t.partition("@")[0] for t in ties[j]}
+            places = {_answer(t)[1] for t in ties[j]}
+            out.append(Found(kind if len(kinds) == 1 else "undetermined",
+                             cand.location if len(places) == 1 else None, {}, {}, None, ps[j], False, ties[j]))
+            continue
         dispersion = max(1.0, f.chi2 / obs.dof(1 + len(picks)))
         low, high = profile_interval(obs, cand, f, dispersion)
         out.append(Found(kind, cand.location, cand.estimate(f.a, f.s), interval_of(cand, low, high, f.s), label,
                          ps[j]))
     final_model = scale_stiffness(cand.extend(f.a), f.s)
-    if not cause.identifiable:  # the first round's candidates tie: no single cause to report
-        out = [Found(cause.kind, cause.location, {}, {}, None, cause.p_adjusted, False, cause.indistinguishable)]
     return Rounds(tuple(out) + tuple(extra), final, final_model, gain(cal, cand))
+
+
+def _location(label: str) -> dict | None:
+    """The location of a candidate from its label: 'added_mass@node=4' gives {'node': 4}."""
+    where = label.partition("@")[2].split("(")[0]
+    if not where:
+        return None
+    return {k: (int(v) if v.lstrip("-").isdigit() else v) for k, v in (p.split("=") for p in where.split(","))}
+
+
+def _answer(label: str) -> tuple[str, str]:
+    """(kind, place) of a candidate label: profiles of one element's loss are one answer."""
+    kind, _, where = label.partition("@")
+    return kind, where.split("(")[0]
