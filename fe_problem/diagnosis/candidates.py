@@ -8,7 +8,7 @@ not part of a candidate.
 Kinds (the set is open: add a function to `CANDIDATE_KINDS` that yields Candidates):
 
 - ``stiffness_loss`` at an element: its modulus times (1 - a), a in [0, 0.9]; or a weak zone
-  about a section depth wide at one of nine positions along it, its bending stiffness times
+  about a section depth wide at one of seven positions along it, its bending stiffness times
   (1 - a), a in [0, 0.99] (a crack; zones.py).
 - ``added_mass`` at a node: a lumped mass of a kg (x and y), a up to half the model's mass.
 - ``joint_flexibility`` at a node where members meet: one element end released and tied to
@@ -101,7 +101,7 @@ def _bending_compliance_ref(model: FrameModel, element_id: int) -> float:
 
 def stiffness_loss(st: Setting) -> Iterator[Candidate]:
     """A loss of modulus in one element, spread uniformly over it, or concentrated in a weak
-    zone about a section depth wide at one of nine positions along it (a crack; zones.py);
+    zone about a section depth wide at one of seven positions along it (a crack; zones.py);
     the place is the element either way."""
     shared: dict = {}
     for e in st.model.elements:
