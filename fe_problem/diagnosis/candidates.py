@@ -54,6 +54,14 @@ class Setting:
     model: FrameModel
     coords: tuple[tuple[int, str], ...]
     n_modes: int
+    #: the user's model, when `model` is it extended by causes already found: effect sizes are
+    #: scaled by it, so that a size means the same effect on every base (None: `model`)
+    reference: FrameModel | None = None
+
+    @property
+    def nominal(self) -> FrameModel:
+        """The model whose properties scale the effect sizes."""
+        return self.model if self.reference is None else self.reference
 
 
 def solve(system: AffineModel, theta: np.ndarray, coords, n_modes: int):
@@ -253,9 +261,10 @@ def stiffness_gain(st: Setting) -> Iterator[Candidate]:
 
 
 def _reference_stiffness(st: Setting) -> float:
-    """total mass * (2 pi f_1)^2 (N/m): a spring this stiff moves the first mode by about its size."""
-    f1 = float(solve(AffineModel(st.model), np.zeros((1, 0)), st.coords, 1)[0][0, 0])
-    return st.model.total_mass_kg() * (2.0 * np.pi * f1) ** 2
+    """total mass * (2 pi f_1)^2 (N/m) of the user's model: a spring this stiff moves the first mode
+    by about its size."""
+    f1 = float(solve(AffineModel(st.nominal), np.zeros((1, 0)), st.coords, 1)[0][0, 0])
+    return st.nominal.total_mass_kg() * (2.0 * np.pi * f1) ** 2
 
 
 def boundary_stiffness(st: Setting) -> Iterator[Candidate]:
@@ -268,10 +277,17 @@ def boundary_stiffness(st: Setting) -> Iterator[Candidate]:
             if (node, direction) in fixed:
                 continue
             with_spring = st.model.replace(springs=st.model.springs + (Spring(sid, (node, direction), None, 0.0),))
-            system = AffineModel(with_spring, (Parameter("spring", (sid,), 0.0, 1e3 * k_ref, 0.0),))
+            # the zero-frequency modes are counted with the spring in place (initial k_ref): a
+            # suspension mode is a mode of the extended model, not a rigid-body one to drop
+            system = AffineModel(with_spring, (Parameter("spring", (sid,), 0.0, 1e3 * k_ref, k_ref),))
 
             def forward(a, system=system):
-                return solve(system, (k_ref * np.asarray(a, dtype=float))[:, None], st.coords, st.n_modes)
+                a = np.asarray(a, dtype=float)
+                hz, shapes = solve(system, (k_ref * np.maximum(a, 1e-12))[:, None], st.coords, st.n_modes)
+                if (a <= 0.0).any():  # no spring: the unextended model itself
+                    hz0, sh0 = solve(AffineModel(st.model), np.zeros((1, 0)), st.coords, st.n_modes)
+                    hz[a <= 0.0], shapes[a <= 0.0] = hz0[0], sh0[0]
+                return hz, shapes
 
             def estimate(a, s):
                 return {"stiffness_n_per_m": s * k_ref * a, "stiffness_ratio": a}

@@ -100,7 +100,7 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
     from .rounds import further_causes  # it uses this module's steps
 
     rounds = further_causes(cal, found, sel, cause, kinds, n_fit, alpha, max_causes)
-    v = verdict(cal.obs, rounds.final, 1 + len(rounds.causes), alpha)
+    v = verdict(rounds.obs, rounds.final, 1 + len(rounds.causes), alpha)
     if not v.adequate:
         warnings.append(v.explanation)
     if len(rounds.causes) > 1:
@@ -155,10 +155,11 @@ class Calibration:
     warnings: tuple[str, ...]
 
 
-def calibrate(model: FrameModel, data: ModalData, freq_noise: float, shape_noise: float) -> Calibration:
+def calibrate(model: FrameModel, data: ModalData, freq_noise: float, shape_noise: float,
+              reference: FrameModel | None = None) -> Calibration:
     """Fit the global stiffness-to-mass scale; measured modes that pair with no model mode are
-    shown, never fitted."""
-    st = Setting(model, data.dofs, min(data.n_modes + 6, AffineModel(model).n_elastic))
+    shown, never fitted. reference: the user's model when `model` is it extended (Setting)."""
+    st = Setting(model, data.dofs, min(data.n_modes + 6, AffineModel(model).n_elastic), reference)
     obs_all = Observations.of(data, freq_noise=freq_noise, shape_noise=shape_noise)
     hz, sh = solve(AffineModel(model), np.zeros((1, 0)), st.coords, st.n_modes)
     hz0, sh0 = hz[0], sh[0]

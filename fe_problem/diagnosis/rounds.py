@@ -10,6 +10,7 @@ an element next to one where a stiffness change was found (that is the first one
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 from ..model import FrameModel
@@ -21,18 +22,31 @@ from .verdict import interval_of, profile_interval
 
 @dataclass(frozen=True, eq=False)
 class Rounds:
-    """The causes found (in order of evidence), the final model's fit to the paired modes of the
-    first calibration, the final model (calibrated, every cause) and the held-out gain."""
+    """The causes found (in order of evidence), the final model's fit to the measured modes that
+    pair with it (`obs`), the final model (calibrated, every cause) and the held-out gain."""
 
     causes: tuple[Found, ...]
     final: Fit
     model: FrameModel
     gain: Gain
+    obs: object = None
+
+
+@dataclass
+class Step:
+    """A round's answer: the best candidate (kind, label), its size and adjusted p-value, and
+    the labels it ties with (empty when it is the one answer)."""
+
+    pick: tuple[str, str]
+    a: float
+    p: float
+    ties: tuple[str, ...] = ()
 
 
 def _candidate_on(model: FrameModel, st: Setting, kind: str, label: str) -> Candidate:
     """The candidate `label` of `kind`, rebuilt on `model` (the others' effects included)."""
-    return next(c for c in all_candidates(Setting(model, st.coords, st.n_modes), [kind]) if c.label == label)
+    return next(c for c in all_candidates(Setting(model, st.coords, st.n_modes, st.nominal), [kind])
+                if c.label == label)
 
 
 def _with(base: FrameModel, st: Setting, picks: list[tuple[str, str]], sizes: list[float], skip: int = -1):
@@ -48,39 +62,53 @@ def further_causes(cal, found, sel, cause: Cause, kinds, n_fit, alpha: float, ma
     """Add causes one by one after the first (see the module docstring)."""
     from .core import gain
 
-    st, obs = cal.setting, cal.obs
+    st = cal.setting
     c0, f0 = found.candidates[sel.best], found.fitted[sel.best]
     # a first round whose candidates tie goes on with its best: a second effect's misfit can be
     # what blurs the first choice; the revisit below chooses it again once the second is in
     picks, sizes, ps = [(c0.kind, c0.label)], [f0.a], [cause.p_adjusted]
     ties: list[tuple[str, ...]] = [() if cause.identifiable else cause.indistinguishable]
+    state, extra = _search(cal, st, (picks, sizes, ps, ties), kinds, n_fit, alpha, max_causes)
+    if len(cal.unpaired):
+        # a measured mode the model has no partner for (a suspension mode): every cause chosen
+        # again on every measured mode, so that a cause that brings its partner is preferred (a
+        # first-order screen cannot see a mode come to pair: every candidate is fitted)
+        again = _revisit(cal, st, state, len(state[0]), kinds, None, alpha, cal.obs_all)
+        if again[0] != state[0]:  # the causes changed: is a further one still there?
+            state, extra = _search(cal, st, again, kinds, n_fit, alpha, max_causes)
+    return _finish(cal, st, *state, extra, gain)
+
+
+def _search(cal, st: Setting, state, kinds, n_fit, alpha: float, max_causes: int):
+    """Further causes one by one, each followed by a revisit of the earlier ones; returns the
+    state (picks, sizes, p-values, ties) and the last, unplaced entry if a round ties."""
+    picks, sizes, ps, ties = (list(x) for x in state)
     extra: list[Found] = []
     while len(picks) < max_causes:
         step = _next_cause(cal, st, picks, sizes, kinds, n_fit, alpha)
         if step is None:
             break
-        if isinstance(step, Found):  # significant, but its candidates tie: a last, unplaced entry
-            extra.append(step)
+        if step.ties:  # significant, but its candidates tie: a last, unplaced entry
+            extra.append(_undetermined(step))
             break
-        pick, a, p = step
-        picks.append(pick)
-        sizes.append(a)
-        ps.append(p)
-        ties.append(())
-        sizes = _joint_refit(obs, st, picks, sizes)
-        picks, sizes, ps, ties = _revisit(cal, st, picks, sizes, ps, ties, kinds, n_fit, alpha)
-    return _finish(cal, st, obs, picks, sizes, ps, ties, extra, gain)
+        picks, sizes, ps, ties = picks + [step.pick], sizes + [step.a], ps + [step.p], ties + [()]
+        sizes, _ = _joint_refit(cal, st, picks, sizes)
+        picks, sizes, ps, ties = _revisit(cal, st, (picks, sizes, ps, ties), len(picks) - 1, kinds, n_fit, alpha)
+    return (picks, sizes, ps, ties), extra
 
 
-def _next_cause(cal, st: Setting, picks, sizes, kinds, n_fit, alpha: float, skip: int = -1):
-    """The next cause against the model extended by `picks` (but number `skip`): None if nothing
-    is significant, a `Found` "undetermined" if its candidates tie, else ((kind, label), a, p)."""
-    from .core import calibrate, screen_and_fit, select
+def _next_cause(cal, st: Setting, picks, sizes, kinds, n_fit, alpha: float, skip: int = -1,
+                obs=None) -> Step | None:
+    """The best further candidate against the model extended by `picks` (all but number `skip`),
+    tested as the first was, on the modes that pair with that model or on `obs`; None if
+    nothing is significant."""
+    from .core import calibrate, profiled, screen_and_fit, select
 
-    obs = cal.obs
-    others = [(k, lab) for j, (k, lab) in enumerate(picks) if j != skip]
-    places = [(k, _location(lab)) for k, lab in others]
-    cal_k = calibrate(_with(st.model, st, picks, sizes, skip), cal.data, obs.freq_noise, obs.shape_noise)
+    places = [(k, _location(lab)) for j, (k, lab) in enumerate(picks) if j != skip]
+    cal_k = calibrate(_with(st.model, st, picks, sizes, skip), cal.data, cal.obs.freq_noise, cal.obs.shape_noise,
+                      st.model)
+    if obs is not None:
+        cal_k = dataclasses.replace(cal_k, obs=obs, base=profiled(obs, cal_k.hz0, cal_k.sh0))
     found_k = screen_and_fit(cal_k, kinds, n_fit, keep=lambda c: _new_place(c, st.model, places))
     if not found_k.candidates:
         return None
@@ -89,9 +117,10 @@ def _next_cause(cal, st: Setting, picks, sizes, kinds, n_fit, alpha: float, skip
         return None
     ck = found_k.candidates[sel_k.best]
     tied = _tied(found_k, sel_k)
-    if len({(found_k.candidates[i].kind, str(found_k.candidates[i].location)) for i in tied}) > 1:
-        return _undetermined(found_k, tied, sel_k.selection.p_adjusted)
-    return (ck.kind, ck.label), found_k.fitted[sel_k.best].a, sel_k.selection.p_adjusted
+    labels = tuple(found_k.candidates[i].label for i in tied)
+    one = len({_answer(lab) for lab in labels}) == 1
+    return Step((ck.kind, ck.label), found_k.fitted[sel_k.best].a, sel_k.selection.p_adjusted,
+                () if one else labels)
 
 
 def _tied(found, sel) -> list[int]:
@@ -101,36 +130,49 @@ def _tied(found, sel) -> list[int]:
                   key=lambda i: found.fitted[i].chi2)
 
 
-def _undetermined(found, tied: list[int], p: float) -> Found:
+def _undetermined(step: Step, location=None) -> Found:
     """The entry for tied candidates: their kind and place where all agree, else undetermined/None."""
-    cands = [found.candidates[i] for i in tied]
-    kind = cands[0].kind if len({c.kind for c in cands}) == 1 else "undetermined"
-    where = cands[0].location if len({str(c.location) for c in cands}) == 1 else None
-    return Found(kind, where, {}, {}, None, p, False, tuple(c.label for c in cands))
+    kinds = {_answer(t)[0] for t in step.ties}
+    places = {_answer(t)[1] for t in step.ties}
+    return Found(step.pick[0] if len(kinds) == 1 else "undetermined",
+                 (location or _location(step.pick[1])) if len(places) == 1 else None,
+                 {}, {}, None, step.p, False, step.ties)
 
 
-def _revisit(cal, st: Setting, picks, sizes, ps, ties, kinds, n_fit, alpha: float):
-    """Choose every earlier cause again with the others in the model (at most two sweeps): a
-    first choice made while a second effect was unexplained may be its neighbour or tie with
-    it. A cause is replaced when another candidate explains the data better given the others;
-    its tie is what is left of it given the others."""
+def _revisit(cal, st: Setting, state, n: int, kinds, n_fit, alpha: float, obs=None):
+    """Choose the first `n` causes again with the others in the model (at most two sweeps), on
+    the modes that pair with the model extended by all of them: a first choice made while a
+    second effect was unexplained may be its neighbour or tie with it. A cause is replaced only
+    when the joint fit improves; its tie is what is left of it given the others. obs: the modes
+    to judge on instead (every measured mode)."""
+    picks, sizes, ps, ties = (list(x) for x in state)
+    obs = _final_obs(cal, st, picks, sizes) if obs is None else obs
+    sizes, chi2 = _joint_refit(cal, st, picks, sizes, obs)
     for _ in range(2):
         changed = False
-        for j in range(len(picks) - 1):
-            step = _next_cause(cal, st, picks, sizes, kinds, n_fit, alpha, skip=j)
+        for j in range(n):
+            step = _next_cause(cal, st, picks, sizes, kinds, n_fit, alpha, skip=j, obs=obs)
             if step is None:
                 continue
-            if isinstance(step, Found):
-                ties[j] = step.indistinguishable
-                continue
-            ties[j] = ()
-            if step[0] != picks[j]:
-                picks[j], sizes[j], ps[j] = step
-                changed = True
+            if step.pick != picks[j]:
+                trial = picks[:j] + [step.pick] + picks[j + 1:]
+                t_sizes, t_chi2 = _joint_refit(cal, st, trial, sizes[:j] + [step.a] + sizes[j + 1:], obs)
+                if t_chi2 >= chi2:
+                    continue
+                picks, sizes, chi2, changed = trial, t_sizes, t_chi2, True
+            ties[j] = step.ties
         if not changed:
             break
-        sizes = _joint_refit(cal.obs, st, picks, sizes)
     return picks, sizes, ps, ties
+
+
+def _final_obs(cal, st: Setting, picks, sizes):
+    """The measured modes that pair with the model extended by every cause (a spring to ground
+    can bring a measured suspension mode that the nominal model has no partner for)."""
+    from .core import calibrate
+
+    return calibrate(_with(st.model, st, picks, sizes), cal.data, cal.obs.freq_noise, cal.obs.shape_noise,
+                     st.model).obs
 
 
 def _ambiguity() -> float:
@@ -166,36 +208,38 @@ def _touches_found_stiffness(model: FrameModel, element: int | None, places: lis
     return any(kind in STIFFNESS_KINDS and ends(element) & ends(where["element"]) for kind, where in places)
 
 
-def _joint_refit(obs, st: Setting, picks, sizes) -> list[float]:
-    """One sweep: each cause's size refitted with the others at their current sizes."""
+def _joint_refit(cal, st: Setting, picks, sizes, obs=None) -> tuple[list[float], float]:
+    """One sweep: each cause's size refitted with the others at their current sizes, on `obs`
+    (default: the modes that pair with the extended model); returns the sizes and the joint chi^2."""
     sizes = list(sizes)
+    obs = _final_obs(cal, st, picks, sizes) if obs is None else obs
+    chi2 = float("inf")
     for j, (kind, label) in enumerate(picks):
         cand = _candidate_on(_with(st.model, st, picks, sizes, skip=j), st, kind, label)
-        sizes[j] = fit(obs, cand, sizes[j]).a
-    return sizes
+        f = fit(obs, cand, sizes[j])
+        sizes[j], chi2 = f.a, f.chi2
+    return sizes, chi2
 
 
-def _finish(cal, st, obs, picks, sizes, ps, ties, extra, gain) -> Rounds:
+def _finish(cal, st, picks, sizes, ps, ties, extra, gain) -> Rounds:
     """Each cause's estimate and profile interval (the others at their sizes), the final fit,
     the final model and the held-out gain of the last cause (the others at their sizes); a
     cause whose candidates tie (`ties`) is reported as not identifiable with them."""
+    obs = _final_obs(cal, st, picks, sizes)
     out, final, cand = [], None, None
     for j, (kind, label) in enumerate(picks):
         cand = _candidate_on(_with(st.model, st, picks, sizes, skip=j), st, kind, label)
         f = fit(obs, cand, sizes[j])
         final = f if final is None or f.chi2 < final.chi2 else final
         if ties[j] and len({_answer(t) for t in ties[j]}) > 1:
-            kinds = {t.partition("@")[0] for t in ties[j]}
-            places = {_answer(t)[1] for t in ties[j]}
-            out.append(Found(kind if len(kinds) == 1 else "undetermined",
-                             cand.location if len(places) == 1 else None, {}, {}, None, ps[j], False, ties[j]))
+            out.append(_undetermined(Step((kind, label), f.a, ps[j], ties[j]), cand.location))
             continue
         dispersion = max(1.0, f.chi2 / obs.dof(1 + len(picks)))
         low, high = profile_interval(obs, cand, f, dispersion)
         out.append(Found(kind, cand.location, cand.estimate(f.a, f.s), interval_of(cand, low, high, f.s), label,
                          ps[j]))
     final_model = scale_stiffness(cand.extend(f.a), f.s)
-    return Rounds(tuple(out) + tuple(extra), final, final_model, gain(cal, cand))
+    return Rounds(tuple(out) + tuple(extra), final, final_model, gain(cal, cand), obs)
 
 
 def _location(label: str) -> dict | None:
