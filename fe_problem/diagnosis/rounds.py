@@ -161,7 +161,7 @@ def _revisit(cal, st: Setting, state, n: int, kinds, n_fit, alpha: float, obs=No
                     continue
                 picks, sizes, chi2, changed = trial, t_sizes, t_chi2, True
             ties[j] = step.ties
-        if not changed:
+        if not changed or n == 1:  # one cause alone: a second sweep would repeat the first
             break
     return picks, sizes, ps, ties
 
