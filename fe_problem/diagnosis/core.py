@@ -94,18 +94,17 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
             warnings.append(v.explanation)
         return Diagnosis(cause, alternatives, residuals_of(cal), gain(cal, None), tuple(sel.rows.values()),
                          sel.selection, None, tuple(warnings), (), v, noise)
-    cause, alternatives, extended = extend(cal, found, sel)
-    if cause.explanation:
-        warnings.append(cause.explanation)
+    cause, alternatives, _ = extend(cal, found, sel)
     from .rounds import further_causes  # it uses this module's steps
 
     rounds = further_causes(cal, found, sel, cause, kinds, n_fit, alpha, max_causes)
+    cause = _first(cause, rounds.causes[0])
+    if cause.explanation:
+        warnings.append(cause.explanation)
     v = verdict(rounds.obs, rounds.final, 1 + len(rounds.causes), alpha)
     if not v.adequate:
         warnings.append(v.explanation)
-    if len(rounds.causes) > 1:
-        extended = rounds.model
-        cause = _first(cause, rounds.causes[0])
+    extended = _named(cal.setting.model, rounds.model, rounds.causes)
     return Diagnosis(cause, alternatives, residuals_of(cal), rounds.gain, tuple(sel.rows.values()), sel.selection,
                      extended, tuple(warnings), rounds.causes, v, noise)
 
@@ -120,6 +119,14 @@ def _first(cause: Cause, first) -> Cause:
     return Cause(first.kind, first.location, {}, False, first.p_adjusted, None, first.indistinguishable,
                  f"{len(first.indistinguishable)} candidates explain the data equally well with the other causes "
                  f"in the model (chi^2 within {AMBIGUITY_CHI2:.1f} of the best): the data cannot tell them apart")
+
+
+def _named(model: FrameModel, extended: FrameModel, causes) -> FrameModel:
+    """The extended model with a name and description that say what was added."""
+    labels = [c.label or c.kind for c in causes]
+    what = "; ".join(f"{c.label} ({_describe(c.estimate)})" for c in causes if c.label)
+    return extended.replace(name=f"{model.name}+{'+'.join(labels)}", source="<diagnosis>",
+                            description=f"{model.name} extended by diagnosis: {what}")
 
 
 def _check(model: FrameModel, data: ModalData) -> None:

@@ -226,11 +226,12 @@ def _finish(cal, st, picks, sizes, ps, ties, extra, gain) -> Rounds:
     the final model and the held-out gain of the last cause (the others at their sizes); a
     cause whose candidates tie (`ties`) is reported as not identifiable with them."""
     obs = _final_obs(cal, st, picks, sizes)
-    out, final, cand = [], None, None
+    out, final, best = [], None, None
     for j, (kind, label) in enumerate(picks):
         cand = _candidate_on(_with(st.model, st, picks, sizes, skip=j), st, kind, label)
         f = fit(obs, cand, sizes[j])
-        final = f if final is None or f.chi2 < final.chi2 else final
+        if final is None or f.chi2 < final.chi2:  # the final model is the best of these joint fits
+            final, best = f, cand
         if ties[j] and len({_answer(t) for t in ties[j]}) > 1:
             out.append(_undetermined(Step((kind, label), f.a, ps[j], ties[j]), cand.location))
             continue
@@ -238,7 +239,7 @@ def _finish(cal, st, picks, sizes, ps, ties, extra, gain) -> Rounds:
         low, high = profile_interval(obs, cand, f, dispersion)
         out.append(Found(kind, cand.location, cand.estimate(f.a, f.s), interval_of(cand, low, high, f.s), label,
                          ps[j]))
-    final_model = scale_stiffness(cand.extend(f.a), f.s)
+    final_model = scale_stiffness(best.extend(final.a), final.s)
     return Rounds(tuple(out) + tuple(extra), final, final_model, gain(cal, cand), obs)
 
 
