@@ -143,15 +143,21 @@ def _revisit(cal, st: Setting, state, n: int, kinds, n_fit, alpha: float, obs=No
     """Choose the first `n` causes again with the others in the model (at most two sweeps), on
     the modes that pair with the model extended by all of them: a first choice made while a
     second effect was unexplained may be its neighbour or tie with it. A cause is replaced only
-    when the joint fit improves; its tie is what is left of it given the others. obs: the modes
-    to judge on instead (every measured mode)."""
+    when the joint fit improves, and dropped when nothing is significant in its place given the
+    others; its tie is what is left of it given the others. obs: the modes to judge on instead
+    (every measured mode)."""
     picks, sizes, ps, ties = (list(x) for x in state)
     obs = _final_obs(cal, st, picks, sizes) if obs is None else obs
     sizes, chi2 = _joint_refit(cal, st, picks, sizes, obs)
-    for _ in range(2):
-        changed = False
-        for j in range(n):
+    for _ in range(3):
+        changed = dropped = False
+        for j in range(min(n, len(picks))):
             step = _next_cause(cal, st, picks, sizes, kinds, n_fit, alpha, skip=j, obs=obs)
+            if step is None and len(picks) > 1:  # the others explain what it did
+                picks, sizes, ps, ties = ([x for k, x in enumerate(v) if k != j] for v in (picks, sizes, ps, ties))
+                sizes, chi2 = _joint_refit(cal, st, picks, sizes, obs)
+                n, changed, dropped = n - 1, True, True
+                break
             if step is None:
                 continue
             if step.pick != picks[j]:
@@ -161,7 +167,7 @@ def _revisit(cal, st: Setting, state, n: int, kinds, n_fit, alpha: float, obs=No
                     continue
                 picks, sizes, chi2, changed = trial, t_sizes, t_chi2, True
             ties[j] = step.ties
-        if not changed or n == 1:  # one cause alone: a second sweep would repeat the first
+        if not changed or (len(picks) == 1 and not dropped):  # a second sweep would repeat the first
             break
     return picks, sizes, ps, ties
 
