@@ -34,7 +34,6 @@ and what the final model's misfit implies (`goodness_of_fit`).
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 
 import numpy as np

@@ -68,33 +68,33 @@ def further_causes(cal, found, sel, cause: Cause, kinds, n_fit, alpha: float, ma
     # what blurs the first choice; the revisit below chooses it again once the second is in
     picks, sizes, ps = [(c0.kind, c0.label)], [f0.a], [cause.p_adjusted]
     ties: list[tuple[str, ...]] = [() if cause.identifiable else cause.indistinguishable]
-    state, extra = _search(cal, st, (picks, sizes, ps, ties), kinds, n_fit, alpha, max_causes)
+    state = _search(cal, st, (picks, sizes, ps, ties), kinds, n_fit, alpha, max_causes)
     if len(cal.unpaired):
         # a measured mode the model has no partner for (a suspension mode): every cause chosen
         # again on every measured mode, so that a cause that brings its partner is preferred (a
         # first-order screen cannot see a mode come to pair: every candidate is fitted)
         again = _revisit(cal, st, state, len(state[0]), kinds, None, alpha, cal.obs_all)
         if again[0] != state[0]:  # the causes changed: is a further one still there?
-            state, extra = _search(cal, st, again, kinds, n_fit, alpha, max_causes)
-    return _finish(cal, st, *state, extra, gain)
+            state = _search(cal, st, again, kinds, n_fit, alpha, max_causes)
+    return _finish(cal, st, *state, gain)
 
 
 def _search(cal, st: Setting, state, kinds, n_fit, alpha: float, max_causes: int):
     """Further causes one by one, each followed by a revisit of the earlier ones; returns the
-    state (picks, sizes, p-values, ties) and the last, unplaced entry if a round ties."""
+    state (picks, sizes, p-values, ties)."""
     picks, sizes, ps, ties = (list(x) for x in state)
-    extra: list[Found] = []
     while len(picks) < max_causes:
         step = _next_cause(cal, st, picks, sizes, kinds, n_fit, alpha)
         if step is None:
             break
-        if step.ties:  # significant, but its candidates tie: a last, unplaced entry
-            extra.append(_undetermined(step))
-            break
-        picks, sizes, ps, ties = picks + [step.pick], sizes + [step.a], ps + [step.p], ties + [()]
+        # a significant cause whose candidates tie enters the model with its best (the verdict
+        # judges the model with it) and ends the search; it is reported as not identifiable
+        picks, sizes, ps, ties = picks + [step.pick], sizes + [step.a], ps + [step.p], ties + [step.ties]
         sizes, _ = _joint_refit(cal, st, picks, sizes)
         picks, sizes, ps, ties = _revisit(cal, st, (picks, sizes, ps, ties), len(picks) - 1, kinds, n_fit, alpha)
-    return (picks, sizes, ps, ties), extra
+        if step.ties:
+            break
+    return picks, sizes, ps, ties
 
 
 def _next_cause(cal, st: Setting, picks, sizes, kinds, n_fit, alpha: float, skip: int = -1,
@@ -227,7 +227,7 @@ def _joint_refit(cal, st: Setting, picks, sizes, obs=None) -> tuple[list[float],
     return sizes, chi2
 
 
-def _finish(cal, st, picks, sizes, ps, ties, extra, gain) -> Rounds:
+def _finish(cal, st, picks, sizes, ps, ties, gain) -> Rounds:
     """Each cause's estimate and profile interval (the others at their sizes), the final fit,
     the final model and the held-out gain of the last cause (the others at their sizes); a
     cause whose candidates tie (`ties`) is reported as not identifiable with them."""
@@ -246,7 +246,7 @@ def _finish(cal, st, picks, sizes, ps, ties, extra, gain) -> Rounds:
         out.append(Found(kind, cand.location, cand.estimate(f.a, f.s), interval_of(cand, low, high, f.s), label,
                          ps[j]))
     final_model = scale_stiffness(best.extend(final.a), final.s)
-    return Rounds(tuple(out) + tuple(extra), final, final_model, gain(cal, cand), obs)
+    return Rounds(tuple(out), final, final_model, gain(cal, cand), obs)
 
 
 def _location(label: str) -> dict | None:
