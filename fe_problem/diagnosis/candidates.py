@@ -270,6 +270,7 @@ def _reference_stiffness(st: Setting) -> float:
 def boundary_stiffness(st: Setting) -> Iterator[Candidate]:
     """A spring to ground at a node, in x or in y: soft supports, suspensions, bases."""
     k_ref = _reference_stiffness(st)
+    baseline = AffineModel(st.model)
     sid = max((sp.id for sp in st.model.springs), default=0) + 1
     fixed = {(sup.node, d) for sup in st.model.supports for d in sup.directions}
     for node in st.model.node_ids:
@@ -284,8 +285,13 @@ def boundary_stiffness(st: Setting) -> Iterator[Candidate]:
             def forward(a, system=system):
                 a = np.asarray(a, dtype=float)
                 hz, shapes = solve(system, (k_ref * np.maximum(a, 1e-12))[:, None], st.coords, st.n_modes)
+                # the modes the spring adds (the lowest while it is soft) come last, so that every
+                # mode of the model keeps its index as the spring grows from zero (the first-order
+                # screen holds the pairing by index)
+                new = system.n_elastic - baseline.n_elastic
+                hz, shapes = np.roll(hz, -new, axis=1), np.roll(shapes, -new, axis=2)
                 if (a <= 0.0).any():  # no spring: the unextended model itself
-                    hz0, sh0 = solve(AffineModel(st.model), np.zeros((1, 0)), st.coords, st.n_modes)
+                    hz0, sh0 = solve(baseline, np.zeros((1, 0)), st.coords, st.n_modes)
                     hz[a <= 0.0], shapes[a <= 0.0] = hz0[0], sh0[0]
                 return hz, shapes
 
