@@ -1,12 +1,17 @@
 """Several causes: after the first significant cause, the next one is sought against the model
 extended by the causes found so far, with the same test (likelihood ratio, Bonferroni over the
 candidates of that round, quasi-likelihood dispersion, alpha); the causes are then refitted
-jointly (one sweep: each cause's size refitted with the others at theirs), and the search
-stops when a round finds nothing significant, cannot tell its candidates apart, or after
-`max_causes` causes. A later round tries no candidate at a place and kind already found, and
-only places of the user's model (a profiled loss splits an element; its parts are no new
-places), no candidate at a place where a cause was already found, and no stiffness change in
-an element next to one where a stiffness change was found (that is the first one's form)."""
+jointly (each cause's size refitted with the others at theirs, on the measured modes that pair
+with the extended model) and every earlier cause is chosen again with the others in the model
+(`_revisit`: replaced when another candidate improves the joint fit, dropped when nothing is
+significant in its place, its tie judged again). The search stops when a round finds nothing
+significant, when its candidates tie (that cause enters the model with its best candidate and
+is reported as not identifiable), or after `max_causes` causes. A later round tries no
+candidate at a place where a cause was already found, only places of the user's model, and no
+stiffness change in an element next to one where a stiffness change was found (that is the
+first one's form). A measured mode that pairs with no mode of the user's model makes every
+cause be chosen again on every measured mode, so that a cause that brings its partner (a
+spring to ground: the suspension mode) is preferred."""
 
 from __future__ import annotations
 
@@ -74,8 +79,8 @@ def further_causes(cal, found, sel, cause: Cause, kinds, n_fit, alpha: float, ma
         # again on every measured mode, so that a cause that brings its partner is preferred (a
         # first-order screen cannot see a mode come to pair: every candidate is fitted)
         again = _revisit(cal, st, state, len(state[0]), kinds, None, alpha, cal.obs_all)
-        if again[0] != state[0]:  # the causes changed: is a further one still there?
-            state = _search(cal, st, again, kinds, n_fit, alpha, max_causes)
+        changed = again[0] != state[0]
+        state = _search(cal, st, again, kinds, n_fit, alpha, max_causes) if changed else again
     return _finish(cal, st, *state, gain)
 
 
