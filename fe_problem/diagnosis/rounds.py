@@ -148,11 +148,11 @@ def _undetermined(step: Step, location=None) -> Found:
 
 
 def _revisit(cal, st: Setting, state, n: int, kinds, n_fit, alpha: float, obs=None):
-    """Choose the first `n` causes again, each against the others refitted without it (at most
-    three sweeps), on the modes that pair with the model extended by all of them: a first choice
-    made while a second effect was unexplained may be its neighbour or tie with it. A cause is
-    replaced only when the joint fit improves, and dropped when nothing is significant in its
-    place; its tie is what is left of it given the others. obs: the modes to judge on instead
+    """Choose the first `n` causes again with the others in the model (at most two sweeps), on
+    the modes that pair with the model extended by all of them: a first choice made while a
+    second effect was unexplained may be its neighbour or tie with it. A cause is replaced only
+    when the joint fit improves, and dropped when nothing is significant in its place given the
+    others; its tie is what is left of it given the others. obs: the modes to judge on instead
     (every measured mode)."""
     picks, sizes, ps, ties = (list(x) for x in state)
     obs = _final_obs(cal, st, picks, sizes) if obs is None else obs
@@ -160,20 +160,17 @@ def _revisit(cal, st: Setting, state, n: int, kinds, n_fit, alpha: float, obs=No
     for _ in range(3):
         changed = dropped = False
         for j in range(min(n, len(picks))):
-            others, o_sizes = picks[:j] + picks[j + 1:], sizes[:j] + sizes[j + 1:]
-            if others:
-                o_sizes, _ = _joint_refit(cal, st, others, o_sizes, obs)
-            step = _next_cause(cal, st, others, o_sizes, kinds, n_fit, alpha, obs=obs)
-            if step is None and others:  # the others explain what it did
-                picks, sizes, ps, ties = (v[:j] + v[j + 1:] for v in (picks, sizes, ps, ties))
-                sizes, chi2 = _joint_refit(cal, st, picks, o_sizes, obs)
+            step = _next_cause(cal, st, picks, sizes, kinds, n_fit, alpha, skip=j, obs=obs)
+            if step is None and len(picks) > 1:  # the others explain what it did
+                picks, sizes, ps, ties = ([x for k, x in enumerate(v) if k != j] for v in (picks, sizes, ps, ties))
+                sizes, chi2 = _joint_refit(cal, st, picks, sizes, obs)
                 n, changed, dropped = n - 1, True, True
                 break
             if step is None:
                 continue
             if step.pick != picks[j]:
-                trial = others[:j] + [step.pick] + others[j:]
-                t_sizes, t_chi2 = _joint_refit(cal, st, trial, o_sizes[:j] + [step.a] + o_sizes[j:], obs)
+                trial = picks[:j] + [step.pick] + picks[j + 1:]
+                t_sizes, t_chi2 = _joint_refit(cal, st, trial, sizes[:j] + [step.a] + sizes[j + 1:], obs)
                 if t_chi2 >= chi2:
                     continue
                 picks, sizes, chi2, changed = trial, t_sizes, t_chi2, True
