@@ -4,7 +4,9 @@ Each truth model is built differently from the candidate extensions that the dia
 fits, so the diagnosis is never checked against itself:
 
 - crack: a rotational spring at a random point inside an element (the cracked-beam element,
-  no new node); the candidate is a reduced modulus over the whole element.
+  no new node); the candidates are a reduced modulus over the whole element, or a zone of
+  reduced bending stiffness a section depth wide at one of seven fixed positions (never a
+  point, never at the crack's own position).
 - joint: the member's end moved to a second node at the same place, tied to the joint node
   by stiff x/y springs and a rotational spring; the candidate releases the element end.
 - mass: a lumped mass with the rotary inertia of a 2 cm block, in the model file; the

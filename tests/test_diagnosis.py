@@ -8,7 +8,7 @@ mass a lumped mass with rotary inertia, shear Timoshenko elements.
 import numpy as np
 import pytest
 
-from diagnosis_cases import PLAN, cases, confusion, diagnose_through_cli, named_correctly
+from diagnosis_cases import PLAN, cases, classify, confusion, diagnose_through_cli, named_correctly
 
 
 @pytest.fixture(scope="module")
@@ -72,3 +72,13 @@ def test_extended_model_predicts_held_out_modes_better(answers):
     before, after = np.array(before), np.array(after)
     assert np.median(after) < 0.5 * np.median(before), (np.median(before), np.median(after))
     assert np.mean(after < before) >= 0.9
+
+
+def test_every_hidden_effect_is_named_alone(answers):
+    """Right: the one hidden effect named with its place and nothing else named beside it (a
+    crack is not followed by a spurious further cause: its candidate, a weak zone, bends as a
+    crack does), and no null case gives a confident wrong answer with an adequate fit."""
+    outcomes = [(c.kind, c.location, classify(c, a), [(x["kind"], x["location"]) for x in a["causes"]])
+                for c, a in answers]
+    assert not [o for o in outcomes if o[0] != "none" and o[2] != "right"], outcomes
+    assert not [o for (c, a), o in zip(answers, outcomes) if o[0] == "none" and o[2] == "wrong" and a["adequate"]]

@@ -125,3 +125,24 @@ def test_large_frame_builds_in_linear_time():
     m = fp.split_elements(fp.regular_frame(10, 50), 3)
     assert (len(m.nodes), m.n_dof) == (2661, 7983)
     assert np.ptp([n.y for n in m.nodes]) == pytest.approx(150.0)
+
+
+def test_a_split_keeps_a_crack_in_one_part_and_cuts_a_weak_zone_to_its_parts():
+    """Splitting moves no physics: the cracked or weak-zoned element split in two equals the
+    split model with the crack (zone pieces) put in by hand; `split_element` no longer copies a
+    crack into both parts."""
+    from fe_problem.diagnosis import zones
+
+    h = fp.load_model("hframe")
+    hz = lambda m: fp.modal_analysis(m, 8).frequencies_hz  # noqa: E731
+    s2 = fp.split_elements(h, 2)
+    second = max(s2.element_ids) - 12 + 7  # the new part of element 7 (ids follow model order)
+    assert s2.element(second).node_i == s2.element(7).node_j
+    np.testing.assert_allclose(hz(fp.split_elements(fp.crack_element(h, 7, 0.3, 3e4), 2)),
+                               hz(fp.crack_element(s2, 7, 0.6, 3e4)), rtol=1e-12)
+    by_hand = zones.with_zone(zones.with_zone(s2, 7, 0.8, 1.0, 0.3), second, 0.0, 0.2, 0.3)
+    np.testing.assert_allclose(hz(fp.split_elements(zones.with_zone(h, 7, 0.4, 0.6, 0.3), 2)), hz(by_hand),
+                               rtol=1e-10)
+    one = fp.split_element(fp.crack_element(h, 7, 0.3, 3e4), 7, 0.5)
+    assert [(e.crack_position, e.crack_stiffness) for e in one.elements if e.id in (7, max(one.element_ids))] == \
+        [(0.6, 3e4), (None, None)]

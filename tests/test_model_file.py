@@ -146,6 +146,21 @@ BAD = {
     "spring with three DOFs": (_set(["springs"], [{"dofs": [[1, "x"], [2, "x"], [3, "x"]], "stiffness": 1.0}]),
                                ["springs[0]", "'dofs'"]),
     "sections not an object": (_set(["sections"], [1]), ["'sections'", "object"]),
+    "weak zone not an object": (_set(["elements", 3, "weak_zone"], [0.2, 0.3, 0.5]), ["elements[3]", "'weak_zone'"]),
+    "weak zone without ratio": (_set(["elements", 3, "weak_zone"], {"start": 0.2, "end": 0.3}),
+                                ["elements[3]", "'weak_zone'", "modulus_ratio"]),
+    "weak zone ratio text": (_set(["elements", 3, "weak_zone"], {"start": 0.2, "end": 0.3, "modulus_ratio": "0.5"}),
+                             ["elements[3]", "'weak_zone'", "'modulus_ratio'", "number"]),
+    "weak zone reversed": (_set(["elements", 3, "weak_zone"], {"start": 0.4, "end": 0.3, "modulus_ratio": 0.5}),
+                           ["element 4", "'weak_zone'", "start < end"]),
+    "weak zone outside": (_set(["elements", 3, "weak_zone"], {"start": 0.9, "end": 1.2, "modulus_ratio": 0.5}),
+                          ["element 4", "'weak_zone'", "end 1.2"]),
+    "weak zone ratio zero": (_set(["elements", 3, "weak_zone"], {"start": 0.2, "end": 0.3, "modulus_ratio": 0.0}),
+                             ["element 4", "'modulus_ratio'", "(0, 1]"]),
+    "weak zone on a timoshenko element": (
+        lambda d: d["elements"][3].update(formulation="timoshenko",
+                                          weak_zone={"start": 0.2, "end": 0.3, "modulus_ratio": 0.5}),
+        ["element 4", "weak zone", "'euler-bernoulli'"]),
     "nodes not a list": (_set(["nodes"], {"1": [0, 0]}), ["'nodes'", "list"]),
 }
 
@@ -221,6 +236,53 @@ def test_split_with_stiff_spring_converges_to_the_unsplit_element(hframe):
     # and a softer crack only lowers the frequencies
     soft = fp.modal_analysis(fp.split_element(hframe, 4, 0.37, 3e4), 10).frequencies_hz
     assert np.all(soft < rigid)
+
+
+def _with_zone(model, element, zone):
+    return model.replace(elements=tuple(dataclasses.replace(e, weak_zone=zone) if e.id == element else e
+                                        for e in model.elements))
+
+
+def test_weak_zone_round_trips_and_lowers_frequencies(tmp_path, hframe):
+    zone = (0.4, 0.5, 0.2)
+    model = _with_zone(hframe, 11, zone)
+    again = fp.load_model(fp.save_model(model, tmp_path / "zone.model.json"))
+    assert again.element(11).weak_zone == zone
+    hz = fp.modal_analysis(model, 8).frequencies_hz
+    assert np.array_equal(fp.modal_analysis(again, 8).frequencies_hz, hz)
+    assert np.all(hz <= fp.modal_analysis(hframe, 8).frequencies_hz * (1 + 1e-12))
+    assert _max_rel(hz, fp.modal_analysis(hframe, 8).frequencies_hz) > 0.01
+    # the whole element as the zone: its section's inertia times r (axial stiffness and mass kept)
+    whole = fp.modal_analysis(_with_zone(hframe, 5, (0.0, 1.0, 0.5)), 8).frequencies_hz
+    bar = hframe.sections["bar"]
+    thin = hframe.replace(sections={**hframe.sections, "thin": dataclasses.replace(bar, inertia_m4=0.5 * bar.inertia_m4)},
+                          elements=tuple(dataclasses.replace(e, section="thin") if e.id == 5 else e
+                                         for e in hframe.elements))
+    assert _max_rel(whole, fp.modal_analysis(thin, 8).frequencies_hz) < 1e-10
+
+
+@pytest.mark.parametrize("zone", [(0.4, 0.5, 0.2), (0.0, 0.3, 0.7), (0.7, 1.0, 0.05)])
+def test_weak_zone_stiffness_is_the_meshed_beam_condensed(zone):
+    """Statics are exact: a beam of 10 Hermite elements, those inside the zone with EI * r,
+    condensed to its end DOFs, is the weak-zone element's bending stiffness (to rounding)."""
+    from fe_problem.elements import beam2d
+
+    length, inertia, n = 0.3, 2.7e-8, 10
+    h = length / n
+    k = np.zeros((2 * (n + 1), 2 * (n + 1)))
+    for p in range(n):
+        r = zone[2] if zone[0] <= (p + 0.5) / n <= zone[1] else 1.0
+        kp = beam2d.local_stiffness(np.array([h]), np.array([1.0]), np.array([r * inertia]), np.zeros(1))[0]
+        idx = np.arange(2 * p, 2 * p + 4)
+        k[np.ix_(idx, idx)] += kp[np.ix_([1, 2, 4, 5], [1, 2, 4, 5])]
+    ends, inner = np.array([0, 1, 2 * n, 2 * n + 1]), np.arange(2, 2 * n)
+    condensed = k[np.ix_(ends, ends)] - k[np.ix_(ends, inner)] @ np.linalg.solve(k[np.ix_(inner, inner)],
+                                                                                 k[np.ix_(inner, ends)])
+    one = np.array([1.0])
+    extra = beam2d.zone_flexibility(np.array([length]), np.array([inertia]), np.array([zone[0]]),
+                                    np.array([zone[1]]), np.array([zone[2]]))
+    zoned = beam2d.flexibility_bending_stiffness(np.array([length]), inertia * one, extra)[0]
+    assert np.allclose(zoned[np.ix_([1, 2, 4, 5], [1, 2, 4, 5])], condensed, rtol=1e-9, atol=1e-9 * np.abs(condensed).max())
 
 
 def test_release_with_stiff_spring_converges_to_the_rigid_frame(hframe):

@@ -7,7 +7,9 @@ not part of a candidate.
 
 Kinds (the set is open: add a function to `CANDIDATE_KINDS` that yields Candidates):
 
-- ``stiffness_loss`` at an element: its modulus times (1 - a), a in [0, 0.9].
+- ``stiffness_loss`` at an element: its modulus times (1 - a), a in [0, 0.9]; or a weak zone
+  about a section depth wide at one of seven positions along it, its bending stiffness times
+  (1 - a), a in [0, 0.99] (a crack; zones.py).
 - ``added_mass`` at a node: a lumped mass of a kg (x and y), a up to half the model's mass.
 - ``joint_flexibility`` at a node where members meet: one element end released and tied to
   the node by a rotational spring k = (E I / L)_element / a (a: the joint's compliance
@@ -35,11 +37,11 @@ from typing import Callable, Iterator
 
 import numpy as np
 
-from ..elements import PROFILES
 from ..modal import frequencies_hz
-from ..model import FrameModel, Spring, add_mass, release_element_end, split_element, with_formulation
+from ..model import FrameModel, Spring, add_mass, release_element_end, with_formulation
 from ..assembly import AffineModel
 from ..parameters import Parameter
+from . import zones
 from .local import LocalMatrices, Term
 
 KINDS = ("stiffness_loss", "added_mass", "joint_flexibility", "shear_deformation", "stiffness_gain",
@@ -54,6 +56,14 @@ class Setting:
     model: FrameModel
     coords: tuple[tuple[int, str], ...]
     n_modes: int
+    #: the user's model, when `model` is it extended by causes already found: effect sizes are
+    #: scaled by it, so that a size means the same effect on every base (None: `model`)
+    reference: FrameModel | None = None
+
+    @property
+    def nominal(self) -> FrameModel:
+        """The model whose properties scale the effect sizes."""
+        return self.model if self.reference is None else self.reference
 
     @functools.cached_property
     def local(self) -> LocalMatrices:
@@ -105,25 +115,6 @@ def scale_stiffness(model: FrameModel, s: float) -> FrameModel:
     return model.replace(elements=elements, springs=springs)
 
 
-def _profiled_model(model: FrameModel, element_id: int, e0: float, a: float, profile: str) -> FrameModel:
-    """The element split in four parts, each with the mean modulus of E0 (1 - a w(xi)) over it.
-
-    A model file has one modulus per element; four parts carry a linear profile closely
-    (the extension's exact affine form is what the diagnosis fitted)."""
-    w0, wm, w1 = PROFILES[profile]
-    out = model
-    ids = [element_id]
-    for k in range(3):  # split the last part at 1/(4-k) of its length: four equal parts
-        out = split_element(out, ids[-1], 1.0 / (4 - k))
-        ids.append(max(out.element_ids))
-    moduli = {}
-    for k, eid in enumerate(ids):
-        xi = (k + 0.5) / 4.0
-        w = np.interp(xi, [0.0, 0.5, 1.0], [w0, wm, w1])
-        moduli[eid] = e0 * (1.0 - a * w)
-    return out.with_element_moduli(moduli)
-
-
 def _bending_compliance_ref(model: FrameModel, element_id: int) -> float:
     """(E I / L) of an element, N m/rad: the scale of a joint spring at its end."""
     e = model.element(element_id)
@@ -131,34 +122,52 @@ def _bending_compliance_ref(model: FrameModel, element_id: int) -> float:
 
 
 def stiffness_loss(st: Setting) -> Iterator[Candidate]:
-    """A loss of modulus in one element, spread uniformly, decaying linearly from one end, or
-    peaking at mid-length (a crack softens the part of the element around it most); the
-    place is the element either way."""
+    """A loss of modulus in one element, spread uniformly over it, or concentrated in a weak
+    zone about a section depth wide at one of seven positions along it (a crack; zones.py);
+    the place is the element either way."""
+    shared: dict = {}
     for e in st.model.elements:
-        profiles = ("uniform",) if e.formulation != "euler-bernoulli" or e.crack_position else PROFILES
-        for profile in profiles:
-            e0 = st.model.element_modulus_pa(e.id)
-            system = lazy_system(lambda e=e, e0=e0, profile=profile: AffineModel(
-                st.model, (Parameter("modulus", (e.id,), 1e-3 * e0, e0, e0, profile=profile),)))
+        e0 = st.model.element_modulus_pa(e.id)
+        system = lazy_system(lambda e=e, e0=e0: AffineModel(
+            st.model, (Parameter("modulus", (e.id,), 1e-3 * e0, e0, e0),)))
 
-            def forward(a, system=system, e0=e0):
-                return solve(system(), (e0 * (1.0 - np.asarray(a)))[:, None], st.coords, st.n_modes)
+        def forward(a, system=system, e0=e0):
+            return solve(system(), (e0 * (1.0 - np.asarray(a)))[:, None], st.coords, st.n_modes)
 
-            def estimate(a, s, e0=e0, profile=profile):
-                return {"stiffness_loss_pct": 100.0 * a, "modulus_ratio": 1.0 - a, "profile": profile,
-                        "modulus_pa": s * e0 * (1.0 - a)}
+        def estimate(a, s, e0=e0):
+            return {"stiffness_loss_pct": 100.0 * a, "modulus_ratio": 1.0 - a, "profile": "uniform",
+                    "modulus_pa": s * e0 * (1.0 - a)}
 
-            def extend(a, e=e, e0=e0, profile=profile):
-                if profile == "uniform":
-                    return st.model.with_element_moduli({e.id: e0 * (1.0 - a)})
-                # a profiled loss is written as the element split in four, each part at its mean modulus
-                return _profiled_model(st.model, e.id, e0, a, profile)
+        yield Candidate("stiffness_loss", {"element": e.id}, 0.9,
+                        np.array([0.0, 0.005, 0.01, 0.02, 0.04, 0.07, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7,
+                                  0.8, 0.9]),
+                        forward, estimate, lambda a, e=e, e0=e0: st.model.with_element_moduli({e.id: e0 * (1.0 - a)}),
+                        step=0.01, meta={"profile": "uniform"},
+                        term=lambda e=e, e0=e0: st.local.stiffness(e.id, -e0, "uniform"))
+        if e.formulation != "euler-bernoulli" or e.crack_position is not None or e.weak_zone is not None:
+            continue
+        yield from _zone_candidates(st, e, e0, shared)
 
-            yield Candidate("stiffness_loss", {"element": e.id}, 0.9,
-                            np.array([0.0, 0.005, 0.01, 0.02, 0.04, 0.07, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7,
-                                      0.8, 0.9]),
-                            forward, estimate, extend, step=0.01, meta={"profile": profile},
-                            term=lambda e=e, e0=e0, profile=profile: st.local.stiffness(e.id, -e0, profile))
+
+def _zone_candidates(st: Setting, e, e0: float, shared: dict) -> Iterator[Candidate]:
+    """The weak-zone losses of element e (see zones.py); a: the zone's loss of bending stiffness."""
+    for start, end, forward in zones.zone_forwards(st.model, e.id, st.coords, st.n_modes, shared):
+        centre = 0.5 * (start + end)
+
+        def estimate(a, s, start=start, end=end, centre=centre):
+            ei = s * e0 * st.model.sections[e.section].inertia_m4
+            width = (end - start) * st.model.element_length_m(e.id)
+            return {"stiffness_loss_pct": 100.0 * a, "modulus_ratio": 1.0 - a, "profile": "zone",
+                    "zone_position": centre, "zone_start": start, "zone_end": end,
+                    "modulus_pa": s * e0 * (1.0 - a),
+                    "equivalent_crack_stiffness_nm_per_rad": ei * (1.0 - a) / (a * width) if a > 0 else float("inf")}
+
+        def extend(a, start=start, end=end):
+            return zones.with_zone(st.model, e.id, start, end, 1.0 - a)
+
+        yield Candidate("stiffness_loss", {"element": e.id}, zones.UPPER, zones.GRID, forward, estimate, extend,
+                        step=0.01, meta={"profile": f"zone {centre:.2f}"},
+                        term=lambda start=start, end=end: st.local.zone(e.id, start, end))
 
 
 def added_mass(st: Setting) -> Iterator[Candidate]:
@@ -270,26 +279,41 @@ def stiffness_gain(st: Setting) -> Iterator[Candidate]:
 
 
 def _reference_stiffness(st: Setting) -> float:
-    """total mass * (2 pi f_1)^2 (N/m): a spring this stiff moves the first mode by about its size."""
-    f1 = float(solve(AffineModel(st.model), np.zeros((1, 0)), st.coords, 1)[0][0, 0])
-    return st.model.total_mass_kg() * (2.0 * np.pi * f1) ** 2
+    """total mass * (2 pi f_1)^2 (N/m) of the user's model: a spring this stiff moves the first mode
+    by about its size."""
+    f1 = float(solve(AffineModel(st.nominal), np.zeros((1, 0)), st.coords, 1)[0][0, 0])
+    return st.nominal.total_mass_kg() * (2.0 * np.pi * f1) ** 2
 
 
 def boundary_stiffness(st: Setting) -> Iterator[Candidate]:
     """A spring to ground at a node, in x or in y: soft supports, suspensions, bases."""
     k_ref = _reference_stiffness(st)
+    baseline = lazy_system(lambda: AffineModel(st.model))
     sid = max((sp.id for sp in st.model.springs), default=0) + 1
     fixed = {(sup.node, d) for sup in st.model.supports for d in sup.directions}
     for node in st.model.node_ids:
         for direction in ("x", "y"):
             if (node, direction) in fixed:
                 continue
+            # the zero-frequency modes are counted with the spring in place (initial k_ref): a
+            # suspension mode is a mode of the extended model, not a rigid-body one to drop
             system = lazy_system(lambda node=node, direction=direction: AffineModel(
                 st.model.replace(springs=st.model.springs + (Spring(sid, (node, direction), None, 0.0),)),
-                (Parameter("spring", (sid,), 0.0, 1e3 * k_ref, 0.0),)))
+                (Parameter("spring", (sid,), 0.0, 1e3 * k_ref, k_ref),)))
 
             def forward(a, system=system):
-                return solve(system(), (k_ref * np.asarray(a, dtype=float))[:, None], st.coords, st.n_modes)
+                system = system()
+                a = np.asarray(a, dtype=float)
+                hz, shapes = solve(system, (k_ref * np.maximum(a, 1e-12))[:, None], st.coords, st.n_modes)
+                # the modes the spring adds (the lowest while it is soft) come last, so that every
+                # mode of the model keeps its index as the spring grows from zero (the first-order
+                # screen holds the pairing by index)
+                new = system.n_elastic - baseline().n_elastic
+                hz, shapes = np.roll(hz, -new, axis=1), np.roll(shapes, -new, axis=2)
+                if (a <= 0.0).any():  # no spring: the unextended model itself
+                    hz0, sh0 = solve(baseline(), np.zeros((1, 0)), st.coords, st.n_modes)
+                    hz[a <= 0.0], shapes[a <= 0.0] = hz0[0], sh0[0]
+                return hz, shapes
 
             def estimate(a, s):
                 return {"stiffness_n_per_m": s * k_ref * a, "stiffness_ratio": a}

@@ -34,7 +34,6 @@ and what the final model's misfit implies (`goodness_of_fit`).
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -95,21 +94,39 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
             warnings.append(v.explanation)
         return Diagnosis(cause, alternatives, residuals_of(cal), gain(cal, None), tuple(sel.rows.values()),
                          sel.selection, None, tuple(warnings), (), v, noise)
-    cause, alternatives, extended = extend(cal, found, sel)
-    if cause.explanation:
-        warnings.append(cause.explanation)
+    cause, alternatives, _ = extend(cal, found, sel)
     from .rounds import further_causes  # it uses this module's steps
 
     rounds = further_causes(cal, found, sel, cause, kinds, n_fit, alpha, max_causes)
-    v = verdict(cal.obs, rounds.final, 1 + len(rounds.causes), alpha)
+    cause = _first(cause, rounds.causes[0])
+    if cause.explanation:
+        warnings.append(cause.explanation)
+    v = verdict(rounds.obs, rounds.final, 1 + len(rounds.causes), alpha)
     if not v.adequate:
         warnings.append(v.explanation)
-    if len(rounds.causes) > 1:
-        extended = rounds.model
-        if cause.identifiable:  # the first cause's size refitted jointly with the others
-            cause = dataclasses.replace(cause, estimate=rounds.causes[0].estimate)
+    extended = _named(cal.setting.model, rounds.model, rounds.causes)
     return Diagnosis(cause, alternatives, residuals_of(cal), rounds.gain, tuple(sel.rows.values()), sel.selection,
                      extended, tuple(warnings), rounds.causes, v, noise)
+
+
+def _first(cause: Cause, first) -> Cause:
+    """The cause as the rounds leave it: chosen again with the other causes in the model (it may
+    be a neighbour of the first round's best, or tie no more), its size refitted jointly."""
+    if first.identifiable:
+        return Cause(first.kind, first.location, first.estimate, True, first.p_adjusted, first.label)
+    if first.indistinguishable == cause.indistinguishable:
+        return cause
+    return Cause(first.kind, first.location, {}, False, first.p_adjusted, None, first.indistinguishable,
+                 f"{len(first.indistinguishable)} candidates explain the data equally well with the other causes "
+                 f"in the model (chi^2 within {AMBIGUITY_CHI2:.1f} of the best): the data cannot tell them apart")
+
+
+def _named(model: FrameModel, extended: FrameModel, causes) -> FrameModel:
+    """The extended model with a name and description that say what was added."""
+    labels = [c.label or c.kind for c in causes]
+    what = "; ".join(f"{c.label} ({_describe(c.estimate)})" for c in causes if c.label)
+    return extended.replace(name=f"{model.name}+{'+'.join(labels)}", source="<diagnosis>",
+                            description=f"{model.name} extended by diagnosis: {what}")
 
 
 def _check(model: FrameModel, data: ModalData) -> None:
@@ -145,10 +162,11 @@ class Calibration:
     warnings: tuple[str, ...]
 
 
-def calibrate(model: FrameModel, data: ModalData, freq_noise: float, shape_noise: float) -> Calibration:
+def calibrate(model: FrameModel, data: ModalData, freq_noise: float, shape_noise: float,
+              reference: FrameModel | None = None) -> Calibration:
     """Fit the global stiffness-to-mass scale; measured modes that pair with no model mode are
-    shown, never fitted."""
-    st = Setting(model, data.dofs, min(data.n_modes + 6, AffineModel(model).n_elastic))
+    shown, never fitted. reference: the user's model when `model` is it extended (Setting)."""
+    st = Setting(model, data.dofs, min(data.n_modes + 6, AffineModel(model).n_elastic), reference)
     obs_all = Observations.of(data, freq_noise=freq_noise, shape_noise=shape_noise)
     hz, sh = solve(AffineModel(model), np.zeros((1, 0)), st.coords, st.n_modes)
     hz0, sh0 = hz[0], sh[0]

@@ -1,15 +1,21 @@
 """Several causes: after the first significant cause, the next one is sought against the model
 extended by the causes found so far, with the same test (likelihood ratio, Bonferroni over the
 candidates of that round, quasi-likelihood dispersion, alpha); the causes are then refitted
-jointly (one sweep: each cause's size refitted with the others at theirs), and the search
-stops when a round finds nothing significant, cannot tell its candidates apart, or after
-`max_causes` causes. A later round tries no candidate at a place and kind already found, and
-only places of the user's model (a profiled loss splits an element; its parts are no new
-places), no candidate at a place where a cause was already found, and no stiffness change in
-an element next to one where a stiffness change was found (that is the first one's form)."""
+jointly (each cause's size refitted with the others at theirs, on the measured modes that pair
+with the extended model) and every earlier cause is chosen again with the others in the model
+(`_revisit`: replaced when another candidate improves the joint fit, dropped when nothing is
+significant in its place, its tie judged again). The search stops when a round finds nothing
+significant, when its candidates tie (that cause enters the model with its best candidate and
+is reported as not identifiable), or after `max_causes` causes. A later round tries no
+candidate at a place where a cause was already found, only places of the user's model, and no
+stiffness change in an element next to one where a stiffness change was found (that is the
+first one's form). A measured mode that pairs with no mode of the user's model makes every
+cause be chosen again on every measured mode, so that a cause that brings its partner (a
+spring to ground: the suspension mode) is preferred."""
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 from ..model import FrameModel
@@ -21,18 +27,31 @@ from .verdict import interval_of, profile_interval
 
 @dataclass(frozen=True, eq=False)
 class Rounds:
-    """The causes found (in order of evidence), the final model's fit to the paired modes of the
-    first calibration, the final model (calibrated, every cause) and the held-out gain."""
+    """The causes found (in order of evidence), the final model's fit to the measured modes that
+    pair with it (`obs`), the final model (calibrated, every cause) and the held-out gain."""
 
     causes: tuple[Found, ...]
     final: Fit
     model: FrameModel
     gain: Gain
+    obs: object = None
+
+
+@dataclass
+class Step:
+    """A round's answer: the best candidate (kind, label), its size and adjusted p-value, and
+    the labels it ties with (empty when it is the one answer)."""
+
+    pick: tuple[str, str]
+    a: float
+    p: float
+    ties: tuple[str, ...] = ()
 
 
 def _candidate_on(model: FrameModel, st: Setting, kind: str, label: str) -> Candidate:
     """The candidate `label` of `kind`, rebuilt on `model` (the others' effects included)."""
-    return next(c for c in all_candidates(Setting(model, st.coords, st.n_modes), [kind]) if c.label == label)
+    return next(c for c in all_candidates(Setting(model, st.coords, st.n_modes, st.nominal), [kind])
+                if c.label == label)
 
 
 def _with(base: FrameModel, st: Setting, picks: list[tuple[str, str]], sizes: list[float], skip: int = -1):
@@ -46,35 +65,128 @@ def _with(base: FrameModel, st: Setting, picks: list[tuple[str, str]], sizes: li
 
 def further_causes(cal, found, sel, cause: Cause, kinds, n_fit, alpha: float, max_causes: int) -> Rounds:
     """Add causes one by one after the first (see the module docstring)."""
-    from .core import calibrate, gain, screen_and_fit, select
+    from .core import gain
 
-    st, obs = cal.setting, cal.obs
+    st = cal.setting
     c0, f0 = found.candidates[sel.best], found.fitted[sel.best]
+    # a first round whose candidates tie goes on with its best: a second effect's misfit can be
+    # what blurs the first choice; the revisit below chooses it again once the second is in
     picks, sizes, ps = [(c0.kind, c0.label)], [f0.a], [cause.p_adjusted]
-    places = [(c0.kind, c0.location)]
-    extra: list[Found] = []
-    noise = (obs.freq_noise, obs.shape_noise)
-    while cause.identifiable and len(picks) < max_causes:
-        cal_k = calibrate(_with(st.model, st, picks, sizes), cal.data, *noise)
-        found_k = screen_and_fit(cal_k, kinds, n_fit, keep=lambda c: _new_place(c, st.model, places))
-        if not found_k.candidates:
+    ties: list[tuple[str, ...]] = [() if cause.identifiable else cause.indistinguishable]
+    # its size refitted on the modes that pair with the model it extends (a spring to ground
+    # brings a suspension mode the first round could not fit)
+    sizes, _ = _joint_refit(cal, st, picks, sizes)
+    state = _search(cal, st, (picks, sizes, ps, ties), kinds, n_fit, alpha, max_causes)
+    if len(cal.unpaired):
+        # a measured mode the model has no partner for (a suspension mode): every cause chosen
+        # again on every measured mode, so that a cause that brings its partner is preferred (a
+        # first-order screen cannot see a mode come to pair: every candidate is fitted)
+        again = _revisit(cal, st, state, len(state[0]), kinds, None, alpha, cal.obs_all)
+        changed = again[0] != state[0]
+        state = _search(cal, st, again, kinds, n_fit, alpha, max_causes) if changed else again
+    return _finish(cal, st, *state, gain)
+
+
+def _search(cal, st: Setting, state, kinds, n_fit, alpha: float, max_causes: int):
+    """Further causes one by one, each followed by a revisit of the earlier ones; returns the
+    state (picks, sizes, p-values, ties)."""
+    picks, sizes, ps, ties = (list(x) for x in state)
+    while len(picks) < max_causes:
+        step = _next_cause(cal, st, picks, sizes, kinds, n_fit, alpha)
+        if step is None:
             break
-        sel_k = select(cal_k, found_k, alpha)
-        if sel_k.selection.p_adjusted >= alpha:
+        # a significant cause whose candidates tie enters the model with its best (the verdict
+        # judges the model with it) and ends the search; it is reported as not identifiable
+        picks, sizes, ps, ties = picks + [step.pick], sizes + [step.a], ps + [step.p], ties + [step.ties]
+        sizes, _ = _joint_refit(cal, st, picks, sizes)
+        picks, sizes, ps, ties = _revisit(cal, st, (picks, sizes, ps, ties), len(picks) - 1, kinds, n_fit, alpha)
+        if step.ties:
             break
-        ck = found_k.candidates[sel_k.best]
-        tied = [i for i in found_k.fitted
-                if (found_k.fitted[i].chi2 - found_k.fitted[sel_k.best].chi2) / sel_k.dispersion < _ambiguity()]
-        if len({(found_k.candidates[i].kind, str(found_k.candidates[i].location)) for i in tied}) > 1:
-            extra.append(Found("undetermined", None, {}, {}, None, sel_k.selection.p_adjusted, False,
-                               tuple(found_k.candidates[i].label for i in tied)))
+    return picks, sizes, ps, ties
+
+
+def _next_cause(cal, st: Setting, picks, sizes, kinds, n_fit, alpha: float, skip: int = -1,
+                obs=None) -> Step | None:
+    """The best further candidate against the model extended by `picks` (all but number `skip`),
+    tested as the first was, on the modes that pair with that model or on `obs`; None if
+    nothing is significant."""
+    from .core import calibrate, profiled, screen_and_fit, select
+
+    places = [(k, _location(lab)) for j, (k, lab) in enumerate(picks) if j != skip]
+    cal_k = calibrate(_with(st.model, st, picks, sizes, skip), cal.data, cal.obs.freq_noise, cal.obs.shape_noise,
+                      st.model)
+    if obs is not None:
+        cal_k = dataclasses.replace(cal_k, obs=obs, base=profiled(obs, cal_k.hz0, cal_k.sh0))
+    found_k = screen_and_fit(cal_k, kinds, n_fit, keep=lambda c: _new_place(c, st.model, places))
+    if not found_k.candidates:
+        return None
+    sel_k = select(cal_k, found_k, alpha)
+    if sel_k.selection.p_adjusted >= alpha:
+        return None
+    ck = found_k.candidates[sel_k.best]
+    tied = _tied(found_k, sel_k)
+    labels = tuple(found_k.candidates[i].label for i in tied)
+    one = len({_answer(lab) for lab in labels}) == 1
+    return Step((ck.kind, ck.label), found_k.fitted[sel_k.best].a, sel_k.selection.p_adjusted,
+                () if one else labels)
+
+
+def _tied(found, sel) -> list[int]:
+    """The fitted candidates within the ambiguity margin of the best, best first."""
+    best = found.fitted[sel.best].chi2
+    return sorted((i for i in found.fitted if (found.fitted[i].chi2 - best) / sel.dispersion < _ambiguity()),
+                  key=lambda i: found.fitted[i].chi2)
+
+
+def _undetermined(step: Step, location=None) -> Found:
+    """The entry for tied candidates: their kind and place where all agree, else undetermined/None."""
+    kinds = {_answer(t)[0] for t in step.ties}
+    places = {_answer(t)[1] for t in step.ties}
+    return Found(step.pick[0] if len(kinds) == 1 else "undetermined",
+                 (location or _location(step.pick[1])) if len(places) == 1 else None,
+                 {}, {}, None, step.p, False, step.ties)
+
+
+def _revisit(cal, st: Setting, state, n: int, kinds, n_fit, alpha: float, obs=None):
+    """Choose the first `n` causes again with the others in the model (at most two sweeps), on
+    the modes that pair with the model extended by all of them: a first choice made while a
+    second effect was unexplained may be its neighbour or tie with it. A cause is replaced only
+    when the joint fit improves, and dropped when nothing is significant in its place given the
+    others; its tie is what is left of it given the others. obs: the modes to judge on instead
+    (every measured mode)."""
+    picks, sizes, ps, ties = (list(x) for x in state)
+    obs = _final_obs(cal, st, picks, sizes) if obs is None else obs
+    sizes, chi2 = _joint_refit(cal, st, picks, sizes, obs)
+    for _ in range(3):
+        changed = dropped = False
+        for j in range(min(n, len(picks))):
+            step = _next_cause(cal, st, picks, sizes, kinds, n_fit, alpha, skip=j, obs=obs)
+            if step is None and len(picks) > 1:  # the others explain what it did
+                picks, sizes, ps, ties = ([x for k, x in enumerate(v) if k != j] for v in (picks, sizes, ps, ties))
+                sizes, chi2 = _joint_refit(cal, st, picks, sizes, obs)
+                n, changed, dropped = n - 1, True, True
+                break
+            if step is None:
+                continue
+            if step.pick != picks[j]:
+                trial = picks[:j] + [step.pick] + picks[j + 1:]
+                t_sizes, t_chi2 = _joint_refit(cal, st, trial, sizes[:j] + [step.a] + sizes[j + 1:], obs)
+                if t_chi2 >= chi2:
+                    continue
+                picks, sizes, chi2, changed = trial, t_sizes, t_chi2, True
+            ties[j] = step.ties
+        if not changed or (len(picks) == 1 and not dropped):  # a second sweep would repeat the first
             break
-        picks.append((ck.kind, ck.label))
-        sizes.append(found_k.fitted[sel_k.best].a)
-        ps.append(sel_k.selection.p_adjusted)
-        places.append((ck.kind, ck.location))
-        sizes = _joint_refit(obs, st, picks, sizes)
-    return _finish(cal, st, obs, picks, sizes, ps, cause, extra, gain)
+    return picks, sizes, ps, ties
+
+
+def _final_obs(cal, st: Setting, picks, sizes):
+    """The measured modes that pair with the model extended by every cause (a spring to ground
+    can bring a measured suspension mode that the nominal model has no partner for)."""
+    from .core import calibrate
+
+    return calibrate(_with(st.model, st, picks, sizes), cal.data, cal.obs.freq_noise, cal.obs.shape_noise,
+                     st.model).obs
 
 
 def _ambiguity() -> float:
@@ -110,28 +222,50 @@ def _touches_found_stiffness(model: FrameModel, element: int | None, places: lis
     return any(kind in STIFFNESS_KINDS and ends(element) & ends(where["element"]) for kind, where in places)
 
 
-def _joint_refit(obs, st: Setting, picks, sizes) -> list[float]:
-    """One sweep: each cause's size refitted with the others at their current sizes."""
+def _joint_refit(cal, st: Setting, picks, sizes, obs=None) -> tuple[list[float], float]:
+    """One sweep: each cause's size refitted with the others at their current sizes, on `obs`
+    (default: the modes that pair with the extended model); returns the sizes and the joint chi^2."""
     sizes = list(sizes)
-    for j, (kind, label) in enumerate(picks):
-        cand = _candidate_on(_with(st.model, st, picks, sizes, skip=j), st, kind, label)
-        sizes[j] = fit(obs, cand, sizes[j]).a
-    return sizes
-
-
-def _finish(cal, st, obs, picks, sizes, ps, cause: Cause, extra, gain) -> Rounds:
-    """Each cause's estimate and profile interval (the others at their sizes), the final fit,
-    the final model and the held-out gain of the last cause (the others at their sizes)."""
-    out, final, cand = [], None, None
+    obs = _final_obs(cal, st, picks, sizes) if obs is None else obs
+    chi2 = float("inf")
     for j, (kind, label) in enumerate(picks):
         cand = _candidate_on(_with(st.model, st, picks, sizes, skip=j), st, kind, label)
         f = fit(obs, cand, sizes[j])
-        final = f if final is None or f.chi2 < final.chi2 else final
+        sizes[j], chi2 = f.a, f.chi2
+    return sizes, chi2
+
+
+def _finish(cal, st, picks, sizes, ps, ties, gain) -> Rounds:
+    """Each cause's estimate and profile interval (the others at their sizes), the final fit,
+    the final model and the held-out gain of the last cause (the others at their sizes); a
+    cause whose candidates tie (`ties`) is reported as not identifiable with them."""
+    obs = _final_obs(cal, st, picks, sizes)
+    out, final, best = [], None, None
+    for j, (kind, label) in enumerate(picks):
+        cand = _candidate_on(_with(st.model, st, picks, sizes, skip=j), st, kind, label)
+        f = fit(obs, cand, sizes[j])
+        if final is None or f.chi2 < final.chi2:  # the final model is the best of these joint fits
+            final, best = f, cand
+        if ties[j] and len({_answer(t) for t in ties[j]}) > 1:
+            out.append(_undetermined(Step((kind, label), f.a, ps[j], ties[j]), cand.location))
+            continue
         dispersion = max(1.0, f.chi2 / obs.dof(1 + len(picks)))
         low, high = profile_interval(obs, cand, f, dispersion)
         out.append(Found(kind, cand.location, cand.estimate(f.a, f.s), interval_of(cand, low, high, f.s), label,
                          ps[j]))
-    final_model = scale_stiffness(cand.extend(f.a), f.s)
-    if not cause.identifiable:  # the first round's candidates tie: no single cause to report
-        out = [Found(cause.kind, cause.location, {}, {}, None, cause.p_adjusted, False, cause.indistinguishable)]
-    return Rounds(tuple(out) + tuple(extra), final, final_model, gain(cal, cand))
+    final_model = scale_stiffness(best.extend(final.a), final.s)
+    return Rounds(tuple(out), final, final_model, gain(cal, cand), obs)
+
+
+def _location(label: str) -> dict | None:
+    """The location of a candidate from its label: 'added_mass@node=4' gives {'node': 4}."""
+    where = label.partition("@")[2].split("(")[0]
+    if not where:
+        return None
+    return {k: (int(v) if v.lstrip("-").isdigit() else v) for k, v in (p.split("=") for p in where.split(","))}
+
+
+def _answer(label: str) -> tuple[str, str]:
+    """(kind, place) of a candidate label: profiles of one element's loss are one answer."""
+    kind, _, where = label.partition("@")
+    return kind, where.split("(")[0]

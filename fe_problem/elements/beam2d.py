@@ -91,13 +91,35 @@ def cracked_bending_stiffness(length: np.ndarray, ei: np.ndarray, position: np.n
     The stiffness is Gamma^T f^-1 Gamma, Gamma mapping (v_i, th_i, v_j, th_j) to the chord-
     relative end rotations. With c = 0 it is the Hermite-cubic stiffness.
     """
+    b = np.stack([-(1.0 - position), position], axis=1)
+    return flexibility_bending_stiffness(length, ei, compliance[:, None, None] * b[:, :, None] * b[:, None, :])
+
+
+def zone_flexibility(length: np.ndarray, ei: np.ndarray, start: np.ndarray, end: np.ndarray,
+                     ratio: np.ndarray) -> np.ndarray:
+    """The end-moment flexibility (n, 2, 2) a zone [start, end] (fractions of the length) of
+    bending stiffness ratio * EI adds to an element: (1/ratio - 1) / EI times the integral
+    of b b^T over the zone, b = (-(1 - xi), xi) as in `cracked_bending_stiffness` (exact:
+    the integrand is quadratic). The whole element (0, 1) gives the uniform beam's
+    flexibility times (1/ratio - 1)."""
+    s, e = start, end
+    i11 = ((1.0 - s) ** 3 - (1.0 - e) ** 3) / 3.0
+    i22 = (e**3 - s**3) / 3.0
+    i12 = -((e**2 - s**2) / 2.0 - (e**3 - s**3) / 3.0)
+    g = np.stack([np.stack([i11, i12], -1), np.stack([i12, i22], -1)], -2)
+    return ((1.0 / ratio - 1.0) * length / ei)[:, None, None] * g
+
+
+def flexibility_bending_stiffness(length: np.ndarray, ei: np.ndarray, extra: np.ndarray) -> np.ndarray:
+    """Local 6x6 bending stiffness of Euler-Bernoulli elements whose end-moment flexibility is
+    the uniform beam's L/(6 EI) [[2, -1], [-1, 2]] plus `extra` (n, 2, 2): a crack, a weak
+    zone (see `cracked_bending_stiffness` for the basic system)."""
     L = length
     n = L.shape[0]
     f = np.empty((n, 2, 2))
-    b = np.stack([-(1.0 - position), position], axis=1)
     f[:] = np.array([[2.0, -1.0], [-1.0, 2.0]])
     f *= (L / (6.0 * ei))[:, None, None]
-    f += compliance[:, None, None] * b[:, :, None] * b[:, None, :]
+    f += extra
     kb = np.linalg.inv(f)
     gamma = np.zeros((n, 2, 4))
     gamma[:, :, 0] = (1.0 / L)[:, None]

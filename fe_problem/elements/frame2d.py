@@ -68,14 +68,15 @@ class _PlanarBeam(ElementFormulation):
     def displaced(self, model, elements, ends, xi):
         g = Geometry.of(model, elements)
         smooth = np.array([e.release_i is None and e.release_j is None and e.crack_position is None
-                           for e in elements], dtype=bool)
+                           and e.weak_zone is None for e in elements], dtype=bool)
         return beam2d.interpolate(g.length, g.cos, g.sin, ends, smooth, xi)
 
 
 class EulerBernoulli(_PlanarBeam):
     """Hermite-cubic bending with consistent mass and no rotary inertia. A crack (a rotational
     spring of ``crack_stiffness`` N m/rad at ``crack_position``, scaling with the element's
-    modulus) is built into the element by the flexibility formulation."""
+    modulus) and a weak zone (``weak_zone``: a stretch of reduced bending stiffness) are
+    built into the element by the flexibility formulation; the mass stays the beam's."""
 
     name = "euler-bernoulli"
     supports_crack = True
@@ -84,21 +85,32 @@ class EulerBernoulli(_PlanarBeam):
     def stiffness(self, model, elements):
         g = Geometry.of(model, elements)
         k = beam2d.local_stiffness(g.length, g.area, g.inertia, self._phi(g))
-        cracked = np.array([e.crack_position is not None for e in elements], dtype=bool)
-        if cracked.any():
-            # per unit modulus: the crack compliance is c * E (the crack scales with E, see Element)
-            cr = [e for e in elements if e.crack_position is not None]
-            c = np.array([model.element_modulus_pa(e.id) / e.crack_stiffness for e in cr])
-            pos = np.array([e.crack_position for e in cr])
-            bend = beam2d.cracked_bending_stiffness(g.length[cracked], g.inertia[cracked], pos, c)
-            axial = beam2d.local_stiffness(g.length[cracked], g.area[cracked], np.zeros(len(cr)),
-                                           self._phi(g)[cracked])
-            k[cracked] = bend + axial
+        special = np.array([e.crack_position is not None or e.weak_zone is not None for e in elements], dtype=bool)
+        if special.any():
+            k[special] = self._flexible(model, [e for e, x in zip(elements, special) if x], g, special)
         return g.to_global(k)
 
+    def _flexible(self, model, els, g: Geometry, rows: np.ndarray) -> np.ndarray:
+        """Local stiffness per unit modulus of elements with a crack and/or a weak zone, built by
+        the flexibility formulation: the crack's compliance is c * E (it scales with E, see
+        Element); the zone's (1/ratio - 1) / (E I) times its integral (beam2d.zone_flexibility)."""
+        length, inertia = g.length[rows], g.inertia[rows]
+        extra = np.zeros((len(els), 2, 2))
+        for k, e in enumerate(els):
+            if e.crack_position is not None:
+                c = model.element_modulus_pa(e.id) / e.crack_stiffness
+                b = np.array([-(1.0 - e.crack_position), e.crack_position])
+                extra[k] += c * np.outer(b, b)
+            if e.weak_zone is not None:
+                s, t, r = e.weak_zone
+                extra[k] += beam2d.zone_flexibility(length[k:k + 1], inertia[k:k + 1], np.array([s]),
+                                                    np.array([t]), np.array([r]))[0]
+        bend = beam2d.flexibility_bending_stiffness(length, inertia, extra)
+        return bend + beam2d.local_stiffness(length, g.area[rows], np.zeros(len(els)), self._phi(g)[rows])
+
     def profile_stiffness(self, model, element, weights):
-        if element.crack_position is not None:
-            raise ValueError(f"element {element.id}: a modulus profile needs an uncracked element")
+        if element.crack_position is not None or element.weak_zone is not None:
+            raise ValueError(f"element {element.id}: a modulus profile needs an element without a crack or weak zone")
         g = Geometry.of(model, [element])
         return g.to_global(beam2d.weighted_stiffness(g.length, g.area, g.inertia, weights))
 

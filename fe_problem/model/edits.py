@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 
-from .types import FrameModel, LumpedMass, Node
+from .types import Element, FrameModel, LumpedMass, Node
 
 
 def add_mass(model: FrameModel, node: int, mass_kg: float, inertia_kg_m2: float = 0.0) -> FrameModel:
@@ -26,6 +26,27 @@ def release_element_end(model: FrameModel, element_id: int, node: int, stiffness
     return model.replace(elements=tuple(new if x.id == element_id else x for x in model.elements))
 
 
+def part_fields(e: Element, lo: float, hi: float) -> dict:
+    """The crack and weak-zone fields of the part [lo, hi] (fractions of the length from node_i)
+    of element `e`, for `dataclasses.replace`: a crack stays in the part that holds it, at its
+    position within that part; a weak zone is cut to the part (the same modulus ratio). A crack
+    on the cut itself is refused (ValueError): it would be a joint between the parts."""
+    out: dict = {}
+    if e.crack_position is not None:
+        c = e.crack_position
+        if (lo > 0.0 and abs(c - lo) < 1e-9) or (hi < 1.0 and abs(c - hi) < 1e-9):
+            raise ValueError(f"element {e.id}: its crack at {c:g} of the length falls on a boundary between parts "
+                             "(it would be a joint there); cut the element elsewhere")
+        inside = lo < c < hi
+        out.update(crack_position=(c - lo) / (hi - lo) if inside else None,
+                   crack_stiffness=e.crack_stiffness if inside else None)
+    if e.weak_zone is not None:
+        start, end, ratio = e.weak_zone
+        a, b = max(start, lo), min(end, hi)
+        out["weak_zone"] = ((a - lo) / (hi - lo), (b - lo) / (hi - lo), ratio) if b - a > 1e-12 else None
+    return out
+
+
 def split_element(model: FrameModel, element_id: int, fraction: float,
                   rotational_stiffness: float | None = None) -> FrameModel:
     """A copy with element `element_id` split at `fraction` of its length from node_i.
@@ -39,9 +60,10 @@ def split_element(model: FrameModel, element_id: int, fraction: float,
     e = model.element(element_id)
     a, b = model.node(e.node_i), model.node(e.node_j)
     new_node = Node(max(model.node_ids) + 1, a.x + fraction * (b.x - a.x), a.y + fraction * (b.y - a.y))
-    first = dataclasses.replace(e, node_j=new_node.id, release_j=None)
+    first = dataclasses.replace(e, node_j=new_node.id, release_j=None, **part_fields(e, 0.0, fraction))
     second = dataclasses.replace(e, id=max(model.element_ids) + 1, node_i=new_node.id,
-                                 release_i=rotational_stiffness, release_j=e.release_j)
+                                 release_i=rotational_stiffness, release_j=e.release_j,
+                                 **part_fields(e, fraction, 1.0))
     elements = []
     for x in model.elements:
         elements.extend([first, second] if x.id == element_id else [x])
@@ -58,6 +80,6 @@ def crack_element(model: FrameModel, element_id: int, position: float, stiffness
 
 def with_formulation(model: FrameModel, formulation: str) -> FrameModel:
     """A copy with every element using `formulation` ('euler-bernoulli' or 'timoshenko').
-    Cracked elements stay Euler-Bernoulli (a crack needs that formulation)."""
-    return model.replace(elements=tuple(e if e.crack_position is not None else dataclasses.replace(e, formulation=formulation)
-                                        for e in model.elements))
+    Cracked elements and elements with a weak zone stay Euler-Bernoulli (they need that formulation)."""
+    return model.replace(elements=tuple(e if e.crack_position is not None or e.weak_zone is not None
+                                        else dataclasses.replace(e, formulation=formulation) for e in model.elements))

@@ -8,24 +8,11 @@ import dataclasses
 
 import numpy as np
 
+from .edits import part_fields
 from .types import Element, FrameModel, LumpedMass, Material, Node, Section, Support
 
 #: Base fixity of `regular_frame`: the directions fixed at every base node.
 BASES = {"fixed": ("x", "y", "rz"), "pinned": ("x", "y")}
-
-
-def _split_crack(e: Element, parts: int, k: int) -> dict:
-    """The crack fields of part k (0-based) of `e` split into `parts`: the crack stays in the
-    part that holds it, at its position within that part."""
-    if e.crack_position is None:
-        return {}
-    where = e.crack_position * parts
-    if abs(where - round(where)) < 1e-9:
-        raise ValueError(f"element {e.id}: its crack at {e.crack_position:g} of the length falls on a "
-                         f"boundary between parts when split into {parts}; choose another number of parts")
-    if int(where) != k:
-        return {"crack_position": None, "crack_stiffness": None}
-    return {"crack_position": where - k}
 
 
 def split_elements(model: FrameModel, parts: int) -> FrameModel:
@@ -34,7 +21,8 @@ def split_elements(model: FrameModel, parts: int) -> FrameModel:
     Numbering is what splitting the elements one after another with `split_element` gives:
     element by element in model order, the new nodes (from node_i to node_j) and the new
     elements take the next free ids; the first part keeps the element's id and its release at
-    node_i, the last part its release at node_j; a crack stays in the part that holds it.
+    node_i, the last part its release at node_j; a crack stays in the part that holds it, a weak
+    zone is cut to the parts it spans (`edits.part_fields`).
     Masses, springs, supports and measured DOFs stay on their nodes."""
     if isinstance(parts, bool) or not isinstance(parts, (int, np.integer)) or parts < 1:
         raise ValueError(f"parts must be a whole number >= 1, got {parts!r}")
@@ -59,7 +47,7 @@ def split_elements(model: FrameModel, parts: int) -> FrameModel:
             elements.append(dataclasses.replace(
                 e, id=e.id if k == 0 else int(el_ids[i, k - 1]), node_i=ends[k], node_j=ends[k + 1],
                 release_i=e.release_i if k == 0 else None, release_j=e.release_j if k == parts - 1 else None,
-                **_split_crack(e, parts, k)))
+                **part_fields(e, k / parts, (k + 1) / parts)))
     return model.replace(nodes=tuple(nodes), elements=tuple(elements))
 
 

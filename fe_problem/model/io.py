@@ -106,7 +106,8 @@ def model_from_dict(d: dict, source: str = "<memory>") -> FrameModel:
             release_i=_get(e, "release_i", where, None), release_j=_get(e, "release_j", where, None),
             youngs_modulus_pa=_get(e, "youngs_modulus_pa", where, None),
             crack_position=_get(e, "crack_position", where, None),
-            crack_stiffness=_get(e, "crack_stiffness", where, None)))
+            crack_stiffness=_get(e, "crack_stiffness", where, None),
+            weak_zone=_weak_zone(_get(e, "weak_zone", where, None), where)))
     masses = []
     for i, m in enumerate(d.get("masses", [])):
         where = f"{source}: masses[{i}]"
@@ -140,6 +141,17 @@ def model_from_dict(d: dict, source: str = "<memory>") -> FrameModel:
         description=str(d.get("description", "")), source=source)
 
 
+def _weak_zone(z, where: str):
+    """(start, end, modulus_ratio) from {"start": s, "end": e, "modulus_ratio": r}, or None."""
+    if z is None:
+        return None
+    keys = ("start", "end", "modulus_ratio")
+    if not isinstance(z, dict) or set(z) != set(keys):
+        raise ModelFileError(f"{where}: field 'weak_zone' must be {{\"start\": s, \"end\": e, \"modulus_ratio\": r}}, "
+                             f"got {z!r}")
+    return tuple(_number(z[k], f"{where} field 'weak_zone' '{k}'") for k in keys)
+
+
 def model_to_dict(model: FrameModel) -> dict:
     """The JSON-ready dictionary of a model file."""
     def element(e: Element) -> dict:
@@ -148,6 +160,8 @@ def model_to_dict(model: FrameModel) -> dict:
         for k in ("release_i", "release_j", "youngs_modulus_pa", "crack_position", "crack_stiffness"):
             if getattr(e, k) is not None:
                 out[k] = getattr(e, k)
+        if e.weak_zone is not None:
+            out["weak_zone"] = dict(zip(("start", "end", "modulus_ratio"), e.weak_zone))
         return out
 
     return {

@@ -62,6 +62,10 @@ class Element:
     fraction of the length from node_i, inside the element (flexibility formulation, no new
     node; Euler-Bernoulli only). The crack's stiffness scales with the element's modulus
     when that is updated, as a fracture-mechanics crack compliance (proportional to 1/E) does.
+    ``weak_zone``: (start, end, modulus_ratio): the bending stiffness is modulus_ratio * E I
+    from `start` to `end` (fractions of the length from node_i) and E I elsewhere (a reduced-
+    stiffness zone, the classical crack model of a zone about a section depth wide;
+    flexibility formulation, exact; mass unchanged; Euler-Bernoulli only).
     """
 
     id: int
@@ -75,6 +79,7 @@ class Element:
     youngs_modulus_pa: float | None = None
     crack_position: float | None = None
     crack_stiffness: float | None = None
+    weak_zone: tuple[float, float, float] | None = None
 
 
 @dataclass(frozen=True)

@@ -144,6 +144,15 @@ def _validate_element(m: FrameModel, e, nodes: dict) -> None:
         if not formulation(e.formulation).supports_crack:
             cracked = [f for f in formulations() if formulation(f).supports_crack]
             raise ModelFileError(f"{where}: a crack needs formulation {' or '.join(map(repr, cracked))}")
+    if e.weak_zone is not None:
+        start, end, ratio = e.weak_zone
+        if not 0.0 <= start < end <= 1.0:
+            raise ModelFileError(f"{where} 'weak_zone': need 0 <= start < end <= 1, got start {start!r}, end {end!r}")
+        if not 0.0 < ratio <= 1.0:
+            raise ModelFileError(f"{where} 'weak_zone' 'modulus_ratio': must be in (0, 1], got {ratio!r}")
+        if not formulation(e.formulation).supports_crack:
+            cracked = [f for f in formulations() if formulation(f).supports_crack]
+            raise ModelFileError(f"{where}: a weak zone needs formulation {' or '.join(map(repr, cracked))}")
     a, b = nodes[e.node_i], nodes[e.node_j]
     length = math.hypot(b.x - a.x, b.y - a.y)
     if length <= 0:
