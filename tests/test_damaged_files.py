@@ -147,10 +147,10 @@ def test_a_model_of_30000_nodes_is_refused_by_size_on_the_dense_path_not_left_to
     f = tmp_path / "long.model.json"
     f.write_text(json.dumps(d))
     model = fp.load_model(f)
-    with pytest.raises(fp.ModelFileError, match="30000 nodes, 90000 DOFs"):
+    with pytest.raises(fp.ModelFileError, match=f"{f}: 30000 nodes, 90000 DOFs and 0 parameters need about"):
         fp.modal_analysis(model, solver="dense")
     _one_error_line(capsys, ["model", str(f), "--solver", "dense"], "GiB limit")
-    assert fp.assembly.solver_path(model.n_dof) == "sparse"
+    assert fp.assembly.solver_path(model.n_dof) == "sparse" and fp.AffineModel(model).path == "sparse"
 
 
 def test_a_model_above_the_sparse_limit_is_refused_by_size(tmp_path, capsys, monkeypatch):

@@ -211,23 +211,6 @@ def test_a_mechanism_is_shown_with_what_moves(capsys):
     assert fp.modal_analysis(supported).n_rigid == 2 and fp.modal_analysis(supported).mechanism.startswith("1 mech")
 
 
-def test_a_model_too_large_for_the_dense_path_is_refused_up_front_when_dense_is_forced(tmp_path):
-    n = 3000  # a legal 9,000-DOF beam: about 5 GiB as dense matrices (auto takes the sparse path)
-    d = {"format": "femu.model/1", "name": "long",
-         "nodes": [{"id": i + 1, "x": 0.01 * i, "y": 0.0} for i in range(n)],
-         "elements": [{"id": i + 1, "nodes": [i + 1, i + 2], "section": "s", "material": "m"} for i in range(n - 1)],
-         "sections": {"s": {"area_m2": 1e-4, "inertia_m4": 1e-9}},
-         "materials": {"m": {"youngs_modulus_pa": 7e10, "density_kg_m3": 2700, "poisson_ratio": 0.33}}}
-    f = tmp_path / "long.model.json"
-    f.write_text(json.dumps(d))
-    model = fp.load_model(str(f))
-    with pytest.raises(ValueError) as exc:
-        fp.AffineModel(model, solver="dense")
-    err = str(exc.value)
-    assert f"{f}: 3000 nodes, 9000 DOFs and 0 parameters need about" in err and "GiB limit" in err
-    assert fp.AffineModel(model).path == "sparse"
-
-
 MODEL_EDITS = [
     (lambda d: d["elements"][0].__setitem__("section", ["a"]), "elements[0] field 'section': must be the name"),
     (lambda d: d["elements"][0].__setitem__("material", {"a": 1}), "elements[0] field 'material': must be the name"),
