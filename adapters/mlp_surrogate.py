@@ -148,9 +148,10 @@ class MLPSurrogate:
 
     name = "mlp-surrogate"
 
-    def min_budget(self, n_var: int, **options) -> int:
-        """16 evaluations: 15 design points to train on (budget * 15 // 16) and one refit."""
-        return 16
+    def min_budget(self, n_var: int, n_initial: int | None = None, **options) -> int:
+        """The design and one refit: 16 evaluations by default (15 design points, budget * 15 // 16,
+        and one refit), `n_initial` + 1 when the design's size is given."""
+        return 16 if n_initial is None else int(n_initial) + 1
 
     def minimize(self, objective, bounds, budget, rng: np.random.Generator, x0=None, n_initial: int | None = None,
                  n_hidden: int = 8, initial_cycles: int = 200, refit_cycles: int = 5,

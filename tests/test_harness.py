@@ -217,6 +217,10 @@ def test_budget_below_the_methods_minimum_is_refused():
             adapters.run(name, big, 47, seed=0)
     assert big.n_evals == 0
     assert adapters.run("pymoo-ga", big, 48, seed=0).n_evals == 48
+    # the surrogate's minimum follows the design size it is given: the design and one refit
+    with pytest.raises(ValueError, match="'mlp-surrogate' needs a budget of at least 31 evaluations, got 30"):
+        adapters.run("mlp-surrogate", p, 30, seed=0, n_initial=30)
+    assert p.n_evals == 0
 
 
 def test_least_squares_is_charged_a_finite_difference_jacobian_and_dated_after_it():
