@@ -1,5 +1,5 @@
-"""Regular planar frames for the scale benchmarks, built directly (no model edits), and the
-same frame in OpenSeesPy.
+"""Regular planar frames for the scale benchmarks (`fe_problem.regular_frame`), and the same
+frame in OpenSeesPy.
 
 `regular_frame(bays, storeys)`: bays of 6 m, storeys of 3.5 m, fixed at every base node;
 steel columns (A 1.2e-2 m^2, I 2.5e-4 m^4) and beams (A 8e-3 m^2, I 3e-4 m^4), E 210 GPa,
@@ -12,7 +12,8 @@ from __future__ import annotations
 import numpy as np
 import openseespy.opensees as ops
 
-from fe_problem.model import Element, FrameModel, Material, Node, Section, Support
+import fe_problem as fp
+from fe_problem.model import FrameModel, Material, Section
 
 #: DOF target -> (bays, storeys): 300, 3,000 and 9,000 free DOFs (3 per free node).
 SIZES = {300: (9, 10), 3000: (24, 40), 9000: (49, 60)}
@@ -22,17 +23,10 @@ COLUMN, BEAM = Section(1.2e-2, 2.5e-4), Section(8.0e-3, 3.0e-4)
 
 
 def regular_frame(bays: int, storeys: int) -> FrameModel:
-    """The `bays` x `storeys` frame (node id = storey * (bays + 1) + column + 1)."""
-    cols = bays + 1
-    nid = lambda s, c: s * cols + c + 1  # noqa: E731
-    nodes = tuple(Node(nid(s, c), c * BAY_M, s * STOREY_M) for s in range(storeys + 1) for c in range(cols))
-    els = [(nid(s, c), nid(s + 1, c), "column") for s in range(storeys) for c in range(cols)]
-    els += [(nid(s, c), nid(s, c + 1), "beam") for s in range(1, storeys + 1) for c in range(bays)]
-    elements = tuple(Element(k + 1, i, j, sec, "steel") for k, (i, j, sec) in enumerate(els))
-    return FrameModel(name=f"frame-{bays}x{storeys}", nodes=nodes, materials={"steel": STEEL},
-                      sections={"column": COLUMN, "beam": BEAM}, elements=elements,
-                      supports=tuple(Support(nid(0, c), ("x", "y", "rz")) for c in range(cols)),
-                      description=f"regular {bays}-bay {storeys}-storey steel frame (scale benchmark)")
+    """The `bays` x `storeys` benchmark frame: `fe_problem.regular_frame` with these sections."""
+    return fp.regular_frame(bays, storeys, BAY_M, STOREY_M, column=COLUMN, beam=BEAM, material=STEEL,
+                            name=f"frame-{bays}x{storeys}",
+                            description=f"regular {bays}-bay {storeys}-storey steel frame (scale benchmark)")
 
 
 def opensees_frequencies(model: FrameModel, n_modes: int, solver: str | None = None) -> np.ndarray:

@@ -34,7 +34,7 @@ from scipy.sparse.linalg import eigsh
 import fe_problem as fp
 import fe_problem.sparse
 from fe_problem.modal import frequencies_hz
-from scale_frames import SIZES, opensees_frequencies, regular_frame
+from scale_frames import SIZES, STOREY_M, opensees_frequencies, regular_frame
 
 N_MODES = 10
 ROUNDS = {300: 10, 3000: 5, 9000: 3}
@@ -43,15 +43,12 @@ _CACHE: dict[int, tuple] = {}
 
 def storey_moduli(model: fp.FrameModel, storeys: int, bays: int) -> tuple[fp.Parameter, ...]:
     """One modulus per storey for its columns and one for the beams of its floor (+-15 %)."""
-    cols, e0 = bays + 1, 2.1e11
-    n_col = cols * storeys
-    out = []
-    for s in range(storeys):
-        out.append(fp.Parameter("modulus", tuple(range(s * cols + 1, (s + 1) * cols + 1)), 0.85 * e0, 1.15 * e0, e0,
-                                name=f"E_col{s + 1}"))
-        out.append(fp.Parameter("modulus", tuple(range(n_col + s * bays + 1, n_col + (s + 1) * bays + 1)),
-                                0.85 * e0, 1.15 * e0, e0, name=f"E_beam{s + 1}"))
-    return tuple(out)
+    e0, top = 2.1e11, {}
+    for e in model.elements:  # the storey of a member: the floor at its upper end
+        y = max(model.node(e.node_i).y, model.node(e.node_j).y)
+        top.setdefault((e.section, int(round(y / STOREY_M))), []).append(e.id)
+    return tuple(fp.Parameter("modulus", tuple(top[(sec, s)]), 0.85 * e0, 1.15 * e0, e0, name=f"E_{sec[:3]}{s}")
+                 for s in range(1, storeys + 1) for sec in ("column", "beam"))
 
 
 def scale_problem(n: int):
