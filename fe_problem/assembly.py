@@ -130,7 +130,7 @@ class AffineModel:
         else:
             self._solver = SparseModalSolver(k_trip, m_trip, n, self.x0, model.name, workers, min_zero=n_body)
         #: None, or what moves in the zero-energy motions that are not rigid-body motions
-        self.mechanism: str | None = self._find_mechanism() if self.n_rigid else None
+        self.mechanism: str | None = self._find_mechanism() if self.n_rigid > n_body else None
 
     # -- the solver's interface (either path) ---------------------------------------------
     @property
@@ -203,10 +203,11 @@ class AffineModel:
                              f"({shown}): connect the node to an element with density, give it a lumped mass "
                              "with rotary inertia, or support that DOF")
 
-    def _find_mechanism(self) -> str | None:
-        """What moves, if the structure has zero-energy motions that are not rigid-body motions
-        (a mechanism: a pin joint, a chain of hinges): their number and the DOFs that move most.
-        Such modes are dropped with the rigid-body modes; `femu model` shows this line."""
+    def _find_mechanism(self) -> str:
+        """What moves, when the structure has more zero-energy motions than the rigid-body
+        motions its supports allow (a mechanism: a pin joint, a chain of hinges): their number
+        and the DOFs that move most. Such modes are dropped with the rigid-body modes; `femu
+        model` shows this line."""
         k = self.stiffness(self.x0[None, :])[0]
         if self.path == "dense":
             # the modes the solver counted as zero-energy (the same rule, not a second one)
@@ -214,8 +215,6 @@ class AffineModel:
         else:
             null = self._solver.zero_modes(self.x0)
         allowed = self._rigid_allowed(k)
-        if null.shape[1] <= (np.linalg.matrix_rank(allowed, tol=1e-9) if allowed.size else 0):
-            return None
         q, _ = np.linalg.qr(allowed) if allowed.size else (np.zeros((len(allowed), 0)), None)
         extra = null - q @ (q.T @ null)
         u = extra[:, np.argmax(np.linalg.norm(extra, axis=0))]
