@@ -42,6 +42,11 @@ The further classes (`MORE`, built the same way, each truth unlike its candidate
 - portal: a user-written portal frame (two fixed columns, a beam, 4 elements per member)
   saved as a model file, data naming that file, a crack, mass or stiffer member in it;
   portal_none: no effect.
+- cantilever: a clamped bar in 8 elements (no joint), a crack, mass or stiffer member;
+  building: a three-storey one-bay laboratory shear building (`regular_frame`, members in two
+  elements, floor masses, sensors at the floors), a crack, mass or flexible joint (a
+  semi-rigid beam-column connection, built as above); `_none`: no effect. Each is saved as a
+  model file that the data name, as the portal is.
 """
 
 from __future__ import annotations
@@ -92,11 +97,9 @@ class Case:
 
     def data(self, model_name: str = "hframe") -> fp.ModalData:
         """8 modes with 0.2 % frequency noise and shape noise of 2 % of each mode's largest entry."""
-        d = fp.synthetic_measurement(self.truth, N_MODES, dofs=self.dofs or (self.nominal or HFRAME).measured_dofs,
-                                     freq_noise=FREQ_NOISE, seed=self.seed, model_name=model_name)
-        rng = np.random.default_rng(self.seed + 1)
-        shapes = d.shapes + SHAPE_NOISE * np.abs(d.shapes).max(axis=0) * rng.standard_normal(d.shapes.shape)
-        return fp.ModalData(d.model, d.dofs, d.frequencies_hz, shapes, d.meta)
+        return fp.synthetic_measurement(self.truth, N_MODES, dofs=self.dofs or (self.nominal or HFRAME).measured_dofs,
+                                        freq_noise=FREQ_NOISE, shape_noise=SHAPE_NOISE, seed=self.seed,
+                                        model_name=model_name)
 
 
 def max_shift_pct(model: fp.FrameModel, nominal: FrameModel | None = None) -> float:
@@ -113,16 +116,17 @@ def crack_truth(element: int, position: float, stiffness: float) -> fp.FrameMode
     return fp.crack_element(HFRAME, element, position, stiffness)
 
 
-def joint_truth(node: int, element: int, stiffness: float) -> fp.FrameModel:
+def joint_truth(node: int, element: int, stiffness: float, model: FrameModel = HFRAME) -> fp.FrameModel:
     """The end of `element` at `node` re-attached to a twin node tied by springs."""
-    twin = Node(max(HFRAME.node_ids) + 1, HFRAME.node(node).x, HFRAME.node(node).y)
-    e = HFRAME.element(element)
+    twin = Node(max(model.node_ids) + 1, model.node(node).x, model.node(node).y)
+    e = model.element(element)
     moved = dataclasses.replace(e, node_i=twin.id) if e.node_i == node else dataclasses.replace(e, node_j=twin.id)
-    springs = (Spring(1, (node, "x"), (twin.id, "x"), TRANSLATION_TIE),
-               Spring(2, (node, "y"), (twin.id, "y"), TRANSLATION_TIE),
-               Spring(3, (node, "rz"), (twin.id, "rz"), stiffness))
-    return HFRAME.replace(nodes=HFRAME.nodes + (twin,), springs=springs,
-                          elements=tuple(moved if x.id == element else x for x in HFRAME.elements))
+    first = max((sp.id for sp in model.springs), default=0) + 1
+    springs = (Spring(first, (node, "x"), (twin.id, "x"), TRANSLATION_TIE),
+               Spring(first + 1, (node, "y"), (twin.id, "y"), TRANSLATION_TIE),
+               Spring(first + 2, (node, "rz"), (twin.id, "rz"), stiffness))
+    return model.replace(nodes=model.nodes + (twin,), springs=model.springs + springs,
+                         elements=tuple(moved if x.id == element else x for x in model.elements))
 
 
 def mass_truth(node: int, mass_kg: float) -> fp.FrameModel:
@@ -234,6 +238,37 @@ def portal_frame() -> FrameModel:
 PORTAL = portal_frame()
 
 
+def cantilever() -> FrameModel:
+    """A cantilever a user might write: a 0.8 m aluminium bar of the H-frame's section clamped
+    at one end, 8 elements, x and y measured at every free node (no joint anywhere)."""
+    nodes = tuple(Node(i + 1, 0.1 * i, 0.0) for i in range(9))
+    elements = tuple(Element(i + 1, i + 1, i + 2, "bar", "aluminium") for i in range(8))
+    return FrameModel("cantilever", nodes, dict(HFRAME.materials), dict(HFRAME.sections), elements,
+                      supports=(Support(1, ("x", "y", "rz")),),
+                      measured_dofs=tuple((n.id, d) for n in nodes[1:] for d in ("x", "y")),
+                      description="a clamped bar written for the diagnosis tests")
+
+
+def shear_building() -> FrameModel:
+    """A laboratory shear building: three 0.25 m storeys, one 0.3 m bay, the H-frame's bar as
+    columns, floors 3 times as deep (stiff beams), a 0.2 kg floor mass at each floor node,
+    fixed base, every member in two elements (`regular_frame`, `split_elements`), x and y
+    measured at the floor nodes."""
+    bar = HFRAME.sections["bar"]
+    model = fp.regular_frame(1, 3, 0.3, 0.25, column=bar, beam=Section(3 * bar.area_m2, 27 * bar.inertia_m4),
+                             material=HFRAME.materials["aluminium"], floor_mass_kg=0.2, name="building",
+                             description="a shear building written for the diagnosis tests")
+    return fp.split_elements(model, 2)
+
+
+CANTILEVER, BUILDING = cantilever(), shear_building()
+#: A user's model files (not the H-frame), each a class of cases with its null class `NAME_none`,
+#: and the effects hidden in them.
+USER_MODELS = {"portal": (PORTAL, ("stiffness_loss", "added_mass", "stiffness_gain")),
+               "cantilever": (CANTILEVER, ("stiffness_loss", "added_mass", "stiffness_gain")),
+               "building": (BUILDING, ("stiffness_loss", "added_mass", "joint_flexibility"))}
+
+
 def _crack(rng, model: FrameModel, target: float) -> tuple[FrameModel, dict]:
     while True:
         element = int(rng.choice(model.element_ids))
@@ -262,6 +297,17 @@ def _stiffer(rng, model: FrameModel, target: float):
         if max_shift_pct(stiffer_truth(model, element, 4.0), model) >= target:
             break
     return _sized(lambda f: stiffer_truth(model, element, f), target, 1.0001, 4.0, model), {"element": element}
+
+
+def _joint(rng, model: FrameModel, target: float):
+    from fe_problem.diagnosis.candidates import joint_nodes  # where members meet: only the places
+
+    while True:
+        node = int(rng.choice(joint_nodes(model)))
+        element = int(rng.choice([e.id for e in model.elements if node in (e.node_i, e.node_j)]))
+        if max_shift_pct(joint_truth(node, element, 1e1, model), model) >= target:
+            break
+    return _sized(lambda k: joint_truth(node, element, k, model), target, 1e1, 1e9, model), {"node": node}
 
 
 def make_more(cls: str, rng: np.random.Generator, seed: int) -> Case:
@@ -295,13 +341,15 @@ def make_more(cls: str, rng: np.random.Generator, seed: int) -> Case:
                          else "none", rng, seed)
         dofs = tuple(HFRAME.measured_dofs[i] for i in sorted(rng.choice(len(HFRAME.measured_dofs), 8, replace=False)))
         return dataclasses.replace(base, cls=cls, dofs=dofs)
-    if cls == "portal":
-        pick = str(rng.choice(["stiffness_loss", "added_mass", "stiffness_gain"]))
-        build = {"stiffness_loss": _crack, "added_mass": _mass, "stiffness_gain": _stiffer}[pick]
-        truth, place = build(rng, PORTAL, target)
-        return Case(pick, place, target, truth, seed, cls=cls, nominal=PORTAL)
-    if cls == "portal_none":
-        return Case("none", None, 0.0, PORTAL, seed, cls=cls, nominal=PORTAL)
+    if cls in USER_MODELS:
+        model, kinds = USER_MODELS[cls]
+        pick = str(rng.choice(list(kinds)))
+        build = {"stiffness_loss": _crack, "added_mass": _mass, "stiffness_gain": _stiffer, "joint_flexibility": _joint}
+        truth, place = build[pick](rng, model, target)
+        return Case(pick, place, target, truth, seed, cls=cls, nominal=model)
+    if cls.endswith("_none") and cls[:-5] in USER_MODELS:
+        model = USER_MODELS[cls[:-5]][0]
+        return Case("none", None, 0.0, model, seed, cls=cls, nominal=model)
     raise ValueError(cls)
 
 
@@ -310,7 +358,8 @@ PLAN = {"stiffness_loss": 12, "added_mass": 10, "joint_flexibility": 10, "shear_
         "none": 10, "global": 10}
 #: The further classes and how many cases of each the README's tables use.
 MORE = {"two_effects": 10, "soft_support": 8, "spread_mass": 8, "stiffer_member": 8, "sparse": 10,
-        "sparse_none": 20, "portal": 8, "portal_none": 4}
+        "sparse_none": 20, "portal": 8, "portal_none": 4, "cantilever": 6, "cantilever_none": 4, "building": 6,
+        "building_none": 4}
 
 
 def cases(seed: int = 2026, plan: dict | None = None) -> list[Case]:

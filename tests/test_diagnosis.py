@@ -82,3 +82,21 @@ def test_every_hidden_effect_is_named_alone(answers):
                 for c, a in answers]
     assert not [o for o in outcomes if o[0] != "none" and o[2] != "right"], outcomes
     assert not [o for (c, a), o in zip(answers, outcomes) if o[0] == "none" and o[2] == "wrong" and a["adequate"]]
+
+
+def test_a_crack_is_placed_along_its_element(answers):
+    """A crack's weak zone is refined along its element: the reported centre lies near the
+    truth's spring (which sits anywhere in [0.15, 0.85], never on the seven grid positions the
+    search starts from), and the equivalent spring is of the truth's order."""
+    errors, ratios = [], []
+    for case, a in answers:
+        if case.kind != "stiffness_loss":
+            continue
+        est = a["cause"]["estimate"]
+        assert est["profile"] == "zone", (case.location, est)
+        truth = case.truth.element(case.location["element"])
+        errors.append(abs(est["zone_position"] - truth.crack_position))
+        ratios.append(est["equivalent_crack_stiffness_nm_per_rad"] / truth.crack_stiffness)
+    assert len(errors) == 12
+    assert np.median(errors) < 0.03 and max(errors) < 0.1, np.round(errors, 3)
+    assert 0.7 < np.median(ratios) < 1.4 and min(ratios) > 0.4 and max(ratios) < 2.5, np.round(ratios, 2)

@@ -1,7 +1,7 @@
 """The diagnosis beyond one effect of a known kind on the H-frame, through the CLI, with truths
 built unlike the candidates (see diagnosis_cases.py): two effects at once, a soft support, mass
-spread along an element, a member stiffer than its model, 8 of 15 sensors, a user's portal
-frame model file; the goodness-of-fit verdict and what a misstated noise does to the answer.
+spread along an element, a member stiffer than its model, 8 of 15 sensors, a user's model files
+(a portal frame, a cantilever, a shear building); the goodness-of-fit verdict and what a misstated noise does to the answer.
 
 A few cases per class here (about a minute); `python tests/diagnosis_cases.py` runs the full
 count for the README's tables.
@@ -11,11 +11,13 @@ import numpy as np
 import pytest
 
 import fe_problem as fp
-from diagnosis_cases import HFRAME, MORE, PORTAL, Case, cases, classify, crack_truth, diagnose_through_cli
+from diagnosis_cases import (BUILDING, CANTILEVER, HFRAME, MORE, PORTAL, USER_MODELS, Case, cases, classify, crack_truth,
+                             diagnose_through_cli)
 from fe_problem.diagnosis.candidates import joint_nodes as joint_nodes_of
 
 SMALL = {"two_effects": 3, "soft_support": 2, "spread_mass": 2, "stiffer_member": 2, "sparse": 3,
-         "sparse_none": 4, "portal": 3, "portal_none": 1}
+         "sparse_none": 4, "portal": 3, "portal_none": 1, "cantilever": 2, "cantilever_none": 1, "building": 3,
+         "building_none": 1}
 
 
 @pytest.fixture(scope="module")
@@ -51,7 +53,7 @@ def test_the_truth_is_never_lost_by_screening(answers):
 
 def test_null_cases_raise_no_alarm(answers):
     null = [a for c, a in answers if not c.truths]
-    assert len(null) == SMALL["sparse_none"] + SMALL["portal_none"]
+    assert len(null) == SMALL["sparse_none"] + sum(SMALL[f"{name}_none"] for name in USER_MODELS)
     assert all(a["cause"]["kind"] == "none" and a["causes"] == [] for a in null)
 
 
@@ -59,7 +61,7 @@ def test_every_single_effect_is_named_or_honestly_unsure(answers):
     """A stiffer member, a spread mass, a soft support: right, or unsure with the truth listed;
     the stiffer member and the spread mass named with their element."""
     for c, a in answers:
-        if c.cls in ("stiffer_member", "spread_mass", "soft_support", "sparse", "portal"):
+        if c.cls in ("stiffer_member", "spread_mass", "soft_support", "sparse", *USER_MODELS):
             assert classify(c, a) in ("right", "honest"), (c.cls, c.truths, a["causes"])
         if c.cls == "stiffer_member":
             assert classify(c, a) == "right" and a["causes"][0]["estimate"]["modulus_ratio"] > 1.0
@@ -103,8 +105,11 @@ def test_causes_carry_intervals_that_hold_the_estimate(answers):
     assert seen > 10
 
 
-def test_portal_frame_joints_come_from_its_topology():
+def test_joints_come_from_each_models_topology():
     assert joint_nodes_of(PORTAL) == (5, 9)  # the two corners; no H-frame junction in sight
+    assert joint_nodes_of(CANTILEVER) == ()  # a bar in line: no joint
+    # the building's floor nodes (two corners at the roof, T-junctions below); no mid-member node
+    assert joint_nodes_of(BUILDING) == (3, 4, 5, 6, 7, 8)
     assert set(joint_nodes_of(HFRAME)) == set(HFRAME.joints())
 
 

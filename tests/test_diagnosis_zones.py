@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import fe_problem as fp
-from diagnosis_cases import HFRAME, Case, crack_truth, diagnose_through_cli, soft_support_truth
+from diagnosis_cases import BUILDING, HFRAME, Case, crack_truth, diagnose_through_cli, soft_support_truth
 from fe_problem.assembly import AffineModel
 from fe_problem.diagnosis.candidates import Setting, all_candidates, solve
 from fe_problem.diagnosis.fit import profiled
@@ -40,6 +40,26 @@ def test_a_candidate_is_exactly_its_extension(setting, kind, tmp_path):
             order = np.argsort(hz[k])  # a spring's suspension mode is listed last (see boundary_stiffness)
             assert np.allclose(hz[k][order], ref_hz, rtol=1e-9), (c.label, a)
             assert np.allclose(np.abs(shapes[k][:, order]), np.abs(ref_shapes), atol=1e-8 * np.abs(ref_shapes).max())
+
+
+@pytest.mark.parametrize("kind", ["added_mass", "distributed_mass", "joint_flexibility", "stiffness_loss",
+                                  "stiffness_gain", "boundary_stiffness", "shear_deformation"])
+def test_every_candidate_is_its_extension_on_a_model_with_floor_masses(kind):
+    """On a user's building whose floor nodes carry lumped masses (a mass parameter is the node's
+    whole lumped mass: the candidate must add to it), every kind's forward(a) is the modes of
+    extend(a). The added mass at a floor node once replaced the floor's mass in the fit and
+    added to it in the extension."""
+    st = Setting(BUILDING, BUILDING.measured_dofs, 10)
+    cands = all_candidates(st, [kind])
+    assert cands
+    for c in cands[:: max(len(cands) // 4, 1)]:
+        sizes = np.array([0.05, 0.5]) * c.upper
+        hz, shapes = c.forward(sizes)
+        for k, a in enumerate(sizes):
+            ref_hz, ref_shapes = _modes(c.extend(a), st)
+            order = np.argsort(hz[k])
+            assert np.allclose(hz[k][order], ref_hz, rtol=1e-9), (c.label, a, hz[k][order], ref_hz)
+            assert np.allclose(np.abs(shapes[k][:, order]), np.abs(ref_shapes), atol=1e-7 * np.abs(ref_shapes).max())
 
 
 def test_zones_stay_inside_the_element_and_away_from_its_ends():

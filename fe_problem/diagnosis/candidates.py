@@ -149,10 +149,26 @@ def stiffness_loss(st: Setting) -> Iterator[Candidate]:
         yield from _zone_candidates(st, e, e0, shared)
 
 
-def _zone_candidates(st: Setting, e, e0: float, shared: dict) -> Iterator[Candidate]:
-    """The weak-zone losses of element e (see zones.py); a: the zone's loss of bending stiffness."""
-    for start, end, forward in zones.zone_forwards(st.model, e.id, st.coords, st.n_modes, shared):
-        centre = 0.5 * (start + end)
+def zone_candidate(st: Setting, element_id: int, centre: float, shared: dict | None = None) -> Candidate:
+    """The weak-zone loss of one element centred at `centre` (a fraction of its length), at any
+    position, not only the grid's: the crack's position is refined once the element is chosen.
+    `shared`: the solver cache of zones.zone_forwards, to share among positions."""
+    e = st.model.element(element_id)
+    place = zones.zone_place(st.model, element_id, centre)
+    return next(_zone_candidates(st, e, st.model.element_modulus_pa(element_id), {} if shared is None else shared,
+                                 [place]))
+
+
+def zone_profile(centre: float) -> str:
+    """The profile of a zone candidate's label: 'zone 0.30' on the grid, 'zone 0.353' refined."""
+    return f"zone {centre:.2f}" if abs(centre - round(centre, 2)) < 1e-9 else f"zone {centre:.3f}"
+
+
+def _zone_candidates(st: Setting, e, e0: float, shared: dict, places=None) -> Iterator[Candidate]:
+    """The weak-zone losses of element e (see zones.py) at the grid's places or at `places`;
+    a: the zone's loss of bending stiffness."""
+    for start, end, forward in zones.zone_forwards(st.model, e.id, st.coords, st.n_modes, shared, places):
+        centre = round(0.5 * (start + end), 6)
 
         def estimate(a, s, start=start, end=end, centre=centre):
             ei = s * e0 * st.model.sections[e.section].inertia_m4
@@ -166,17 +182,22 @@ def _zone_candidates(st: Setting, e, e0: float, shared: dict) -> Iterator[Candid
             return zones.with_zone(st.model, e.id, start, end, 1.0 - a)
 
         yield Candidate("stiffness_loss", {"element": e.id}, zones.UPPER, zones.GRID, forward, estimate, extend,
-                        step=0.01, meta={"profile": f"zone {centre:.2f}"},
+                        step=0.01, meta={"profile": zone_profile(centre), "zone_centre": centre},
                         term=lambda start=start, end=end: st.local.zone(e.id, start, end))
 
 
 def added_mass(st: Setting) -> Iterator[Candidate]:
+    """A lumped mass of a kg added at a node, to what the node already carries (a floor's mass,
+    a mass found before): a `mass` parameter is the node's whole lumped mass, so it is set to
+    m0 + a."""
     total = st.model.total_mass_kg()
     for node in st.model.node_ids:
-        system = lazy_system(lambda node=node: AffineModel(st.model, (Parameter("mass", (node,), 0.0, total, 0.0),)))
+        m0 = sum(lm.mass_kg for lm in st.model.masses if lm.node == node)
+        system = lazy_system(lambda node=node, m0=m0: AffineModel(
+            st.model, (Parameter("mass", (node,), 0.0, m0 + total, m0),)))
 
-        def forward(a, system=system):
-            return solve(system(), np.asarray(a, dtype=float)[:, None], st.coords, st.n_modes)
+        def forward(a, system=system, m0=m0):
+            return solve(system(), m0 + np.asarray(a, dtype=float)[:, None], st.coords, st.n_modes)
 
         def estimate(a, s, node=node):
             return {"mass_kg": a, "mass_ratio": a / total}
@@ -202,13 +223,27 @@ def joint_nodes(model: FrameModel) -> tuple[int, ...]:
                  if len(ds) > 2 or (len(ds) == 2 and float(ds[0] @ ds[1]) > -0.999))
 
 
+def _last_rigid_end(model: FrameModel, node: int) -> bool:
+    """Whether one element end at most is still rigidly tied to the node's rotation (the others
+    released by a joint already found): releasing it would leave the rotation with no mass (an
+    invalid model; at a corner, releasing either end is one and the same joint)."""
+    rigid = sum(1 for e in model.elements
+                if (e.node_i == node and e.release_i is None) or (e.node_j == node and e.release_j is None))
+    held = any(m.node == node and m.inertia_kg_m2 > 0 for m in model.masses) or \
+        any(s.node == node and "rz" in s.directions for s in model.supports)
+    return rigid <= 1 and not held
+
+
 def joint_flexibility(st: Setting) -> Iterator[Candidate]:
+    """A rotational spring between an element end and its joint node, at every element end of
+    every joint; at a corner (two ends) one candidate: releasing either end is the same model."""
     baseline = lazy_system(lambda: AffineModel(st.model))
     for node in joint_nodes(st.model):
-        for e in st.model.elements:
-            if node not in (e.node_i, e.node_j):
-                continue
+        ends = [e for e in st.model.elements if node in (e.node_i, e.node_j)]
+        for e in ends[:1] if len(ends) == 2 else ends:
             if (node == e.node_i and e.release_i is not None) or (node == e.node_j and e.release_j is not None):
+                continue
+            if _last_rigid_end(st.model, node):
                 continue
             ref = _bending_compliance_ref(st.model, e.id)
             system = lazy_system(lambda e=e, node=node, ref=ref: AffineModel(

@@ -192,7 +192,7 @@ def residuals_of(cal: Calibration) -> Residuals:
     the moduli a bounded update pins at a bound."""
     base = cal.base
     return Residuals(correlate(cal.hz0 * np.sqrt(base.s), cal.sh0, cal.obs_all, cal.base_all.pairing),
-                     base.s, base.chi2, cal.obs.n_residuals, base.chi2 / max(cal.obs.n_residuals - 1, 1),
+                     base.s, base.chi2, cal.obs.n_residuals, base.chi2 / cal.obs.dof(1),
                      tuple(int(i) + 1 for i in cal.unpaired), _pinned_moduli(cal),
                      tuple((int(n), str(d)) for n, d in cal.data.dofs))
 
@@ -292,7 +292,7 @@ def select(cal: Calibration, found: Screening, alpha: float) -> Selected:
     base, fitted, n = cal.base, found.fitted, len(found.candidates)
     best_i = min(fitted, key=lambda i: fitted[i].chi2)
     best = fitted[best_i]
-    dispersion = max(1.0, best.chi2 / max(cal.obs.n_residuals - n_params_best, 1))
+    dispersion = max(1.0, best.chi2 / cal.obs.dof(n_params_best))  # the verdict's dof
     lr = max(base.chi2 - best.chi2, 0.0) / dispersion
     p_single = 0.5 * chi2_dist.sf(lr, 1) if lr > 0 else 1.0
     p_adj = min(1.0, p_single * n)

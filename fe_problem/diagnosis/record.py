@@ -140,8 +140,9 @@ class Residuals:
 
     correlation: per-mode frequencies, errors, MAC, COMAC and the MAC matrix (every measured
     mode); global_scale: the stiffness-to-mass scale; chi2 over n_residuals residuals of the
-    paired modes (reduced_chi2 = chi2 / (n_residuals - 1)); unpaired_modes: 1-based measured
-    modes that pair with no model mode; measured_dofs: the measured coordinates (node, "x"/"y").
+    paired modes (reduced_chi2 = chi2 / dof, dof = n_residuals - one per measured shape - 1,
+    as in the verdict); unpaired_modes: 1-based measured modes that pair with no model mode;
+    measured_dofs: the measured coordinates (node, "x"/"y").
     """
 
     correlation: Correlation

@@ -18,8 +18,13 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
+from scipy.optimize import minimize_scalar
+from scipy.stats import chi2 as chi2_dist
+
+from ..assembly import AffineModel
 from ..model import FrameModel
-from .candidates import Candidate, Setting, all_candidates, scale_stiffness
+from . import zones
+from .candidates import Candidate, Setting, all_candidates, scale_stiffness, zone_candidate, zone_profile
 from .fit import Fit, fit
 from .record import Cause, Found, Gain
 from .verdict import interval_of, profile_interval
@@ -49,9 +54,19 @@ class Step:
 
 
 def _candidate_on(model: FrameModel, st: Setting, kind: str, label: str) -> Candidate:
-    """The candidate `label` of `kind`, rebuilt on `model` (the others' effects included)."""
-    return next(c for c in all_candidates(Setting(model, st.coords, st.n_modes, st.nominal), [kind])
-                if c.label == label)
+    """The candidate `label` of `kind`, rebuilt on `model` (the others' effects included); a
+    weak zone at any position (a refined one too) from the centre its label gives."""
+    setting = Setting(model, st.coords, st.n_modes, st.nominal)
+    centre = _zone_centre(label)
+    if centre is not None:
+        return zone_candidate(setting, _location(label)["element"], centre)
+    return next(c for c in all_candidates(setting, [kind]) if c.label == label)
+
+
+def _zone_centre(label: str) -> float | None:
+    """The centre of a weak-zone label ('stiffness_loss@element=7(zone 0.353)'), else None."""
+    profile = label.partition("(")[2].rstrip(")")
+    return float(profile.split()[1]) if profile.startswith("zone ") else None
 
 
 def _with(base: FrameModel, st: Setting, picks: list[tuple[str, str]], sizes: list[float], skip: int = -1):
@@ -75,16 +90,47 @@ def further_causes(cal, found, sel, cause: Cause, kinds, n_fit, alpha: float, ma
     ties: list[tuple[str, ...]] = [() if cause.identifiable else cause.indistinguishable]
     # its size refitted on the modes that pair with the model it extends (a spring to ground
     # brings a suspension mode the first round could not fit)
-    sizes, _ = _joint_refit(cal, st, picks, sizes)
+    picks, sizes, _ = _joint_refit(cal, st, picks, sizes)
     state = _search(cal, st, (picks, sizes, ps, ties), kinds, n_fit, alpha, max_causes)
     if len(cal.unpaired):
-        # a measured mode the model has no partner for (a suspension mode): every cause chosen
-        # again on every measured mode, so that a cause that brings its partner is preferred (a
-        # first-order screen cannot see a mode come to pair: every candidate is fitted)
-        again = _revisit(cal, st, state, len(state[0]), kinds, None, alpha, cal.obs_all)
+        # a measured mode the model has no partner for (a suspension mode; a mode a deep crack
+        # moved past pairing): every cause chosen again on every measured mode, so that a cause
+        # that brings its partner is preferred. While the causes found do not bring it, every
+        # candidate is fitted (a first-order screen cannot see a mode come to pair); once they
+        # do, the usual screen chooses among candidates judged on every mode
+        brings = _final_obs(cal, st, state[0], state[1]).n_modes == cal.obs_all.n_modes
+        again = _revisit(cal, st, state, len(state[0]), kinds, n_fit if brings else None, alpha, cal.obs_all)
         changed = again[0] != state[0]
         state = _search(cal, st, again, kinds, n_fit, alpha, max_causes) if changed else again
+    state = _prune(cal, st, state, alpha, len(found.candidates))
     return _finish(cal, st, *state, gain)
+
+
+def _prune(cal, st: Setting, state, alpha: float, n_candidates: int):
+    """The last word on every cause, the latest first: the model without it, each other cause
+    refitted (sizes and a crack's position, two sweeps), judged on the same modes, must fit
+    significantly worse (the selection's test: likelihood ratio, Bonferroni over the first
+    round's candidates, quasi-likelihood dispersion). The revisit judges a cause with the
+    others at their joint sizes, where a further cause can look significant only because it
+    mends an earlier one's size or place (a spring beside a crack in a building column, with
+    the crack alone fitting better); such a cause goes."""
+    picks, sizes, ps, ties = (list(x) for x in state)
+    if len(picks) < 2:
+        return picks, sizes, ps, ties
+    obs = _final_obs(cal, st, picks, sizes)
+    picks, sizes, chi2 = _joint_refit(cal, st, picks, sizes, obs)
+    for j in reversed(range(len(picks))):
+        if len(picks) < 2:
+            break
+        rest = [k for k in range(len(picks)) if k != j]
+        r_picks, r_sizes = [picks[k] for k in rest], [sizes[k] for k in rest]
+        for _ in range(2):
+            r_picks, r_sizes, r_chi2 = _joint_refit(cal, st, r_picks, r_sizes, obs)
+        dispersion = max(1.0, chi2 / obs.dof(1 + len(picks)))
+        if r_chi2 - chi2 < dispersion * chi2_dist.isf(min(1.0, 2.0 * alpha / n_candidates), 1):
+            picks, sizes, chi2 = r_picks, r_sizes, min(chi2, r_chi2)
+            ps, ties = [ps[k] for k in rest], [ties[k] for k in rest]
+    return picks, sizes, ps, ties
 
 
 def _search(cal, st: Setting, state, kinds, n_fit, alpha: float, max_causes: int):
@@ -98,7 +144,7 @@ def _search(cal, st: Setting, state, kinds, n_fit, alpha: float, max_causes: int
         # a significant cause whose candidates tie enters the model with its best (the verdict
         # judges the model with it) and ends the search; it is reported as not identifiable
         picks, sizes, ps, ties = picks + [step.pick], sizes + [step.a], ps + [step.p], ties + [step.ties]
-        sizes, _ = _joint_refit(cal, st, picks, sizes)
+        picks, sizes, _ = _joint_refit(cal, st, picks, sizes)
         picks, sizes, ps, ties = _revisit(cal, st, (picks, sizes, ps, ties), len(picks) - 1, kinds, n_fit, alpha)
         if step.ties:
             break
@@ -147,36 +193,43 @@ def _undetermined(step: Step, location=None) -> Found:
                  {}, {}, None, step.p, False, step.ties)
 
 
+#: Sweeps of `_revisit` at most, and the least drop of the joint chi^2 that counts as a change
+#: (a crack's refined position moves a little each time it is refitted).
+MAX_SWEEPS, CHI2_TOL = 4, 1e-3
+
+
 def _revisit(cal, st: Setting, state, n: int, kinds, n_fit, alpha: float, obs=None):
-    """Choose the first `n` causes again with the others in the model (at most two sweeps), on
-    the modes that pair with the model extended by all of them: a first choice made while a
-    second effect was unexplained may be its neighbour or tie with it. A cause is replaced only
-    when the joint fit improves, and dropped when nothing is significant in its place given the
-    others; its tie is what is left of it given the others. obs: the modes to judge on instead
-    (every measured mode)."""
+    """Choose the first `n` causes again with the others in the model, on the modes that pair
+    with the model extended by all of them: a first choice made while a second effect was
+    unexplained may be its neighbour or tie with it. A cause is replaced only when the joint
+    fit improves, and dropped when nothing is significant in its place given the others; its
+    tie is what is left of it given the others. Once one changes, every cause (the newest too)
+    is chosen again in the next sweep: a later cause chosen beside a wrong first one may be
+    there only to mend it. obs: the modes to judge on instead (every measured mode)."""
     picks, sizes, ps, ties = (list(x) for x in state)
     obs = _final_obs(cal, st, picks, sizes) if obs is None else obs
-    sizes, chi2 = _joint_refit(cal, st, picks, sizes, obs)
-    for _ in range(3):
+    picks, sizes, chi2 = _joint_refit(cal, st, picks, sizes, obs)
+    for _ in range(MAX_SWEEPS):
         changed = dropped = False
         for j in range(min(n, len(picks))):
             step = _next_cause(cal, st, picks, sizes, kinds, n_fit, alpha, skip=j, obs=obs)
             if step is None and len(picks) > 1:  # the others explain what it did
                 picks, sizes, ps, ties = ([x for k, x in enumerate(v) if k != j] for v in (picks, sizes, ps, ties))
-                sizes, chi2 = _joint_refit(cal, st, picks, sizes, obs)
+                picks, sizes, chi2 = _joint_refit(cal, st, picks, sizes, obs)
                 n, changed, dropped = n - 1, True, True
                 break
             if step is None:
                 continue
             if step.pick != picks[j]:
                 trial = picks[:j] + [step.pick] + picks[j + 1:]
-                t_sizes, t_chi2 = _joint_refit(cal, st, trial, sizes[:j] + [step.a] + sizes[j + 1:], obs)
-                if t_chi2 >= chi2:
+                trial, t_sizes, t_chi2 = _joint_refit(cal, st, trial, sizes[:j] + [step.a] + sizes[j + 1:], obs)
+                if t_chi2 >= chi2 - CHI2_TOL:
                     continue
                 picks, sizes, chi2, changed = trial, t_sizes, t_chi2, True
             ties[j] = step.ties
         if not changed or (len(picks) == 1 and not dropped):  # a second sweep would repeat the first
             break
+        n = len(picks)
     return picks, sizes, ps, ties
 
 
@@ -222,17 +275,57 @@ def _touches_found_stiffness(model: FrameModel, element: int | None, places: lis
     return any(kind in STIFFNESS_KINDS and ends(element) & ends(where["element"]) for kind, where in places)
 
 
-def _joint_refit(cal, st: Setting, picks, sizes, obs=None) -> tuple[list[float], float]:
+def _joint_refit(cal, st: Setting, picks, sizes, obs=None) -> tuple[list, list[float], float]:
     """One sweep: each cause's size refitted with the others at their current sizes, on `obs`
-    (default: the modes that pair with the extended model); returns the sizes and the joint chi^2."""
-    sizes = list(sizes)
+    (default: the modes that pair with the extended model), a crack's position along its
+    element too (`_refine_zone`); returns the picks (a refined crack relabelled), the sizes and
+    the joint chi^2."""
+    picks, sizes = list(picks), list(sizes)
     obs = _final_obs(cal, st, picks, sizes) if obs is None else obs
     chi2 = float("inf")
     for j, (kind, label) in enumerate(picks):
-        cand = _candidate_on(_with(st.model, st, picks, sizes, skip=j), st, kind, label)
-        f = fit(obs, cand, sizes[j])
+        base = _with(st.model, st, picks, sizes, skip=j)
+        if _zone_centre(label) is not None:
+            picks[j], f = _refine_zone(obs, st, base, picks[j], sizes[j])
+        else:
+            f = fit(obs, _candidate_on(base, st, kind, label), sizes[j])
         sizes[j], chi2 = f.a, f.chi2
-    return sizes, chi2
+    return picks, sizes, chi2
+
+
+#: How far (a fraction of the element) a crack's position is refined from its grid position,
+#: the range it may reach (truth cracks are drawn in [0.15, 0.85]: nearer an end a crack is a
+#: joint), and the tolerance of the search.
+ZONE_REACH, ZONE_RANGE, ZONE_XTOL = 0.1, (0.15, 0.85), 0.002
+
+
+def _refine_zone(obs, st: Setting, base: FrameModel, pick: tuple[str, str], a: float):
+    """A weak zone's centre refined along its element (a bounded scalar search, each trial the
+    zone's size fitted at that centre): the grid's seven positions are where a crack is looked
+    for; where it is, between them, decides how much misfit a crack leaves for a further
+    cause to take. Returns the pick, relabelled at the refined centre, and its fit. On the
+    sparse path (a large model: every trial a model assembled afresh) the position stays."""
+    kind, label = pick
+    element, centre = _location(label)["element"], _zone_centre(label)
+    setting = Setting(base, st.coords, st.n_modes, st.nominal)
+    shared = {"system": AffineModel(base)}  # one solver for every trial position
+    fits: dict[float, Fit] = {}
+
+    def chi2_at(c: float) -> float:
+        c = round(float(c), 3)
+        if c not in fits:
+            fits[c] = fit(obs, zone_candidate(setting, element, c, shared), a)
+        return fits[c].chi2
+
+    if not zones.batched(shared["system"]):
+        chi2_at(centre)
+        return pick, fits[round(centre, 3)]
+
+    lo, hi = max(ZONE_RANGE[0], centre - ZONE_REACH), min(ZONE_RANGE[1], centre + ZONE_REACH)
+    chi2_at(centre)
+    minimize_scalar(chi2_at, bounds=(lo, hi), method="bounded", options={"xatol": ZONE_XTOL})
+    best = min(fits, key=lambda c: fits[c].chi2)
+    return (kind, label.partition("(")[0] + f"({zone_profile(best)})"), fits[best]
 
 
 def _finish(cal, st, picks, sizes, ps, ties, gain) -> Rounds:

@@ -53,14 +53,20 @@ def zone_width(model: FrameModel, element_id: int) -> float:
     return min(float(np.sqrt(12.0 * sec.inertia_m4 / sec.area_m2)) / model.element_length_m(element_id), MAX_WIDTH)
 
 
+def zone_place(model: FrameModel, element_id: int, centre: float) -> tuple[float, float]:
+    """(start, end) of the zone centred at `centre` (a fraction of the element), moved inward
+    so that it lies inside the element."""
+    w = zone_width(model, element_id)
+    c = min(max(float(centre), 0.5 * w), 1.0 - 0.5 * w)
+    return round(c - 0.5 * w, 6), round(c + 0.5 * w, 6)
+
+
 def zone_places(model: FrameModel, element_id: int) -> list[tuple[float, float]]:
     """(start, end) of every zone tried in an element: centres at `POSITIONS`, each moved
     inward so that the zone lies inside the element; duplicates dropped."""
-    w = zone_width(model, element_id)
     out = []
     for c in POSITIONS:
-        c = min(max(float(c), 0.5 * w), 1.0 - 0.5 * w)
-        place = (round(c - 0.5 * w, 6), round(c + 0.5 * w, 6))
+        place = zone_place(model, element_id, c)
         if place not in out:
             out.append(place)
     return out
@@ -118,16 +124,18 @@ def zone_stiffness(model: FrameModel, element_id: int, start: float, end: float,
         np.repeat(g.cos, b), np.repeat(g.sin, b)))
 
 
-def zone_forwards(model: FrameModel, element_id: int, coords, n_modes: int, shared: dict) -> Iterator[tuple]:
-    """(start, end, forward) for every zone of the element; `forward(a)` gives the modes for
-    zone losses a (b,). The solver of the unextended model is built once per `shared`."""
+def zone_forwards(model: FrameModel, element_id: int, coords, n_modes: int, shared: dict,
+                  places=None) -> Iterator[tuple]:
+    """(start, end, forward) for every zone of the element (or for each (start, end) of
+    `places`); `forward(a)` gives the modes for zone losses a (b,). The solver of the
+    unextended model is built once per `shared`."""
     nominal = zone_stiffness(model, element_id, 0.0, 1.0, np.ones(1))[0]
-    for start, end in zone_places(model, element_id):
+    for start, end in zone_places(model, element_id) if places is None else places:
         def forward(a, start=start, end=end):
             a = np.clip(np.atleast_1d(np.asarray(a, dtype=float)), 0.0, UPPER)
             if "system" not in shared:
                 shared["system"] = AffineModel(model)
-            if not _batched(shared["system"]):  # a solver without the operator: one model per size
+            if not batched(shared["system"]):  # a solver without the operator: one model per size
                 return _one_by_one(model, element_id, start, end, a, coords, n_modes)
             key = ("batch", element_id)
             if key not in shared:
@@ -137,7 +145,7 @@ def zone_forwards(model: FrameModel, element_id: int, coords, n_modes: int, shar
         yield start, end, forward
 
 
-def _batched(system: AffineModel) -> bool:
+def batched(system: AffineModel) -> bool:
     """Whether the solver is the dense one with its mass-normalised operator (a constant mass,
     projected); on the sparse path (large models) each size is solved as its own model."""
     return isinstance(system._solver, ModalSolver) and system._solver.mass_constant

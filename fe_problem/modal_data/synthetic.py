@@ -16,8 +16,9 @@ def synthetic_measurement(model: FrameModel | str, n_modes: int = 8, dofs=None, 
     """Synthetic 'measured' data from any model (with or without extra effects).
 
     Frequencies get relative Gaussian noise (std `freq_noise`, e.g. 0.002 for 0.2 %); shape
-    entries get Gaussian noise of std `shape_noise` times the mode's RMS at the measured DOFs;
-    each shape then gets a random sign and a log-uniform scale in [0.1, 10]. Modes are
+    entries get Gaussian noise of std `shape_noise` times the largest |entry| of the mode at
+    the measured DOFs (the convention of test rigs, and the one `diagnose` states its noise
+    in: `shape_noise=0.02` here is `--shape-noise 0.02` there); each shape then gets a random sign and a log-uniform scale in [0.1, 10]. Modes are
     re-sorted by frequency after the noise. `model_name` is what the data says it belongs to
     (default: the model's name; a truth model with a hidden effect names the nominal model).
     """
@@ -29,8 +30,8 @@ def synthetic_measurement(model: FrameModel | str, n_modes: int = 8, dofs=None, 
     res = modal_analysis(model, n_modes, parameters=parameters, theta=theta)
     freqs = res.frequencies_hz * (1.0 + freq_noise * rng.standard_normal(n_modes))
     shapes = res.at(dofs).copy()
-    rms = np.sqrt(np.mean(shapes**2, axis=0))
-    shapes += shape_noise * rms * rng.standard_normal(shapes.shape)
+    peak = np.abs(shapes).max(axis=0)
+    shapes += shape_noise * peak * rng.standard_normal(shapes.shape)
     if random_sign_scale:
         shapes *= rng.choice([-1.0, 1.0], n_modes) * np.exp(rng.uniform(np.log(0.1), np.log(10.0), n_modes))
     order = np.argsort(freqs, kind="stable")
