@@ -6,8 +6,9 @@ Steps
    residuals: frequency errors, MAC matrix, COMAC, pairing, and the element moduli that a
    bounded update (+-1/7 around the calibrated value, the paper's 6-8e10 Pa range) pins to
    a bound.
-2. Screen every candidate by its first-order chi^2 drop, fit the promising ones (a batched
-   grid over the effect size, then a bounded scalar refinement), and select.
+2. Screen every candidate by its first-order chi^2 drop (and, where a solve is cheap, its
+   drop at a few sizes of its grid), fit the promising ones (a batched grid over the effect
+   size, then a bounded scalar refinement), and select.
 3. Selection: a likelihood-ratio test of the best candidate against the calibrated model.
    Each candidate adds one parameter, bounded at zero, so under "no effect" the statistic is
    a 50:50 mixture of chi^2_0 and chi^2_1; the p-value is multiplied by the number of
@@ -262,11 +263,11 @@ def to_fit(cands: list[Candidate], screened: list[tuple[float, float]], n_fit: i
 
 
 def screen_candidates(cal: Calibration, cands: list[Candidate]) -> list[tuple[float, float]]:
-    """Every candidate's first-order (chi^2 drop, a). Where a solve is cheap (the model takes
-    the dense path) each candidate is screened by one exact step (`fit.screen`); on a larger
-    model, from one set of modes and each candidate's first-order term (screening.py), so no
-    candidate builds or solves its own system; a candidate without a term (a global effect)
-    is screened by a step."""
+    """Every candidate's screened (chi^2 drop, a). Where a solve is cheap (the model takes the
+    dense path) each candidate is screened by one exact step and a look at a few sizes of its
+    grid (`fit.screen`); on a larger model, to first order from one set of modes and each
+    candidate's first-order term (screening.py), so no candidate builds or solves its own
+    system; a candidate without a term (a global effect) is screened as on the dense path."""
     st = cal.setting
     if solver_path(len(st.local.dofmap.free)) == "dense" or not cands:
         return [screen(cal.obs, c, cal.base) for c in cands]
