@@ -47,7 +47,7 @@ from ..modal_data import DataFileError, ModalData, load_modal_data
 from ..model import FrameModel, load_model
 from ..parameters import Parameter
 from .candidates import Candidate, Setting, all_candidates, scale_stiffness, solve
-from .fit import Fit, chi2_batch, fit, profiled, screen
+from .fit import Fit, chi2_batch, fit, look_along, profiled, screen
 from .record import Cause, CandidateFit, Diagnosis, Gain, Noise, PinnedParameter, Residuals, Selection
 from .verdict import profile_interval, verdict
 from .residuals import Observations
@@ -270,9 +270,15 @@ def screen_candidates(cal: Calibration, cands: list[Candidate]) -> list[tuple[fl
     system; a candidate without a term (a global effect) is screened as on the dense path."""
     st = cal.setting
     if solver_path(len(st.local.dofmap.free)) == "dense" or not cands:
-        return [screen(cal.obs, c, cal.base) for c in cands]
+        return [_screen_solved(cal, c) for c in cands]
     first = screen_all(cal.obs, cal.base, st.model, st.coords, st.n_modes, cands)
-    return [screen(cal.obs, c, cal.base) if c.term is None else f for c, f in zip(cands, first)]
+    return [_screen_solved(cal, c) if c.term is None else f for c, f in zip(cands, first)]
+
+
+def _screen_solved(cal: Calibration, cand: Candidate) -> tuple[float, float]:
+    """The larger promise of the first-order step (`fit.screen`) and of a look at a few sizes
+    along the candidate's grid (`fit.look_along`)."""
+    return max(screen(cal.obs, cand, cal.base), look_along(cal.obs, cand, cal.base), key=lambda x: x[0])
 
 
 # == 3. select ==================================================================================

@@ -63,25 +63,28 @@ def chi2_batch(obs: Observations, cand: Candidate, a: np.ndarray, pairing=None) 
 
 
 def screen(obs: Observations, cand: Candidate, base: Fit) -> tuple[float, float]:
-    """Screening: the chi^2 drop a candidate promises, and its a.
+    """First-order screening: the chi^2 drop a linearised model promises, and its a.
 
-    First order: the sensitivity of the (profiled) residuals to a from one small step, with
-    the baseline pairing held fixed; the effect is one-sided (a >= 0). That misjudges an
-    effect far from linear in its size: a crack through 3/4 of a building column (a zone
-    losing 95 % of its bending stiffness, chi^2 88 where the best screened candidate reached
-    923) was not among those fitted. So the chi^2 at every third size of the candidate's own
-    grid (one batched solve, paired afresh) counts too: the larger promise is the screen's."""
+    The sensitivity of the (profiled) residuals to a is taken from one small step, with the
+    baseline pairing held fixed; the effect is one-sided (a >= 0)."""
     step = chi2_batch(obs, cand, np.array([cand.step]), pairing=base.pairing)[0]
     j = (step.residuals - base.residuals) / cand.step
     jj = float(j @ j)
-    drop, a = 0.0, 0.0
-    if jj > 0.0:
-        a = min(max(-float(base.residuals @ j) / jj, 0.0), cand.upper)
-        drop = max(base.chi2 - float(np.sum((base.residuals + a * j) ** 2)), 0.0)
-    coarse = min(chi2_batch(obs, cand, cand.grid[1::3]), key=lambda f: f.chi2)
-    if base.chi2 - coarse.chi2 > drop:
-        return base.chi2 - coarse.chi2, coarse.a
-    return drop, a
+    if jj <= 0.0:
+        return 0.0, 0.0
+    a = min(max(-float(base.residuals @ j) / jj, 0.0), cand.upper)
+    drop = base.chi2 - float(np.sum((base.residuals + a * j) ** 2))
+    return max(drop, 0.0), a
+
+
+def look_along(obs: Observations, cand: Candidate, base: Fit) -> tuple[float, float]:
+    """The best chi^2 drop, and its a, at every third size of the candidate's own grid (one
+    batched solve, the baseline pairing held as in `screen`: pairing afresh at every size
+    doubled a diagnosis's time). A first-order screen misjudges an effect far from linear in
+    its size: a crack through 3/4 of a building column (a zone losing 95 % of its bending
+    stiffness, chi^2 88 where the best candidate fitted reached 923) was not fitted."""
+    best = min(chi2_batch(obs, cand, cand.grid[1::3], pairing=base.pairing), key=lambda f: f.chi2)
+    return max(base.chi2 - best.chi2, 0.0), best.a
 
 
 def fit(obs: Observations, cand: Candidate, a_hint: float | None = None) -> Fit:
