@@ -182,7 +182,7 @@ def _zone_candidates(st: Setting, e, e0: float, shared: dict, places=None) -> It
             return zones.with_zone(st.model, e.id, start, end, 1.0 - a)
 
         yield Candidate("stiffness_loss", {"element": e.id}, zones.UPPER, zones.GRID, forward, estimate, extend,
-                        step=0.01, meta={"profile": zone_profile(centre), "zone_centre": centre},
+                        step=0.01, meta={"profile": zone_profile(centre)},
                         term=lambda start=start, end=end: st.local.zone(e.id, start, end))
 
 

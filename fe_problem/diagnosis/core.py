@@ -265,7 +265,7 @@ def to_fit(cands: list[Candidate], screened: list[tuple[float, float]], n_fit: i
 def screen_candidates(cal: Calibration, cands: list[Candidate]) -> list[tuple[float, float]]:
     """Every candidate's screened (chi^2 drop, a). Where a solve is cheap (the model takes the
     dense path) each candidate is screened by one exact step and a look at a few sizes of its
-    grid (`fit.screen`); on a larger model, to first order from one set of modes and each
+    grid (`fit.screen`, `fit.look_along`); on a larger model, to first order from one set of modes and each
     candidate's first-order term (screening.py), so no candidate builds or solves its own
     system; a candidate without a term (a global effect) is screened as on the dense path."""
     st = cal.setting

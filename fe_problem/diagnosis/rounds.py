@@ -294,8 +294,8 @@ def _joint_refit(cal, st: Setting, picks, sizes, obs=None) -> tuple[list, list[f
 
 
 #: How far (a fraction of the element) a crack's position is refined from its grid position,
-#: the range it may reach (truth cracks are drawn in [0.15, 0.85]: nearer an end a crack is a
-#: joint), and the tolerance of the search.
+#: the range it may reach (nearer an end a crack acts as the joint there, and the joint
+#: candidate is the one that says so; zones.py), and the tolerance of the search.
 ZONE_REACH, ZONE_RANGE, ZONE_XTOL = 0.1, (0.15, 0.85), 0.002
 
 
@@ -317,13 +317,10 @@ def _refine_zone(obs, st: Setting, base: FrameModel, pick: tuple[str, str], a: f
             fits[c] = fit(obs, zone_candidate(setting, element, c, shared), a)
         return fits[c].chi2
 
-    if not zones.batched(shared["system"]):
-        chi2_at(centre)
-        return pick, fits[round(centre, 3)]
-
-    lo, hi = max(ZONE_RANGE[0], centre - ZONE_REACH), min(ZONE_RANGE[1], centre + ZONE_REACH)
     chi2_at(centre)
-    minimize_scalar(chi2_at, bounds=(lo, hi), method="bounded", options={"xatol": ZONE_XTOL})
+    if zones.batched(shared["system"]):
+        lo, hi = max(ZONE_RANGE[0], centre - ZONE_REACH), min(ZONE_RANGE[1], centre + ZONE_REACH)
+        minimize_scalar(chi2_at, bounds=(lo, hi), method="bounded", options={"xatol": ZONE_XTOL})
     best = min(fits, key=lambda c: fits[c].chi2)
     return (kind, label.partition("(")[0] + f"({zone_profile(best)})"), fits[best]
 

@@ -16,6 +16,8 @@ most 0.2 of the element. Positions: the zone's centre at 0.2, 0.3, ..., 0.8 of t
 moved inward where the zone would stick out. No zone at an element's very end: there a
 crack and a flexible joint are the same thing, and the joint is the candidate that says so
 (with zones at 0.1 and 0.9, 0.3 wide, one of the seed-2026 joint cases tied with a zone).
+Once a zone is chosen, its centre is refined between the grid positions (rounds.py:
+`zone_place` gives the zone at any centre).
 
 The batch of effect sizes is solved in one eigen-solve: the zone changes one element's
 stiffness block (rank <= 4), added to the calibrated model's mass-normalised operator.
