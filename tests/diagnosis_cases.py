@@ -58,6 +58,7 @@ import numpy as np
 from scipy.optimize import brentq
 
 import fe_problem as fp
+from fe_problem.diagnosis.candidates import joint_nodes
 from fe_problem.model import Element, FrameModel, Material, Node, Section, Spring, Support
 
 N_MODES = 8
@@ -300,9 +301,7 @@ def _stiffer(rng, model: FrameModel, target: float):
 
 
 def _joint(rng, model: FrameModel, target: float):
-    from fe_problem.diagnosis.candidates import joint_nodes  # where members meet: only the places
-
-    while True:
+    while True:  # joint_nodes: only where members meet; the truth is built unlike the candidate
         node = int(rng.choice(joint_nodes(model)))
         element = int(rng.choice([e.id for e in model.elements if node in (e.node_i, e.node_j)]))
         if max_shift_pct(joint_truth(node, element, 1e1, model), model) >= target:

@@ -18,9 +18,10 @@ def synthetic_measurement(model: FrameModel | str, n_modes: int = 8, dofs=None, 
     Frequencies get relative Gaussian noise (std `freq_noise`, e.g. 0.002 for 0.2 %); shape
     entries get Gaussian noise of std `shape_noise` times the largest |entry| of the mode at
     the measured DOFs (the convention of test rigs, and the one `diagnose` states its noise
-    in: `shape_noise=0.02` here is `--shape-noise 0.02` there); each shape then gets a random sign and a log-uniform scale in [0.1, 10]. Modes are
-    re-sorted by frequency after the noise. `model_name` is what the data says it belongs to
-    (default: the model's name; a truth model with a hidden effect names the nominal model).
+    in: `shape_noise=0.02` here is `--shape-noise 0.02` there); each shape then gets a random
+    sign and a log-uniform scale in [0.1, 10]. Modes are re-sorted by frequency after the
+    noise. `model_name` is what the data says it belongs to (default: the model's name; a
+    truth model with a hidden effect names the nominal model).
     """
     model = load_model(model)
     rng = np.random.default_rng(seed)
