@@ -12,7 +12,7 @@ Nothing here imports the application (femu) or its command-line, plotting, progr
 libraries (tests/test_layout.py checks).
 """
 
-from fe_problem import _threads  # noqa: F401  (one BLAS thread: before numpy loads)
+from . import _threads  # noqa: F401  (one BLAS thread: before numpy loads; not via fe_problem, see sandbox_worker)
 from .budget import check_budget, check_min_budget, min_budget
 from .harness import BudgetedObjective, BudgetExhausted, RunResult, run
 from .protocol import Optimizer, OptimizerBase

@@ -24,7 +24,7 @@ import pytest
 from femu.cli import main
 from femu.studies.store import Store
 from femu.studies.study import run_study
-from test_faulty_plugins import CallsSysExit, ExitsHard, Interrupted, Segfaults
+from sample_plugins import CallsSysExit, ExitsHard, Interrupted, Segfaults, SleepsLong, SpawnsAndReturns
 
 HERE = Path(__file__).parent
 
@@ -35,23 +35,6 @@ def plugin(cls) -> str:
 
 def _points(bounds, rng, n):
     return rng.uniform(*bounds, size=(n, len(bounds[0])))
-
-
-class SleepsLong:
-    """Evaluates once, then sleeps (a Ctrl-C lands in its sleep)."""
-
-    def minimize(self, objective, bounds, budget, rng):
-        objective(_points(bounds, rng, 2))
-        time.sleep(600)
-
-
-class SpawnsAndReturns:
-    """Starts a process of its own, writes its pid, and returns without ending it."""
-
-    def minimize(self, objective, bounds, budget, rng, pid_file):
-        child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(600)"])
-        Path(pid_file).write_text(str(child.pid))
-        objective(_points(bounds, rng, 2))
 
 
 def _femu(*args, **kw) -> subprocess.Popen:

@@ -26,26 +26,12 @@ from femu.cli import main
 from femu.studies.store import Store
 from femu.studies.study import parse_seeds, run_study
 from adapters.variants import make_problem
+from sample_plugins import Hangs, NeedsFifty, Raises, ReturnsNaN, Slow
 
 FEMU = [str(Path(sys.executable).parent / "femu")]
 
 
 # -- plugins for failure cases -------------------------------------------------------------
-class Raises:
-    """Evaluates one batch, then raises."""
-
-    def minimize(self, objective, bounds, budget, rng):
-        objective(rng.uniform(*bounds, size=(5, len(bounds[0]))))
-        raise RuntimeError("plugin bug")
-
-
-class ReturnsNaN:
-    """Tries to swap in a problem that returns NaN (as a broken model would): the objective
-    does not let it (the problem is not the plugin's to touch), and the run fails."""
-
-    def minimize(self, objective, bounds, budget, rng):
-        objective.problem = _NaNProblem()
-        objective(rng.uniform(*bounds, size=(3, len(bounds[0]))))
 
 
 class _NaNProblem:
@@ -57,32 +43,8 @@ class _NaNProblem:
         return np.full(len(X), np.nan)
 
 
-class Hangs:
-    """Never calls the objective again after its first batch: only a hard kill stops it."""
-
-    def minimize(self, objective, bounds, budget, rng):
-        objective(rng.uniform(*bounds, size=(2, len(bounds[0]))))
-        time.sleep(3600)
-
-
-class Slow:
-    """Calls the objective slowly: the harness stops it cooperatively at the time limit."""
-
-    def minimize(self, objective, bounds, budget, rng):
-        while True:
-            objective(rng.uniform(*bounds, size=(1, len(bounds[0]))))
-            time.sleep(0.05)
-
-
-class NeedsFifty:
-    min_budget = 50
-
-    def minimize(self, objective, bounds, budget, rng):
-        objective(rng.uniform(*bounds, size=(budget, len(bounds[0]))))
-
-
 def plugin(cls) -> str:
-    return f"{__name__}:{cls.__name__}"
+    return f"{cls.__module__}:{cls.__name__}"
 
 
 SAME = ("optimizer", "variant", "seed", "budget", "n_evals", "best_f", "best_x", "trace", "status", "options")
@@ -131,7 +93,7 @@ def test_bad_seeds_exit_2_with_one_line(tmp_path, capsys, spec, says):
     (["--optimizers", "nope"], "unknown optimizer 'nope'; available: pymoo-ga"),
     (["--optimizers", "random-search,random-search"], "'random-search' is given twice"),
     (["--optimizers", "no_such_module:X"], "cannot import 'X' from module 'no_such_module'"),
-    (["--optimizers", f"{__name__}:NeedsFifty", "--budget", "49"], "needs at least 50 evaluations"),
+    (["--optimizers", f"{NeedsFifty.__module__}:NeedsFifty", "--budget", "49"], "needs at least 50 evaluations"),
     (["--budget", "0"], "--budget: must be an integer >= 1"),
     (["--variants", "paper,moon"], "unknown problem variant 'moon'; available: paper, synthetic"),
     (["--time-limit", "0"], "--time-limit: must be a positive number"),

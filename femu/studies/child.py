@@ -32,11 +32,10 @@ _DASK_RUN_LOCK = threading.Lock()
 
 
 def dask_task(task: Task) -> dict:
-    """What a Dask worker runs for one task: in the worker when there is no time limit, else in
-    a child interpreter killed at the hard deadline."""
+    """What a Dask worker runs for one task: a child interpreter (killed at the hard deadline
+    if there is a time limit), which runs the optimizer in a worker of its own (adapters.sandbox):
+    Dask worker processes may not start processes of their own."""
     with _DASK_RUN_LOCK:
-        if task.time_limit_s is None:
-            return run_task(task)
         return run_task_in_child(task)
 
 
@@ -60,7 +59,8 @@ def run_task_in_child(task: Task) -> dict:
                     t_start = now
                 if t_start is None and now - launched > STARTUP_LIMIT_S:
                     record = lost_record(task, "failed", startup_error(task), 0.0)
-                elif t_start is not None and now - t_start > hard_deadline_s(task.time_limit_s):
+                elif t_start is not None and task.time_limit_s is not None and \
+                        now - t_start > hard_deadline_s(task.time_limit_s):
                     record = lost_record(task, "timeout", hard_timeout_error(task, now - t_start), now - t_start)
                 if record is not None:
                     return record

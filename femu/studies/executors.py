@@ -41,6 +41,8 @@ import time
 from collections import deque
 from typing import Callable, Iterable, Iterator
 
+from adapters.sandbox import start_server, use_server
+
 from .kill import kill_descendants, kill_tree
 from .tasks import STARTUP_LIMIT_S, Task, hard_deadline_s, hard_timeout_error, lost_record, run_task, startup_error
 
@@ -57,9 +59,11 @@ class InProcess:
         running(0)
 
 
-def _child(conn, task: Task) -> None:
-    """Body of a local-pool process: says when the run starts, then sends its record."""
+def _child(conn, task: Task, server: str) -> None:
+    """Body of a local-pool process: says when the run starts, then sends its record. The run's
+    optimizer runs in a worker of the study's worker server at `server` (adapters.sandbox)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's: it stops the children
+    use_server(server)
     record = run_task(task, on_start=lambda: conn.send(None))
     kill_descendants()  # processes the plugin started do not outlive its run
     conn.send(record)
@@ -107,17 +111,20 @@ class LocalPool:
         # spec). Only effective before the server starts (the first pool of this process).
         spec = getattr(sys.modules.get("__main__"), "__spec__", None)
         main = [spec.name] if spec is not None and spec.name else []
-        self.ctx.set_forkserver_preload(["__main__", *main, "femu.studies.study", *preload])
+        self.ctx.set_forkserver_preload(["__main__", *main, "femu.studies.study"])
+        self.preload = list(preload)  # the optimizers' modules: imported by the workers' server
 
     def run(self, tasks: list[Task], running: Callable[[int], None]) -> Iterator[tuple[Task, dict]]:
         queue = deque(tasks)
         live: dict = {}  # receiving end -> _Live
+        server = start_server(self.preload)  # the optimizers run in its workers, never in a run's process
         try:
             while queue or live:
                 while queue and len(live) < self.workers:
                     task = queue.popleft()
                     recv, send = self.ctx.Pipe(duplex=False)
-                    proc = self.ctx.Process(target=_child, args=(send, task), name=f"femu {task.key}", daemon=True)
+                    proc = self.ctx.Process(target=_child, args=(send, task, server.address), name=f"femu {task.key}",
+                                            daemon=True)
                     proc.start()
                     send.close()  # so that recv sees EOF if the child dies
                     live[recv] = _Live(task, proc, recv)
@@ -141,6 +148,7 @@ class LocalPool:
             for r in live.values():
                 _stop(r.proc)
                 r.conn.close()
+            server.close()
 
     @staticmethod
     def _receive(r: _Live) -> dict | None:
