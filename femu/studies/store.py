@@ -210,8 +210,7 @@ class Store:
                     return False
                 owner = self._owner(path)
                 warnings.warn(f"{path}: run {key} was claimed by process {owner[0] if owner else '?'}, which ended "
-                              f"without recording it (a study killed, or with --workers 0 a plugin that ended the "
-                              f"process); running it again")
+                              f"without recording it (a study killed); running it again")
                 path.unlink(missing_ok=True)
                 continue
             except OSError as exc:  # a read-only place, a file in the way, a full disk
@@ -227,6 +226,30 @@ class Store:
         path = self.runs_dir / f"{key}.claim"
         if self._owner(path) == (os.getpid(), socket.gethostname()):
             path.unlink(missing_ok=True)
+
+    def remove_stale_claims(self) -> list[str]:
+        """Remove every claim of a process that is gone (a study killed before it could release
+        them); the keys removed. A claim whose run was recorded is only left over (one warning
+        for all); one whose run was not says so by name (the study that asks for it runs it).
+        Live claims stay."""
+        if not self.runs_dir.is_dir():
+            return []
+        gone = sorted(p for p in self.runs_dir.glob("*.claim") if self._stale(p))
+        left_over = []
+        for p in gone:
+            if p.with_suffix(".json").exists():
+                left_over.append(p.stem)
+            else:
+                owner = self._owner(p)
+                warnings.warn(f"{p}: run {p.stem} was claimed by process {owner[0] if owner else '?'}, which ended "
+                              f"without recording it (a study killed); the claim is removed and the run is done by "
+                              f"the study that asks for it")
+            p.unlink(missing_ok=True)
+        if left_over:
+            warnings.warn(f"{self.runs_dir}: removed {len(left_over)} stale claim{'s' if len(left_over) != 1 else ''} "
+                          f"of recorded runs left by a study that was killed ({', '.join(left_over[:3])}"
+                          f"{', ...' if len(left_over) > 3 else ''})")
+        return [p.stem for p in gone]
 
     def claimed(self) -> set[str]:
         """Keys of the runs that some process has claimed and not yet released."""

@@ -244,6 +244,7 @@ def run_study(optimizers, seeds, budget: int, store, variants=None, workers: int
     grid = [Task(o, v, budget, s, options.get(o, {}), time_limit_s, x0)
             for v in variants for o in optimizers for s in seeds]
     stored = _stored_runs(store, grid)
+    store.remove_stale_claims()  # left by studies that were killed, whatever runs they were for
     wanted = [t for t in grid if t.key not in stored or (retry_failed and stored[t.key].status in RETRY_STATUSES)]
     # the cluster is reached before any claim: an unreachable one leaves nothing in the store
     cluster = DaskCluster(scheduler) if scheduler is not None and wanted else None
@@ -268,6 +269,7 @@ def run_study(optimizers, seeds, budget: int, store, variants=None, workers: int
             for task, record in executor.run(todo, bar.running):
                 result = RunResult.from_dict(record)
                 store.write(result)
+                store.release(task.key)  # the run has ended: its claim goes now, not with the study
                 records[task.key] = result
                 bar.done(result.status in RETRY_STATUSES)
     finally:
