@@ -196,6 +196,27 @@ def describe(name: str, n_vars, options: dict | None = None) -> dict:
     return answer
 
 
+def optimizer_facts(name: str, n_vars, options: dict | None = None) -> dict:
+    """What a study checks before it runs optimizer `name`: ``{"min_budget": {n_var: need},
+    "x0_refused": None or why it cannot be given x0}``. A built-in is asked here (the project's
+    own code); any other optimizer in a worker (`describe`), so that no plugin code ever runs in
+    a process that holds problems or writes the store. ValueError when it cannot be loaded."""
+    from .registry import BUILTINS, get
+
+    if name not in BUILTINS:
+        return describe(name, n_vars, options)
+    from .budget import min_budget
+    from .harness import check_takes_x0
+
+    cls = get(name)
+    try:
+        check_takes_x0(name, cls)
+        refused = None
+    except ValueError as exc:
+        refused = str(exc)
+    return {"min_budget": {int(n): min_budget(cls, int(n), **(options or {})) for n in n_vars}, "x0_refused": refused}
+
+
 def _preload(name: str) -> list[str]:
     from .registry import module_of
 

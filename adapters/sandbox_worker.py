@@ -220,7 +220,7 @@ def worker(conn) -> None:
         try:
             conn.send(("described", _describe(spec)))
         except BaseException as exc:
-            conn.send(("refused", f"{type(exc).__name__}: {exc}"))
+            conn.send(("refused", str(exc) if isinstance(exc, ValueError) else f"{type(exc).__name__}: {exc}"))
         conn.recv()  # ended by the evaluating process
         return
     try:

@@ -30,9 +30,10 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from adapters.budget import check_budget, check_min_budget, check_x0_mode
-from adapters.harness import RunResult, check_takes_x0
-from adapters.registry import get, module_of
+from adapters.budget import check_budget, check_budget_covers, check_x0_mode
+from adapters.harness import RunResult
+from adapters.registry import check_name, module_of
+from adapters.sandbox import optimizer_facts
 from adapters.variants import VARIANTS
 from fe_problem.suite import select_suite
 from fe_problem.jsonutil import dumps
@@ -121,10 +122,10 @@ def check_budget_for(optimizers: list[str], budget, variants: list[str], options
     budget = check_budget(budget, "--budget")
     n_vars = sorted({n_var_of(v) for v in variants})
     for name in optimizers:
-        cls = get(name)  # ValueError naming the known ones
+        facts = optimizer_facts(name, n_vars, options.get(name, {}))  # a plugin is asked in a worker
         for n_var in n_vars:
             try:
-                check_min_budget(name, cls, budget, n_var, **options.get(name, {}))
+                check_budget_covers(name, facts["min_budget"][n_var], budget, n_var, **options.get(name, {}))
             except ValueError as exc:
                 raise ValueError(f"--budget {budget}: {exc}") from None
     return budget
@@ -171,7 +172,7 @@ def _check_inputs(optimizers, seeds, budget, variants, workers, scheduler, time_
     variants = _problems(variants, suite)
     seeds = parse_seeds(seeds)
     for name in optimizers:
-        get(name)  # ValueError naming the known ones, before the options are looked at
+        check_name(name)  # ValueError naming the known ones, before the options are looked at (no import)
     options = _check_options(options, optimizers)
     budget = check_budget_for(optimizers, budget, variants, options)
     if time_limit_s is not None and not (isinstance(time_limit_s, (int, float)) and math.isfinite(time_limit_s)
@@ -239,8 +240,11 @@ def run_study(optimizers, seeds, budget: int, store, variants=None, workers: int
     store = store if isinstance(store, Store) else Store(store)
     x0 = check_x0_mode(x0, "--x0")
     if x0 == "all":
+        n_vars = sorted({n_var_of(v) for v in variants})
         for name in optimizers:
-            check_takes_x0(name)
+            refused = optimizer_facts(name, n_vars, options.get(name, {}))["x0_refused"]
+            if refused:
+                raise ValueError(refused)
     grid = [Task(o, v, budget, s, options.get(o, {}), time_limit_s, x0)
             for v in variants for o in optimizers for s in seeds]
     stored = _stored_runs(store, grid)
