@@ -67,7 +67,8 @@ class WorkerServer:
         self._dir = tempfile.mkdtemp(prefix="femu-sandbox-")  # mode 0700: this user only
         self.address = os.path.join(self._dir, "server")
         self.owner = os.getpid()
-        env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
+        # the mark fe_problem refuses to import under, inherited by every process a plugin starts
+        env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p), FEMU_OPTIMIZER_PROCESS="1")
         self._log = open(os.path.join(self._dir, "server.log"), "w+")
         # its own session: a Ctrl-C in the terminal reaches the evaluating process, which ends the run
         self._proc = subprocess.Popen([sys.executable, "-m", "adapters.sandbox_worker", self.address, *preload],

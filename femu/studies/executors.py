@@ -3,30 +3,32 @@ through `running(n)` how many runs are under way.
 
 
 Executors
-- in-process (``workers=0``): one run after another in this process; no hard time limit. A
-  plugin's sys.exit() or KeyboardInterrupt (without a Ctrl-C) is a failed run, but nothing in
-  a process survives a plugin that ends it (os._exit, a segfault): the study stops there, its
-  finished runs kept, and the interrupted run (its claim stale) is run again on resume.
+- in-process (``workers=0``): one run after another in this process.
 - local pool (default, ``workers=None`` = every core): at most `workers` runs at once, each in
   its own process forked from a forkserver that has already imported numpy, scipy, the FE
   core and the study's optimizers (a few ms per run, once ~0.5 s to start the server). A run
-  that hangs or crashes takes only its own process with it, and the processes a plugin starts
-  are ended with its run. As with any multiprocessing
+  process that hangs or crashes takes only its own run with it. As with any multiprocessing
   code, a script that calls `run_study` needs the ``if __name__ == "__main__":`` guard.
 - Dask (``scheduler="tcp://host:port"``): one Dask task per run through
   ``dask.distributed.Client(address)``; the workers need femu-bench installed. Runs in one
   worker process go one at a time (some libraries draw from the process-global random
   generators, see `harness.seeded_global_rngs`): give workers one thread and more processes.
 
-Time limits: the harness stops a run cooperatively at its next objective call once
-`time_limit_s` has passed (status ``timeout``, with the evaluations done so far). A plugin
-that stops calling the objective is caught by a hard deadline of ``time_limit_s + 1 s + 10 %``
-after the run started (its problem built; a process that does not get there within
-STARTUP_LIMIT_S is given up as failed): its process is terminated (local pool) or its child
-interpreter killed (on Dask each run with a time limit runs in a child interpreter, because
-Dask worker processes may not fork) and the record has status ``timeout``, no evaluations
-(they died with the process) and an error saying so. Without a time limit there is no hard
-deadline.
+Under every executor the optimizer itself runs in a worker process of the sandbox
+(adapters.sandbox) that never holds the problem: the run's process evaluates, counts, times and
+judges. The local pool starts one sandbox server for the study and passes its address to its
+run processes; this process and each Dask worker process start one of their own on first use.
+What a plugin does to its process (os._exit, a segfault, sys.exit, a patched harness, processes
+of its own) ends with its worker.
+
+Time limits: the sandbox stops a run at its next objective call once `time_limit_s` has passed,
+or, when the optimizer stops calling the objective, kills its worker at
+``time_limit_s + 0.5 s + 5 %`` (adapters.sandbox.worker_deadline_s); either way the record has
+status ``timeout`` and the evaluations done until then. The local pool keeps a backstop for a
+run process that itself hangs: it is terminated at ``time_limit_s + 5 s + 10 %`` after the run
+started (its problem built; a process that does not get there within STARTUP_LIMIT_S is given
+up as failed), with status ``timeout`` and no evaluations. Without a time limit there is no
+deadline (`femu study` and `femu reproduce` always give one).
 
 """
 
