@@ -184,7 +184,8 @@ def describe(name: str, n_vars, options: dict | None = None) -> dict:
     worker = _Worker(_preload(name))
     try:
         worker.conn.send({"describe": True, "name": name, "n_vars": [int(n) for n in n_vars],
-                          "options": dict(options or {}), "output_path": worker.output_path})
+                          "options": dict(options or {}), "output_path": worker.output_path,
+                          "sys_path": list(sys.path), "cwd": os.getcwd()})
         if not worker.conn.poll(READY_S):
             raise ValueError(f"optimizer {name!r}: loading it took more than {READY_S:.0f} s")
         kind, answer = worker.conn.recv()
@@ -233,9 +234,8 @@ def run_isolated(name: str, problem, budget: int, seed: int, time_limit_s: float
     optimizer's minimum, or x0 given to an optimizer that takes none."""
     check_name(name)
     seed, budget, x0 = check_seed(seed), check_budget(budget), check_x0_mode(x0)
-    objective = BudgetedObjective(problem, budget, time_limit_s)
-    n_var = objective.n_var
-    xl, xu = objective.bounds
+    n_var = int(problem.n_var)
+    xl, xu = np.asarray(problem.xl, dtype=float), np.asarray(problem.xu, dtype=float)
     worker = _Worker(_preload(name))
     counted0 = _problem_count(problem)
     status, error = None, None
@@ -243,6 +243,7 @@ def run_isolated(name: str, problem, budget: int, seed: int, time_limit_s: float
         worker.conn.send({"name": name, "n_var": n_var, "xl": xl.tolist(), "xu": xu.tolist(), "budget": budget,
                           "seed": seed, "options": dict(options), "time_limit_s": time_limit_s,
                           "jacobian_cost": jacobian_cost(n_var), "output_path": worker.output_path,
+                          "sys_path": list(sys.path), "cwd": os.getcwd(),
                           "x0": None if x0 == "none" else np.asarray(problem.x0, dtype=float).tolist()})
         if not worker.conn.poll(READY_S):
             raise ValueError(f"optimizer {name!r}: loading it took more than {READY_S:.0f} s")
@@ -253,6 +254,8 @@ def run_isolated(name: str, problem, budget: int, seed: int, time_limit_s: float
                              f"{worker.output()[-500:]}") from None
         if kind != "ready":
             raise ValueError(why)
+        # the run's clock (and its time limit) starts now, its optimizer loaded
+        objective = BudgetedObjective(problem, budget, time_limit_s)
         cpu0, worker_cpu0 = time.process_time(), worker.cpu_s()
         wall0 = time.perf_counter()
         with _one_core(worker.pid):

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import os
 
+import importlib
 import importlib.abc
 import pickle
 import signal
@@ -216,6 +217,13 @@ def worker(conn) -> None:
     conn.send(os.getpid())
     spec = conn.recv()
     _capture_output(spec["output_path"])
+    # the evaluating process's path and directory now (the server's are those of its start)
+    sys.path[:] = [p for p in spec.get("sys_path", sys.path)]
+    importlib.invalidate_caches()
+    try:
+        os.chdir(spec.get("cwd", os.getcwd()))
+    except OSError:
+        pass
     if spec.get("describe"):
         try:
             conn.send(("described", _describe(spec)))

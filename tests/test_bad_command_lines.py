@@ -110,8 +110,6 @@ CASES = [
      "--workers: must be an integer >= 0"),
     (["study", "--optimizers", "random-search", "--seeds", "0", "--budget", "10", "--store", "S", "--workers", "x"],
      "--workers: invalid int value"),
-    (["study", "--optimizers", "random-search", "--seeds", "0", "--budget", "10", "--store", "S", "--workers", "0",
-      "--time-limit", "5"], "--time-limit needs worker processes"),
     (["study", "--optimizers", "random-search", "--seeds", "0", "--budget", "10", "--store", "S", "--time-limit", "-1"],
      "--time-limit: must be a positive number"),
     (["study", "--optimizers", "random-search", "--seeds", "0", "--budget", "10", "--store", "S", "--time-limit", "nan"],

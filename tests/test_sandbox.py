@@ -152,8 +152,8 @@ def test_runs_with_other_settings_are_never_pooled_in_a_report(tmp_path):
     assert "`random-search` was run with 2 different settings" in report
     assert "random-search [x0=none]" in report and "random-search [x0=all]" in report
     summary = json.loads((tmp_path / "r" / "summary.json").read_text())
-    runs = {s["optimizer"]: s["n_runs"] for g in summary for s in g["solvers"]}
-    assert runs == {"random-search [x0=all]": 2, "random-search [x0=none]": 2}
+    seeds = {name: s["seeds"] for g in summary for name, s in g["solvers"].items()}
+    assert seeds == {"random-search [x0=all]": [2, 3], "random-search [x0=none]": [0, 1]}
 
 
 # -- names from user input -------------------------------------------------------------------------
