@@ -19,7 +19,7 @@ What an optimizer raises, prints or patches stays in its worker, which is ended 
 process it started when its run ends; its stdout and stderr are the record's ``output``.
 
 The server: one per process that runs optimizers (started on first use, ended with that
-process); a study starts one and passes its address to its run processes (`use_server`).
+process); a study's run processes use their study's (`use_server`).
 """
 
 from __future__ import annotations
@@ -105,11 +105,6 @@ def use_server(address: str | None) -> None:
     processes use their study's server); None: a server of this process's own."""
     global _address
     _address = address
-
-
-def start_server(preload=()) -> WorkerServer:
-    """A new worker server (the caller closes it), its workers finding `preload` imported."""
-    return WorkerServer(preload)
 
 
 def server_address(preload=()) -> str:

@@ -264,3 +264,25 @@ class SpawnsAndHangs:
         child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(600)"])
         Path(pid_file).write_text(str(child.pid))
         time.sleep(600)
+
+
+# -- plugins whose checks fail (tests/test_bad_command_lines.py) ------------------------------
+class MinBudgetRaises:
+    def min_budget(self, n_var, **options):
+        raise RuntimeError("no budget for you")
+
+    def minimize(self, objective, bounds, budget, rng):
+        pass
+
+
+class MinBudgetNotANumber(MinBudgetRaises):
+    def min_budget(self, n_var, **options):
+        return "many"
+
+
+class NeedsArguments(MinBudgetRaises):
+    def __init__(self, required):
+        self.required = required
+
+
+AN_INSTANCE = MinBudgetRaises()

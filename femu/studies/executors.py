@@ -16,8 +16,9 @@ Executors
 
 Under every executor the optimizer itself runs in a worker process of the sandbox
 (adapters.sandbox) that never holds the problem: the run's process evaluates, counts, times and
-judges. The local pool starts one sandbox server for the study and passes its address to its
-run processes; this process and each Dask worker process start one of their own on first use.
+judges. This process's sandbox server (started on first use, preloaded with the study's
+optimizers) serves the local pool's run processes too (they are given its address); each Dask
+worker process starts one of its own on first use.
 What a plugin does to its process (os._exit, a segfault, sys.exit, a patched harness, processes
 of its own) ends with its worker.
 
@@ -43,7 +44,7 @@ import time
 from collections import deque
 from typing import Callable, Iterable, Iterator
 
-from adapters.sandbox import start_server, use_server
+from adapters.sandbox import server_address, use_server
 
 from .kill import kill_descendants, kill_tree
 from .tasks import STARTUP_LIMIT_S, Task, hard_deadline_s, hard_timeout_error, lost_record, run_task, startup_error
@@ -119,13 +120,13 @@ class LocalPool:
     def run(self, tasks: list[Task], running: Callable[[int], None]) -> Iterator[tuple[Task, dict]]:
         queue = deque(tasks)
         live: dict = {}  # receiving end -> _Live
-        server = start_server(self.preload)  # the optimizers run in its workers, never in a run's process
+        server = server_address(self.preload)  # the optimizers run in its workers, never in a run's process
         try:
             while queue or live:
                 while queue and len(live) < self.workers:
                     task = queue.popleft()
                     recv, send = self.ctx.Pipe(duplex=False)
-                    proc = self.ctx.Process(target=_child, args=(send, task, server.address), name=f"femu {task.key}",
+                    proc = self.ctx.Process(target=_child, args=(send, task, server), name=f"femu {task.key}",
                                             daemon=True)
                     proc.start()
                     send.close()  # so that recv sees EOF if the child dies
@@ -150,7 +151,6 @@ class LocalPool:
             for r in live.values():
                 _stop(r.proc)
                 r.conn.close()
-            server.close()
 
     @staticmethod
     def _receive(r: _Live) -> dict | None:

@@ -33,7 +33,7 @@ from pathlib import Path
 from adapters.budget import check_budget, check_budget_covers, check_x0_mode
 from adapters.harness import RunResult
 from adapters.registry import check_name, module_of
-from adapters.sandbox import optimizer_facts
+from adapters.sandbox import optimizer_facts, server_address
 from adapters.variants import VARIANTS
 from fe_problem.suite import select_suite
 from fe_problem.jsonutil import dumps
@@ -173,6 +173,9 @@ def _check_inputs(optimizers, seeds, budget, variants, workers, scheduler, time_
     seeds = parse_seeds(seeds)
     for name in optimizers:
         check_name(name)  # ValueError naming the known ones, before the options are looked at (no import)
+    # the sandbox's server, its workers finding the study's optimizers imported: for the checks
+    # below (a plugin is asked in a worker) and the runs
+    server_address([m for m in map(module_of, optimizers) if m])
     options = _check_options(options, optimizers)
     budget = check_budget_for(optimizers, budget, variants, options)
     if time_limit_s is not None and not (isinstance(time_limit_s, (int, float)) and math.isfinite(time_limit_s)
