@@ -4,6 +4,8 @@
 - registry: the built-ins and the entry-point group ``femu.optimizers`` (`available`, `get`);
 - budget: the budget, seed and minimum-budget rules; provenance: library versions of a run;
 - harness: the budgeted objective and `run()`, which returns a `RunResult`;
+- sandbox (the evaluating side) and sandbox_worker (the optimizer's side): every run's optimizer
+  in a worker process that never holds the problem; processes: ending a worker with what it started;
 - one module per optimizer (pymoo_ga, deap_ga, pyswarms_pso, scipy_sa, mlp_surrogate,
   random_search, cma_es, sensitivity) and their shared GA operators (ga_operators);
 - variants: the named problem variants a study runs on.
