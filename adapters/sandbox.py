@@ -281,7 +281,8 @@ def _one_core(worker_pid: int):
 
     The two take turns (a request, its values, the next request): on one core each hands the
     core straight to the other, while on two cores of a loaded machine every turn waits for
-    the scheduler (measured: 27 us against 300 us a round trip, benchmarks/test_bench_sandbox.py)."""
+    the scheduler (a ping-pong of two processes on this 2-core machine, measured once: 27 us against
+    300 us a round trip)."""
     try:
         before = os.sched_getaffinity(0)
         core = psutil.Process().cpu_num()
