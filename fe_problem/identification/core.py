@@ -139,10 +139,18 @@ def identify(frfs: FRFSet, model=None, band_hz=None, n_modes: int | None = None,
         raise FRFFileError(f"{frfs.sources[0]}: field 'model' {model_ref!r}: {exc}") from None
     check_coordinates(frfs, model)
     (lo, hi), keep = _band(frfs, band_hz, n_modes)
-    freq, frf = frfs.frequency_hz[keep], frfs.frf[:, keep]
-    per_order = P.lscf_poles(frfs.frequency_hz, frfs.frf, (lo, hi), frfs.form, max_order)
-    chart = P.select(P.stabilisation(freq, frf, frfs.form, per_order, progress, max_damping=max_damping),
-                     max_damping=max_damping)
+    # The fits run on FRFs scaled by a power of two to a largest magnitude near 1 (exact, and
+    # undone on the residues): FRFs of 1e-200 or 1e200 m/s^2/N would otherwise underflow or
+    # overflow the least-squares systems.
+    scale = 2.0 ** -np.round(np.log2(np.abs(frfs.frf).max()))
+    freq, frf = frfs.frequency_hz[keep], frfs.frf[:, keep] * scale
+    try:
+        per_order = P.lscf_poles(frfs.frequency_hz, frfs.frf * scale, (lo, hi), frfs.form, max_order)
+        chart = P.select(P.stabilisation(freq, frf, frfs.form, per_order, progress, max_damping=max_damping),
+                         max_damping=max_damping)
+    except (np.linalg.LinAlgError, FloatingPointError) as exc:
+        raise FRFFileError(f"{', '.join(frfs.sources)}: the pole fit failed ({exc}) in {lo:g}-{hi:g} Hz: the FRFs "
+                           "hold no resonance there, or a channel is constant or pure noise") from None
     labels, warn = _inside(chart, lo, hi)
     if n_modes is not None and len(labels) < n_modes:
         warn.append(f"asked for {n_modes} modes, found {len(labels)} stable physical modes in {lo:g}-{hi:g} Hz")
@@ -155,10 +163,13 @@ def identify(frfs: FRFSet, model=None, band_hz=None, n_modes: int | None = None,
     fr = np.array([np.median(chart.frequency_hz[chart.cluster == lab]) for lab in labels])
     zr = np.array([np.median(chart.damping[chart.cluster == lab]) for lab in labels])
     modal_poles = P.complex_pole(fr, zr)
-    fit = P.lsfd(modal_poles, freq, frf, frfs.form)[1]
-    residues = windowed_residues(modal_poles, freq, frf, frfs.form)
+    fit = P.lsfd(modal_poles, freq, frf, frfs.form)[1] / scale
+    scaled_residues = windowed_residues(modal_poles, freq, frf, frfs.form)
+    residues, frf = scaled_residues / scale, frf / scale
     driving = frfs.coordinates.index(frfs.reference) if frfs.reference in frfs.coordinates else None
-    shapes, scaling = normal_shapes(residues, modal_poles, driving)
+    shapes, scaling = normal_shapes(scaled_residues, modal_poles, driving)
+    if driving is not None:  # mass-normalised shapes go with the square root of the FRFs' scale
+        shapes = shapes / np.sqrt(scale)
     df = freq[1] - freq[0]
     for k in np.flatnonzero(2 * zr * fr / df < MIN_HALF_POWER_LINES):
         warn.append(f"mode {k + 1} ({fr[k]:.4g} Hz): its half-power bandwidth spans {2 * zr[k] * fr[k] / df:.2g} "
