@@ -101,7 +101,8 @@ def _uncertainty(chart: P.Chart, lab: int, shape: np.ndarray) -> dict:
     """Spread of one chosen cluster over its stable orders."""
     m = chart.cluster == lab
     f, z = chart.frequency_hz[m], chart.damping[m]
-    macs = P.mac_complex(chart.residues[m], shape[None, :].astype(complex))[:, 0]
+    unit = shape / np.abs(shape).max()  # MAC is scale-free; shapes of 1e100 would overflow its products
+    macs = P.mac_complex(chart.residues[m], unit[None, :].astype(complex))[:, 0]
     return {"frequency_std_hz": float(f.std(ddof=1)), "frequency_std_pct": float(100 * f.std(ddof=1) / np.median(f)),
             "damping_std": float(z.std(ddof=1)), "mac_min": float(macs.min()), "n_orders": int(m.sum()),
             "orders": [int(chart.order[m].min()), int(chart.order[m].max())]}
