@@ -179,7 +179,7 @@ def identify(frfs: FRFSet, model=None, band_hz=None, n_modes: int | None = None,
     meta = {"source": "femu identify (LSCF poles, LSFD residues; sdypy-EMA) of " + ", ".join(frfs.sources),
             "frf_files": list(frfs.sources), "reference": list(frfs.reference), "band_hz": [lo, hi],
             "form": frfs.form, "units": frfs.units, "n_lines": int(freq.size), "resolution_hz": float(df),
-            "max_order": int(max_order), "damping_ratio": zr.tolist(), "mpc": P.mpc(residues.T).tolist(),
+            "max_order": int(max_order), "damping_ratio": zr.tolist(), "mpc": P.mpc(scaled_residues.T).tolist(),
             "scaling": scaling, "uncertainty": unc, "warnings": warn}
     data = ModalData(model_ref, frfs.coordinates, fr, shapes, meta, source=frfs.sources[0])
-    return Identification(data, chart, freq, frf, fit, residues, P.mpc(residues.T), tuple(warn))
+    return Identification(data, chart, freq, frf, fit, residues, P.mpc(scaled_residues.T), tuple(warn))
