@@ -32,6 +32,7 @@ import numpy as np
 
 from ..dofs import DEFAULT_LAYOUT, SPATIAL
 from ..jsonutil import check_keys
+from ..safe_files import open_for_writing, refuse_link
 from .units import SI_UNITS, abscissa_factor, ordinate_factor
 
 #: UFF direction codes (1..6 for x, y, z, rx, ry, rz) of the model's nodal DOFs, and back
@@ -96,7 +97,7 @@ def write_uff58(frfs: FRFSet, path: str | Path, test: str = "roving-hammer") -> 
         raise ValueError(f"test must be 'roving-hammer' or 'shaker', got {test!r}")
     import pyuff
 
-    path = Path(path)
+    path = refuse_link(path)
     ordinate = ORDINATE_OF_FORM[frfs.form]
     id1 = f"{_MODEL_TAG} {frfs.model}" if frfs.model else "NONE"
     if len(id1) > 80:
@@ -247,7 +248,7 @@ def _checked(frfs: FRFSet) -> FRFSet:
 # == .npz and CSV =============================================================================
 def write_npz(frfs: FRFSet, path: str | Path) -> Path:
     """Write the `.npz` layout of the module docstring; returns the path."""
-    path = Path(path)
+    path = refuse_link(path)
     np.savez(path, frequency_hz=frfs.frequency_hz, frf=frfs.frf,
              response_node=np.array([c[0] for c in frfs.coordinates]),
              response_dir=np.array([c[1] for c in frfs.coordinates]), reference_node=frfs.reference[0],
@@ -352,7 +353,7 @@ def write_csv(frfs: FRFSet, path: str | Path) -> Path:
     table = np.empty((frfs.frequency_hz.size, 1 + 2 * frfs.n_channels))
     table[:, 0] = frfs.frequency_hz
     table[:, 1::2], table[:, 2::2] = frfs.frf.real.T, frfs.frf.imag.T
-    with path.open("w", newline="") as fh:
+    with open_for_writing(path, newline="") as fh:
         fh.write("\n".join(head) + "\n" + ",".join(cols) + "\n")
         np.savetxt(fh, table, delimiter=",", fmt="%.10g")
     return path

@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from ..jsonutil import dumps, read_json_file
+from ..safe_files import write_text
 from ..shipped import resolve, shipped_names
 from .types import Element, FrameModel, LumpedMass, Material, Node, Section, Spring, Support
 from .validate import ModelFileError, is_number, shown
@@ -197,5 +198,5 @@ def load_model(name_or_path: str | Path) -> FrameModel:
 def save_model(model: FrameModel, path: str | Path) -> Path:
     """Write `model` as a model file; returns the path."""
     path = Path(path)
-    path.write_text(dumps(model_to_dict(model)) + "\n")
+    write_text(path, dumps(model_to_dict(model)) + "\n")
     return path
