@@ -16,46 +16,10 @@ import pytest
 import scipy.linalg
 
 import fe_problem as fp
+from space_elements import SpaceBar
 from fe_problem.dofs import PLANAR_FRAME, SPACE_FRAME, DofLayout
-from fe_problem.elements import formulation, formulations, register
-from fe_problem.elements.base import ElementFormulation
+from fe_problem.elements import formulation, formulations
 from fe_problem.model import Element, FrameModel, Material, ModelFileError, Node, Section, Support, model_to_dict
-
-
-class SpaceBar(ElementFormulation):
-    """Test only: a 3-D bar (truss member) on the space frame's nodes: axial stiffness E A / L
-    and consistent mass rho A L / 6 [[2, 1], [1, 2]] in every translation, nothing on the
-    rotations (support them, as a pin-jointed truss has no rotational DOFs)."""
-
-    name = "test-space-bar"
-    layout = SPACE_FRAME
-
-    def _geometry(self, model, elements):
-        c, pos = model.coordinates, model._node_pos
-        d = c[[pos[e.node_j] for e in elements]] - c[[pos[e.node_i] for e in elements]]
-        length = np.linalg.norm(d, axis=1)
-        area = np.array([model.sections[e.section].area_m2 for e in elements])
-        return length, d / length[:, None], area
-
-    def stiffness(self, model, elements):
-        length, u, area = self._geometry(model, elements)
-        b = np.zeros((len(elements), 12))
-        b[:, 0:3], b[:, 6:9] = -u, u
-        return (area / length)[:, None, None] * b[:, :, None] * b[:, None, :]
-
-    def mass(self, model, elements):
-        length, _, area = self._geometry(model, elements)
-        out = np.zeros((len(elements), 12, 12))
-        for a in range(3):
-            out[:, a, a] = out[:, 6 + a, 6 + a] = 2.0
-            out[:, a, 6 + a] = out[:, 6 + a, a] = 1.0
-        return (area * length / 6.0)[:, None, None] * out
-
-    def displaced(self, model, elements, ends, xi):
-        return ends[:, None, 0:3] * (1 - xi)[None, :, None] + ends[:, None, 6:9] * xi[None, :, None]
-
-
-register(SpaceBar())
 
 
 @pytest.fixture
