@@ -30,14 +30,10 @@ from pathlib import Path
 
 import numpy as np
 
-<<<<<<< HEAD
-from ..dofs import DEFAULT_LAYOUT, SPATIAL
+from ..dofs import SPATIAL
 from ..jsonutil import check_keys
 from ..safe_files import open_for_writing, refuse_link
 from .units import SI_UNITS, abscissa_factor, ordinate_factor
-=======
-from ..dofs import SPATIAL
->>>>>>> main
 
 #: UFF direction codes (1..6 for x, y, z, rx, ry, rz) of nodal DOFs, and back; which of them a
 #: model's nodes have is its layout's (checked by `identification.core.check_coordinates`)
