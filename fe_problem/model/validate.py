@@ -251,6 +251,9 @@ def _validate_nodal(m: FrameModel) -> None:
         _check_dof(m, s.dof_a, f"{src}: spring {s.id}")
         if s.dof_b is not None:
             _check_dof(m, s.dof_b, f"{src}: spring {s.id}")
+            if tuple(s.dof_b) == tuple(s.dof_a):
+                raise ModelFileError(f"{src}: spring {s.id} joins DOF {list(s.dof_a)} to itself: it does nothing; "
+                                     "a spring to ground lists one DOF")
         _positive(s.stiffness, f"{src}: spring {s.id} 'stiffness'", allow_zero=True, field="stiffness")
     for sup in m.supports:
         if sup.node not in idset:
