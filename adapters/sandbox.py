@@ -249,12 +249,15 @@ def run_isolated(name: str, problem, budget: int, seed: int, time_limit_s: float
                              f"{worker.output()[-500:]}") from None
         if kind != "ready":
             raise ValueError(why)
-        # the run's clock (and its time limit) starts now, its optimizer loaded
-        objective = BudgetedObjective(problem, budget, time_limit_s)
         cpu0, worker_cpu0 = time.process_time(), worker.cpu_s()
         wall0 = time.perf_counter()
+        # the cooperative clock (BudgetedObjective's) starts at the optimizer's first request, so
+        # that the wake-ups of a loaded machine between two processes do not eat its time; the
+        # hard deadline counts from now, its optimizer loaded
+        objective = _Lazy(lambda: BudgetedObjective(problem, budget, time_limit_s))
         with _one_core(worker.pid):
             status, error = _serve(worker, objective, problem, time_limit_s)
+        objective = objective.get()
         wall = time.perf_counter() - wall0
         cpu = time.process_time() - cpu0 + max(worker.cpu_s() - worker_cpu0, 0.0)
     except KeyboardInterrupt:  # a real Ctrl-C (the worker ignores SIGINT): the study stops
@@ -273,6 +276,18 @@ def run_isolated(name: str, problem, budget: int, seed: int, time_limit_s: float
         opt_cpu_s=max(cpu - objective.fe_cpu_s, 0.0), n_jacobians=objective.n_jacobians, x0=x0, status=status,
         error=error, variant=variant, host=os.uname().nodename, versions=library_versions(), verified=True,
         output=output)
+
+
+class _Lazy:
+    """The run's BudgetedObjective, made on first use."""
+
+    def __init__(self, make):
+        self._make, self._value = make, None
+
+    def get(self) -> BudgetedObjective:
+        if self._value is None:
+            self._value = self._make()
+        return self._value
 
 
 @contextmanager
@@ -298,9 +313,9 @@ def _one_core(worker_pid: int):
         os.sched_setaffinity(0, before)
 
 
-def _serve(worker: _Worker, objective: BudgetedObjective, problem, time_limit_s) -> tuple[str, str | None]:
+def _serve(worker: _Worker, lazy: _Lazy, problem, time_limit_s) -> tuple[str, str | None]:
     """Answer the worker's requests until the run ends; the run's (status, error)."""
-    conn, n_var = worker.conn, objective.n_var
+    conn, n_var = worker.conn, int(problem.n_var)
     deadline = worker_deadline_s(time_limit_s)
     t0 = time.perf_counter()
     while True:
@@ -316,6 +331,7 @@ def _serve(worker: _Worker, objective: BudgetedObjective, problem, time_limit_s)
             return "failed", (f"the optimizer's process {how} without finishing its run; the evaluations done "
                               f"until then are kept")
         tag, body = message[:1], message[1:]
+        objective = lazy.get()
         try:
             if tag == EVAL:
                 if len(body) % (8 * n_var):
