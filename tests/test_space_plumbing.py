@@ -263,3 +263,25 @@ def test_femu_model_summarises_a_space_model(tmp_path, capsys):
     assert cli.main(["model", str(tmp_path / "bad.model.json")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "bad.model.json: element 1: field 'orientation' [0.0, 0.0, 1.0] is parallel" in err[0]
+
+
+# -- the diagnosis on a space model ----------------------------------------------------------
+
+@pytest.mark.parametrize("effect", ["mass", "stiffness"])
+def test_diagnosis_names_a_hidden_effect_in_a_space_model(effect):
+    """Candidates over a space model's elements, nodes and three translations: a hidden mass
+    (acting in x, y, z) or a weaker bar is named with its place and size. (Joint candidates
+    need elements with bending: the space-frame elements' tests.)"""
+    m = tower()
+    if effect == "mass":
+        truth, kind, place = fp.add_mass(m, 11, 6.0), "added_mass", {"node": 11}
+    else:
+        truth, kind, place = m.with_element_moduli({7: 0.7 * 2e11}), "stiffness_loss", {"element": 7}
+    data = fp.synthetic_measurement(truth, 8, freq_noise=0.002, shape_noise=0.02, seed=3, model_name=m.name)
+    d = fp.diagnose(m, data, kinds=("stiffness_loss", "added_mass", "boundary_stiffness"))
+    assert (d.cause.kind, d.cause.location) == (kind, place)
+    if effect == "mass":
+        assert d.cause.estimate["mass_kg"] == pytest.approx(6.0, rel=0.1)
+    else:
+        assert d.cause.estimate["stiffness_loss_pct"] == pytest.approx(30.0, abs=5.0)
+    assert any(c.location == {"node": 12, "direction": "z"} for c in d.candidates if c.kind == "boundary_stiffness")

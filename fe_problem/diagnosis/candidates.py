@@ -258,7 +258,10 @@ def joint_flexibility(st: Setting) -> Iterator[Candidate]:
     for node in joint_nodes(st.model):
         ends = [e for e in st.model.elements if node in (e.node_i, e.node_j)]
         for e, local in ((e, r) for e in (ends[:1] if len(ends) == 2 else ends) for r in bending_hinges(st.model)):
-            rot = release_rotation(st.model, e, local)
+            try:
+                rot = release_rotation(st.model, e, local)
+            except ValueError:  # a skew member's end: a release there is not modelled (terms.py)
+                continue
             if _released(st.model, e, node, rot) or _last_rigid_end(st.model, node, rot):
                 continue
             ref = _bending_compliance_ref(st.model, e.id, local)
