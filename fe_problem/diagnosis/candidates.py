@@ -41,7 +41,7 @@ from ..modal import frequencies_hz
 from ..model import FrameModel, Spring, add_mass, release_element_end, with_formulation
 from ..model.edits import bending_hinges
 from ..assembly import AffineModel
-from ..elements import formulation
+from ..elements import formulation, formulations
 from ..parameters import Parameter
 from ..terms import release_rotation
 from . import zones
@@ -295,6 +295,8 @@ def joint_flexibility(st: Setting) -> Iterator[Candidate]:
 
 def shear_deformation(st: Setting) -> Iterator[Candidate]:
     if all(e.formulation == "timoshenko" for e in st.model.elements):
+        return
+    if "timoshenko" not in formulations(st.model.layout):  # no shear-deformable element of this layout
         return
     baseline = lazy_system(lambda: AffineModel(st.model))
 
