@@ -406,6 +406,32 @@ def test_timoshenko_with_no_shear_and_no_rotary_inertia_is_euler_bernoulli():
     np.testing.assert_allclose(m_t, m_e, rtol=1e-10, atol=1e-10 * np.abs(m_e).max())
 
 
+def test_weighted_stiffness_is_the_planar_one_in_each_plane():
+    """A modulus profile: w = (1, 1, 1) is the uniform element; otherwise each bending plane
+    is beam2d.weighted_stiffness of its inertia (the x-z plane with its rotations negated),
+    the axial bar that of the area, torsion G J / L times the mean of w."""
+    from fe_problem.elements import beam2d
+
+    start, end, vec, rng = _random_members(8)
+    length = beam3d.lengths(start, end)
+    a, iy, iz, tj = (rng.uniform(1e-3, 1e-2, 8), rng.uniform(1e-6, 1e-5, 8), rng.uniform(1e-6, 1e-5, 8),
+                     rng.uniform(1e-7, 1e-6, 8))
+    zero = np.zeros(8)
+    np.testing.assert_allclose(beam3d.weighted_stiffness(length, a, iy, iz, tj, (1.0, 1.0, 1.0)),
+                               beam3d.local_stiffness(length, a, iy, iz, tj, zero, zero), rtol=1e-12, atol=1e-9)
+    w = (0.2, 0.7, 1.0)
+    k = beam3d.weighted_stiffness(length, a, iy, iz, tj, w)
+    xy, xz = beam2d.weighted_stiffness(length, a, iz, w), beam2d.weighted_stiffness(length, a, iy, w)
+    bend = [1, 2, 4, 5]
+    np.testing.assert_allclose(k[:, beam3d.PLANE_XY[:, None], beam3d.PLANE_XY], xy[:, np.ix_(bend, bend)[0], bend])
+    sign = np.array([1, -1, 1, -1])
+    np.testing.assert_allclose(k[:, beam3d.PLANE_XZ[:, None], beam3d.PLANE_XZ],
+                               sign[:, None] * sign * xz[:, np.ix_(bend, bend)[0], bend])
+    np.testing.assert_allclose(k[:, 0, 0], xy[:, 0, 0])
+    np.testing.assert_allclose(k[:, 3, 3], 0.65 * tj / length)
+    np.testing.assert_allclose(k[:, 3, 9], -0.65 * tj / length)
+
+
 def test_interpolation_reproduces_ends_rigid_motions_and_bending_shapes():
     start, end, vec, rng = _random_members(15)
     r = beam3d.rotation(start, end, vec)

@@ -138,6 +138,25 @@ def local_mass(length: np.ndarray, area: np.ndarray, iy: np.ndarray, iz: np.ndar
     return m
 
 
+def weighted_stiffness(length: np.ndarray, area: np.ndarray, iy: np.ndarray, iz: np.ndarray,
+                       torsion: np.ndarray, w: tuple) -> np.ndarray:
+    """Local Euler-Bernoulli stiffness per unit E (n, 12, 12) of elements whose modulus varies as
+    E w(xi), w piecewise linear through w = (w(0), w(1/2), w(1)): each bending plane and the
+    axial bar as beam2d.weighted_stiffness (exact integrals of the Hermite curvatures), the
+    torsion bar (G / E) J / L times the mean of w, as the axial bar (G scales with E).
+    w = (1, 1, 1) gives `local_stiffness` with phi = 0."""
+    n = length.shape[0]
+    k = np.zeros((n, 12, 12))
+    zero = np.zeros(n)
+    xy = beam2d.weighted_stiffness(length, area, iz, w)
+    _bending(xy, PLANE_XY, np.ones(4), k)
+    _bending(beam2d.weighted_stiffness(length, zero, iy, w), PLANE_XZ, _XZ_SIGN, k)
+    k[:, AXIAL[:, None], AXIAL[None, :]] = xy[:, [[0], [3]], [[0, 3]]]
+    mean_w = 0.25 * (w[0] + 2.0 * w[1] + w[2])
+    _bar(k, TORSION, mean_w * torsion / length, -1.0)
+    return k
+
+
 def to_global(local: np.ndarray, t: np.ndarray) -> np.ndarray:
     """T^T a T for a stack of element matrices."""
     return np.einsum("eki,ekl,elj->eij", t, local, t, optimize=True)
