@@ -173,7 +173,14 @@ def our_modes(frame: Frame, timoshenko: bool, n_modes: int = N_MODES):
 
 # --- OpenSees ---------------------------------------------------------------------------
 
-def opensees_modes(frame: Frame, timoshenko: bool, n_modes: int = N_MODES, map_torsional_mass: bool = True):
+def opensees_modes(frame: Frame, timoshenko: bool, n_modes: int = N_MODES, map_torsional_mass: bool = True,
+                   releases: dict | None = None):
+    """The lowest modes of `frame` in OpenSees (Hz, shapes on the 6 DOFs of every frame node).
+
+    releases: {(member id, node id): {global rotation 4 | 5 | 6: stiffness N m/rad}}: that end
+    of the member is a second node at the joint, tied by ``equalDOF`` in the translations and
+    the other rotations, and by a ``zeroLength`` element with an Elastic material in each
+    released rotation (none for a stiffness of 0: a pin)."""
     ops.wipe()
     ops.model("basic", "-ndm", 3, "-ndf", 6)
     for nid, xyz in frame.nodes.items():
@@ -182,7 +189,24 @@ def opensees_modes(frame: Frame, timoshenko: bool, n_modes: int = N_MODES, map_t
         ops.fix(nid, *fix)
     for nid, kg in frame.masses.items():
         ops.mass(nid, kg, kg, kg, 0.0, 0.0, 0.0)
+    extra_node, extra_element = 10 * max(frame.nodes) + 1, 10 * max(m[0] for m in frame.members) + 1
     for eid, i, j, p, vec in frame.members:
+        ends = []
+        for node in (i, j):
+            rel = (releases or {}).get((eid, node))
+            if rel is None:
+                ends.append(node)
+                continue
+            ops.node(extra_node, *map(float, frame.nodes[node]))
+            ops.equalDOF(node, extra_node, *[d for d in range(1, 7) if d not in rel])
+            for d, k in rel.items():
+                if k > 0:
+                    ops.uniaxialMaterial("Elastic", extra_element, k)
+                    ops.element("zeroLength", extra_element, node, extra_node, "-mat", extra_element, "-dir", d)
+                    extra_element += 1
+            ends.append(extra_node)
+            extra_node += 1
+        i, j = ends
         ops.geomTransf("Linear", eid, *map(float, vec))
         if map_torsional_mass:
             j_os = p.Iy + p.Iz
