@@ -202,7 +202,7 @@ def plot_shapes(diag: Diagnosis, model: FrameModel, extended: FrameModel | None,
     for ax, i in zip(axes.ravel(), chosen):
         _draw_mode(ax, diag, model, extended, data, i, calibrated, ext, size)
     for ax in axes[:, 0]:
-        ax.set_ylabel("y (m)", fontsize=8)
+        ax.set_ylabel("y (m)" if model.layout.dimension == 2 else "isometric view, z up (m)", fontsize=8)
     handles = {}
     for ax in axes.ravel():  # every kind of line once, whichever panel drew it first
         for h, label in zip(*ax.get_legend_handles_labels()):
