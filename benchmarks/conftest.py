@@ -40,6 +40,13 @@ RATIOS = (
     ("batch of 4 at 3,000 DOFs: 2 worker processes over 1", "batch_scale:3000:w1", "batch_scale:3000:w2", 1.0),
     ("diagnosis screen per candidate, 1,092 DOFs: first-order over one exact step", "screen_step:1092",
      "screen_first:1092", 1.0),
+    # the sandbox's cost (issue 22): a run in the problem's process / the same run sandboxed
+    ("sandboxed run, one point per call (scipy-sa, 1,000 evaluations): in-process / sandboxed time",
+     "inproc:scipy-sa", "sandbox:scipy-sa", 1 / 1.5),
+    ("sandboxed run, populations (pymoo-ga, 1,000 evaluations): in-process / sandboxed time",
+     "inproc:pymoo-ga", "sandbox:pymoo-ga", 1 / 1.1),
+    ("sandboxed run, populations (cma-es, 1,000 evaluations): in-process / sandboxed time",
+     "inproc:cma-es", "sandbox:cma-es", 1 / 1.1),
 )
 
 #: (label, figure key prefix, goal): the log-log slope of per-item time against DOFs over the

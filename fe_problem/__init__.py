@@ -1,7 +1,15 @@
 """femu-bench physics: frame FE models (planar today), modal analysis, correlation, measured data,
 and the FE model-updating problem. Knows nothing of optimizers."""
 
-from . import _threads  # noqa: F401  (one BLAS thread: before numpy loads)
+import os as _os
+
+# An optimizer's worker process (adapters.sandbox_worker) and every process it starts carry this
+# mark: the FE model, its data and the suite's hidden truths are not theirs to build.
+if _os.environ.get("FEMU_OPTIMIZER_PROCESS"):
+    raise ImportError("fe_problem: not available in an optimizer's process (the FE model, its data and the suite "
+                      "stay with the evaluating process; an optimizer sees only its objective)", name="fe_problem")
+
+from . import _threads  # noqa: F401,E402  (one BLAS thread: before numpy loads)
 from .correlation import comac, frequency_errors_pct, mac, pair_modes
 from .modal_data import (DataFileError, ModalData, load_modal_data, paper_table, save_modal_data,
                    synthetic_measurement)

@@ -159,7 +159,10 @@ def _analyzer(root: Path, algorithm: str, info: str, triggers: list):
 
     # the triggers list is held by the caller: ioh does not keep a trigger alive, and a freed
     # one crashes the process at the next evaluation
-    lg = ioh.logger.Analyzer(triggers=triggers, root=str(root), folder_name=algorithm, algorithm_name=algorithm,
+    from femu.studies.store import safe_name
+
+    # the folder's name comes from the optimizer's (user input): a safe file-name piece
+    lg = ioh.logger.Analyzer(triggers=triggers, root=str(root), folder_name=safe_name(algorithm), algorithm_name=algorithm,
                              algorithm_info=info, store_positions=False)
     lg.add_run_attribute("seed", 0.0)
     lg.add_experiment_attribute("raw_y", "(J - f_opt) / scale, J the objective; f_opt and scale per function "

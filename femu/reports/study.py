@@ -41,6 +41,7 @@ def write_report(store_or_runs, out_dir, ioh: bool = False, source: str | None =
     source = source or default
     if not runs:
         raise ValueError(f"{source}: no finished runs to report on")
+    runs, notes = settings_apart(runs)
     suite = [r for r in runs if is_suite_id(r.variant)]
     variants = [r for r in runs if not is_suite_id(r.variant)]
     if suite:  # the benchmark report; runs on the named variants get theirs in variants.md
@@ -51,10 +52,48 @@ def write_report(store_or_runs, out_dir, ioh: bool = False, source: str | None =
                 f.write(f"\nThe runs on problem variants (not suite problems) are reported in [{other.name}]({other.name}).\n")
     else:
         path = render_files(summarize(runs), out_dir, source)
+    if notes:
+        with path.open("a") as f:
+            f.write("\n## Notes on the runs\n\n" + "".join(f"- {n}\n" for n in notes))
     if ioh:
         from .ioh import export_runs
         export_runs(runs, Path(out_dir) / "ioh")
     return path
+
+
+def _settings(r) -> tuple:
+    return (r.x0, dumps(r.options, indent=None))
+
+
+def settings_apart(runs) -> tuple[list, list[str]]:
+    """The runs with each optimizer's label carrying its settings where its runs differ in them
+    (x0, options), so that runs made with other settings are never pooled into one solver, and
+    the notes the report adds: which optimizers were split, and how many runs are unverified
+    (their optimizer ran in the problem's own process, adapters.run(..., isolated=False), or
+    they were recorded before the sandbox: their counts rest on the harness's cross-checks)."""
+    from dataclasses import replace
+
+    settings: dict[str, set] = {}
+    for r in runs:
+        settings.setdefault(r.optimizer, set()).add(_settings(r))
+    notes, out = [], []
+    for name, seen in sorted(settings.items()):
+        if len(seen) > 1:
+            notes.append(f"`{name}` was run with {len(seen)} different settings (x0, options); each is reported as "
+                         f"a solver of its own: " + "; ".join(f"x0 {x0}, options {opts}" for x0, opts in sorted(seen)))
+    for r in runs:
+        if len(settings[r.optimizer]) > 1:
+            label = f"{r.optimizer} [x0={r.x0}" + (f", options={dumps(r.options, indent=None)}" if r.options else "") + "]"
+            r = replace(r, optimizer=label)
+        out.append(r)
+    unverified = sorted({r.optimizer for r in out if not r.verified})
+    if unverified:
+        n = sum(1 for r in out if not r.verified)
+        notes.append(f"{n} run{'s' if n != 1 else ''} of {', '.join(f'`{u}`' for u in unverified)} "
+                     f"{'are' if n != 1 else 'is'} **unverified**: the optimizer ran in the problem's own process "
+                     f"(adapters.run(..., isolated=False), or a record made before the sandbox), where a plugin "
+                     f"can reach the problem behind its budget")
+    return out, notes
 
 
 def render_files(groups: list[GroupSummary], out_dir, source: str, name: str = "report.md") -> Path:
