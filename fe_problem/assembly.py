@@ -22,6 +22,7 @@ import scipy.sparse as sp
 
 from .model import FrameModel, ModelFileError
 from .parameters import Parameter
+from .paths import SOLVERS
 from .solver import ModalSolver, take_rows
 from .sparse import SparseModalSolver
 from .terms import DofMap, Terms, dense_terms
@@ -30,8 +31,6 @@ from .terms import DofMap, Terms, dense_terms
 #: crossover.py): per point, the dense batched eigvalsh and the sparse shift-invert solve
 #: cost the same at about this size on frames of beam elements (10 modes).
 SPARSE_MIN_DOFS = 200
-
-SOLVERS = ("auto", "dense", "sparse")
 
 
 #: `solver="auto"` also takes the sparse path when the dense one would hold more than this
