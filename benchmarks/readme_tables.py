@@ -89,8 +89,9 @@ def scale_table(figures: dict) -> str:
     diag = sorted((int(k.split(":")[1]), v) for k, v in per_item.items() if k.startswith("diagnosis:"))
     if diag:
         lines += ["", "| `fp.diagnose`, one solver process | wall | CPU | cause |", "|---|---|---|---|"]
-        lines += [f"| {n:,} free DOFs | {_ms(v['min_s'])} | {_ms(v['cpu_s'])} | {v['cause']} {v['location']} |"
-                  for n, v in diag]
+        lines += [f"| {n:,} free DOFs | {_ms(v['min_s'])} | {_ms(v['cpu_s'])} | {v['cause']}"
+                  + (" (several candidates cannot be told apart) |" if v["cause"] == "undetermined"
+                     else f" {v['location']} |") for n, v in diag]
     return "\n".join(lines) + "\n"
 
 
