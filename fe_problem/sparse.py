@@ -36,7 +36,7 @@ from .solver import signed
 
 try:  # the Cholesky path: an optional extra (`pip install femu-bench[cholmod]`, needs libsuitesparse-dev)
     from sksparse import cholmod as _cholmod
-except ImportError:  # SuperLU then: the same answers, 1.6-2x slower per point at 3,000-30,000 DOFs
+except ImportError:  # SuperLU then: the same frequencies to 1e-10, slower per point (docs/scale.md)
     _cholmod = None
 
 #: Factorisations of K - sigma M: "cholmod" (sparse Cholesky, scikit-sparse) and "superlu" (scipy).
