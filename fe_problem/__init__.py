@@ -19,7 +19,7 @@ _WHERE = {
                      "synthetic_measurement"), "modal_data"),
     **dict.fromkeys(("ModalResult", "modal_analysis"), "modal"),
     **dict.fromkeys(("FrameModel", "ModelFileError", "add_mass", "crack_element", "load_model", "regular_frame",
-                     "release_element_end", "save_model", "split_element", "split_elements", "with_formulation"),
+                     "regular_frame_3d", "release_element_end", "save_model", "split_element", "split_elements", "with_formulation"),
                     "model"),
     "AffineModel": "assembly",
     **dict.fromkeys(("Parameter", "element_moduli"), "parameters"),
