@@ -12,13 +12,41 @@
 
 Nothing here imports the application (femu) or its command-line, plotting, progress or cluster
 libraries (tests/test_layout.py checks).
+
+The public names load on first use (PEP 562 `__getattr__`): `femu study --help` lists the
+registry without numpy (issue 25).
 """
 
+import importlib
+
 from . import _threads  # noqa: F401  (one BLAS thread: before numpy loads; not via fe_problem, see sandbox_worker)
-from .budget import check_budget, check_min_budget, min_budget
-from .harness import BudgetedObjective, BudgetExhausted, RunResult, run
-from .protocol import Optimizer, OptimizerBase
-from .registry import available, get
+
+#: public name -> the submodule that defines it
+_WHERE = {
+    **dict.fromkeys(("check_budget", "check_min_budget", "min_budget"), "budget"),
+    **dict.fromkeys(("BudgetedObjective", "BudgetExhausted", "RunResult", "run"), "harness"),
+    **dict.fromkeys(("Optimizer", "OptimizerBase"), "protocol"),
+    **dict.fromkeys(("available", "get"), "registry"),
+}
 
 __all__ = ["BudgetExhausted", "BudgetedObjective", "Optimizer", "OptimizerBase", "RunResult", "available",
            "check_budget", "check_min_budget", "get", "min_budget", "run"]
+
+
+def __getattr__(name: str):
+    """A public name (imported from its submodule on first use), or a submodule."""
+    where = _WHERE.get(name)
+    if where is not None:
+        value = getattr(importlib.import_module(f".{where}", __name__), name)
+        globals()[name] = value
+        return value
+    try:
+        return importlib.import_module(f".{name}", __name__)
+    except ModuleNotFoundError as exc:
+        if exc.name != f"{__name__}.{name}":
+            raise
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_WHERE))

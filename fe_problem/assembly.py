@@ -23,6 +23,7 @@ import scipy.sparse as sp
 from .limits import MAX_SPARSE_DOFS  # noqa: F401  (fe_problem.assembly.MAX_SPARSE_DOFS, as before)
 from .model import FrameModel, ModelFileError
 from .parameters import Parameter
+from .paths import SOLVERS
 from .solver import ModalSolver, take_rows
 from .sparse import SparseModalSolver
 from .terms import DofMap, Terms, dense_terms
@@ -31,8 +32,6 @@ from .terms import DofMap, Terms, dense_terms
 #: crossover.py): per point, the dense batched eigvalsh and the sparse shift-invert solve
 #: cost the same at about this size on frames of beam elements (10 modes).
 SPARSE_MIN_DOFS = 200
-
-SOLVERS = ("auto", "dense", "sparse")
 
 
 #: `solver="auto"` also takes the sparse path when the dense one would hold more than this

@@ -33,12 +33,6 @@ import contextlib
 import sys
 import time
 
-from adapters.budget import check_budget
-from adapters.registry import available
-from adapters.sandbox import optimizer_facts
-from adapters.variants import make_problem
-from femu.reports.render import make_out_dir
-from femu.reports.study import render_files, summarize
 from femu.studies.seeds import parse_seed_count
 
 #: Seeds 0..DEFAULT_SEEDS-1 and FE evaluations per run when not given (see the module doc).
@@ -53,6 +47,10 @@ DEFAULT_TIME_LIMIT_S = 300.0
 def solvers(budget: int) -> tuple[list[str], dict[str, str]]:
     """The optimizers to run under `budget`: every name in `registry.available()` that loads
     and accepts the budget on the paper problem, and {name: why not} for the others."""
+    from adapters.registry import available
+    from adapters.sandbox import optimizer_facts
+    from adapters.variants import make_problem
+
     names, left_out = [], {}
     n_var = make_problem(VARIANT).n_var
     for name in available():
@@ -98,6 +96,12 @@ def reproduce(seeds=DEFAULT_SEEDS, budget: int = DEFAULT_BUDGET, out="femu-repro
     spec such as "0-4,10". Progress goes to `log` (default: stderr; a progress bar when it is
     a terminal). time_limit_s: wall-clock seconds per run (None: none). Every optimizer runs in a
     worker process of its own (adapters.sandbox): what it prints is in its run record."""
+    # the optimizers, the problem and the reports load here, not with the module (whose
+    # defaults `femu reproduce --help` shows at once, issue 25)
+    from adapters.budget import check_budget
+    from femu.reports.render import make_out_dir
+    from femu.reports.study import render_files, summarize
+
     log = sys.stderr if log is None else log
     seed_list = parse_seed_count(seeds)
     budget = check_budget(budget, "--budget")

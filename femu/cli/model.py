@@ -16,7 +16,7 @@ import argparse
 import re
 import time
 
-from fe_problem.assembly import SOLVERS
+from fe_problem.paths import SOLVERS
 
 from ._args import positive_int, print_json
 
