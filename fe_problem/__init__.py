@@ -2,6 +2,14 @@
 and the FE model-updating problem. Knows nothing of optimizers."""
 
 from . import _threads  # noqa: F401  (one BLAS thread: before numpy loads)
+
+try:  # the two libraries every module needs; the others are imported where they are used
+    import numpy as _numpy  # noqa: F401
+    import scipy as _scipy  # noqa: F401
+except ImportError as _exc:
+    raise ImportError(f"fe_problem needs {_exc.name!r}, which this Python does not have: install femu-bench "
+                      "into an environment (python3 -m venv .venv && .venv/bin/pip install -e .) and run "
+                      "its Python (.venv/bin/python, or activate it: . .venv/bin/activate)") from None
 from .correlation import comac, frequency_errors_pct, mac, pair_modes
 from .modal_data import (DataFileError, ModalData, load_modal_data, paper_table, save_modal_data,
                    synthetic_measurement)

@@ -15,25 +15,27 @@ batches stay in it.
 from __future__ import annotations
 
 import pickle
+from concurrent.futures.process import BrokenProcessPool  # loky's own is a subclass
 from typing import Any, Callable
-
-from joblib.externals.loky import BrokenProcessPool, ProcessPoolExecutor
-from joblib.externals.loky.backend import get_context
 
 #: The environment of a worker process: one BLAS thread (thousands of small solves), and no
 #: pool of its own.
 WORKER_ENV = {"FEMU_SOLVER_WORKERS": "1", "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
               "MKL_NUM_THREADS": "1"}
 
-_POOL: ProcessPoolExecutor | None = None
+_POOL = None  # a loky ProcessPoolExecutor
 _POOL_SIZE = 0
 _KEPT: dict[str, Any] = {}
 _KEEP = 4
 
 
-def _executor(size: int) -> ProcessPoolExecutor:
+def _executor(size: int):
     """The shared pool, with at least `size` processes."""
     global _POOL, _POOL_SIZE
+    # imported here: a program that never runs a parallel batch does not need joblib
+    from joblib.externals.loky import ProcessPoolExecutor
+    from joblib.externals.loky.backend import get_context
+
     if _POOL is None or _POOL_SIZE < size:
         if _POOL is not None:
             _POOL.shutdown(wait=True)
