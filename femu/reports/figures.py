@@ -191,19 +191,18 @@ def plot_parameters(g: GroupSummary, path: Path) -> Path:
 def plot_mode_shapes(g: GroupSummary, path: Path, n_modes: int = 4) -> Path:
     """The frame in its first modes: the initial model's shape (grey) and the updated model's
     (the group's best run, coloured) on the undeformed frame, one panel per mode."""
-    from fe_problem.elements import deformed_frame
-
+    # the drawing plane of the diagnosis figures: a planar model as it is, a space model projected
+    from .diagnosis import deformed_frame, projected
     from .render import figure
 
     m = g.modes
     model = m.model
     k = min(n_modes, m.shapes_initial.shape[1])
     fig, axes = figure(width=2.7 * k + 0.4, height=3.9, ncols=k)
-    xy = np.array([[n.x, n.y] for n in model.nodes])
+    xy = projected(model, model.coordinates)
     size = float(np.max(np.ptp(xy, axis=0)))
-    segs = np.array([[xy[i], xy[j]] for i, j in
-                     (([n.id for n in model.nodes].index(e.node_i), [n.id for n in model.nodes].index(e.node_j))
-                      for e in model.elements)])
+    index = {n.id: i for i, n in enumerate(model.nodes)}
+    segs = np.array([[xy[index[e.node_i]], xy[index[e.node_j]]] for e in model.elements])
     trans = [i for i, (node, d) in enumerate(model.dofs) if d in model.layout.translations]
     for p in range(k):
         ax = axes[0, p]
