@@ -63,7 +63,7 @@ class Block:
 
     @property
     def where(self) -> str:
-        return f"{self.page.relative_to(ROOT) if self.page.is_absolute() else self.page}:{self.line}"
+        return f"{self.page.relative_to(ROOT) if self.page.is_relative_to(ROOT) else self.page}:{self.line}"
 
     def code(self, full: bool) -> str:
         """The text to run: as written with `full`, else with the CI replacements."""

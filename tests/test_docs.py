@@ -50,9 +50,10 @@ def test_the_pages_have_runnable_blocks_and_the_readme_fits_a_screen_budget():
     assert any("femu diagnose" in b.text for b in run) and any("femu identify" in b.text for b in run)
     assert any("adapters.run" in b.text for b in run) and any("femu study" in b.text for b in run)
     assert (db.ROOT / "README.md").stat().st_size <= 16 * 1024
-    for page in db.pages()[1:]:
-        first = [s for s in page.read_text().split("\n")[1:] if s.strip()][0]
-        assert first.startswith("This page is for"), f"{page.name}: the line after the title says what the page is for"
+    for page in db.pages()[1:]:  # each page opens with its title, then a sentence on what it is for
+        lines = page.read_text().split("\n")
+        first = [s for s in lines[1:] if s.strip()][0]
+        assert lines[0].startswith("# ") and first[0] not in "#`|<!-", f"{page.name}: open with what the page is for"
 
 
 def _page(tmp_path: Path, text: str) -> Path:
@@ -79,7 +80,7 @@ def test_blocks_share_files_but_not_variables_and_the_ci_form_applies(tmp_path):
                            "<!-- docs-test: ci: 41 => 42 -->\n```python\nimport json\nx = json.load(open('a.json'))['a'] + 41\n"
                            "open('b.txt', 'w').write(str(x))\n```\n\n```bash\ntest \"$(cat b.txt)\" = 43\n```\n")
     db.run_page(page, tmp_path / "w1")  # the CI form: 1 + 42
-    with pytest.raises(db.DocsError, match=r"page.md:13: the bash block failed"):
+    with pytest.raises(db.DocsError, match=r"page.md:15: the bash block failed"):
         db.run_page(page, tmp_path / "w2", full=True)  # as written: 1 + 41
     page2 = _page(tmp_path, "# t\n\n```python\nx = 1\n```\n\n```python\nprint(x)\n```\n")
     with pytest.raises(db.DocsError, match=r"page.md:7: .*NameError"):
