@@ -83,7 +83,7 @@ def test_blocks_share_files_but_not_variables_and_the_ci_form_applies(tmp_path):
     with pytest.raises(db.DocsError, match=r"page.md:15: the bash block failed"):
         db.run_page(page, tmp_path / "w2", full=True)  # as written: 1 + 41
     page2 = _page(tmp_path, "# t\n\n```python\nx = 1\n```\n\n```python\nprint(x)\n```\n")
-    with pytest.raises(db.DocsError, match=r"page.md:7: .*NameError"):
+    with pytest.raises(db.DocsError, match=r"(?s)page.md:7: .*NameError"):
         db.run_page(page2, tmp_path / "w3")
 
 
