@@ -63,16 +63,20 @@ def _median_iqr(cell: str) -> tuple[float, float]:
 def test_report_has_table1_the_papers_numbers_and_caveats(report):
     _, md = report
     assert "Table 1 rebuilt" in md
-    rows = _table_rows(md, "mode")
-    # the paper's Table 1, column by column (modes 1 and 5)
-    assert rows["1"]["measured"] == "53.9" and rows["5"]["measured"] == "445.1"
-    assert rows["1"]["initial (paper)"] == "56.2" and rows["3"]["initial (paper)"] == "228.4"
-    assert [rows[str(i)]["PSO (paper)"] for i in range(1, 6)] == ["53.9", "117.8", "208.5", "253.8", "438.5"]
-    assert rows["2"]["GA (paper)"] == "122.0" and rows["5"]["SA (paper)"] == "437.0"
+    # Table 1 transposed to fit a page: one row per model, one column per mode (frequencies,
+    # then absolute errors); the paper's Table 1, row by row (modes 1 and 5)
+    rows = _table_rows(md, "model | f1")
+    assert rows["measured"]["f1"] == "53.9" and rows["measured"]["f5"] == "445.1"
+    assert rows["initial (paper)"]["f1"] == "56.2" and rows["initial (paper)"]["f3"] == "228.4"
+    assert [rows["PSO (paper)"][f"f{i}"] for i in range(1, 6)] == ["53.9", "117.8", "208.5", "253.8", "438.5"]
+    assert rows["GA (paper)"]["f2"] == "122.0" and rows["SA (paper)"]["f5"] == "437.0"
     # the paper's mean errors recomputed from its table: PSO 0.41, SA 0.74, GA 1.80, initial 5.51
-    mean = rows["**mean abs err %**"]
-    assert [mean[k] for k in ("initial (paper)", "PSO (paper)", "SA (paper)", "GA (paper)")] == \
+    errors = _table_rows(md, "model | err 1")
+    assert [errors[k]["mean abs err %"] for k in ("initial (paper)", "PSO (paper)", "SA (paper)", "GA (paper)")] == \
         ["**5.51**", "**0.41**", "**0.74**", "**1.80**"]
+    # every table of the report fits a page: at most 15 columns
+    widths = [ln.count("|") - 1 for ln in md.splitlines() if ln.startswith("|")]
+    assert max(widths) <= 15, max(widths)
     # and beside them what its text says
     paper = _table_rows(md, "method")
     assert paper["PSO"]["mean err % (paper's text)"] == "1.95"
@@ -80,7 +84,7 @@ def test_report_has_table1_the_papers_numbers_and_caveats(report):
     assert "do not all agree with its own table" in md
     assert "geometry is a reconstruction" in md
     for name in ("random-search", TINY, BROKEN):
-        assert name in rows["1"], f"no column for {name}"
+        assert name in rows and name in errors, f"no row for {name}"
 
 
 def test_report_numbers_equal_the_runs(study, report):
@@ -98,9 +102,9 @@ def test_report_numbers_equal_the_runs(study, report):
     mean_err = np.median([np.mean(np.abs(c.error_pct)) for c in corr])
     cell = _median_iqr(solvers["random-search"]["mean abs err % median (IQR)"])[0]
     assert cell == pytest.approx(mean_err, abs=0.005)
-    table = _table_rows(md, "mode")
+    table = _table_rows(md, "model | f1")
     f2 = np.median([c.model_hz[1] for c in corr])
-    assert _median_iqr(table["2"]["random-search"])[0] == pytest.approx(f2, abs=0.005)
+    assert _median_iqr(table["random-search"]["f2"])[0] == pytest.approx(f2, abs=0.005)
     # summary.json carries the same numbers unrounded
     summary = json.loads((path.parent / "summary.json").read_text())[0]["solvers"]["random-search"]
     assert summary["best_f"]["median"] == q2
@@ -126,7 +130,8 @@ def _png_size(path) -> tuple[int, int]:
 def test_figures_exist_and_are_real_pngs(report):
     path, md = report
     names = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", md)
-    assert {n.split("_")[0] for n in names} == {"convergence", "ecdf", "errors", "overhead"}
+    assert {n.split("_")[0] for n in names} == {"convergence", "ecdf", "errors", "overhead", "parameters", "modes",
+                                                 "mac"}
     for name in names:
         fig = path.parent / name
         w, h = _png_size(fig)

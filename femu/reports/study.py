@@ -3,7 +3,8 @@ Markdown (femu.reports.markdown) and PNG figures (femu.reports.figures), all wri
 femu.reports.render. A report renders records and computes nothing new.
 
 `write_report(store_or_runs, out_dir)` writes DIR/report.md, DIR/summary.json and the figures
-(convergence, ECDF, overhead, mean error vs the paper); with ``ioh`` also DIR/ioh. Runs on suite
+(convergence, ECDF, overhead, mean error vs the paper, updated parameters, the frame in its
+first modes, MAC matrices); with ``ioh`` also DIR/ioh. Runs on suite
 problems (`femu study --suite`) get the benchmark report instead (femu.reports.benchmark:
 DIR/report.md, DIR/stats.json), and runs on variants beside them DIR/variants.md.
 """
@@ -19,7 +20,8 @@ from femu.studies.store import Store
 from femu.studies.tasks import is_suite_id
 
 from .benchmark import write_benchmark
-from .figures import plot_convergence, plot_ecdf, plot_errors, plot_overhead
+from .figures import (plot_convergence, plot_ecdf, plot_errors, plot_mac, plot_mode_shapes, plot_overhead,
+                      plot_parameters)
 from .markdown import render_markdown
 from .records import GroupSummary
 from .render import make_out_dir
@@ -107,6 +109,11 @@ def render_files(groups: list[GroupSummary], out_dir, source: str, name: str = "
                 "overhead": plot_overhead(g, out / f"overhead_{stem}.png")}
         if len(g.targets):
             made["ecdf"] = plot_ecdf(g, out / f"ecdf_{stem}.png")
+        if g.parameters is not None and any(s.best_x is not None for s in g.solvers):
+            made["parameters"] = plot_parameters(g, out / f"parameters_{stem}.png")
+        if g.modes is not None:
+            made["modes"] = plot_mode_shapes(g, out / f"modes_{stem}.png")
+            made["mac"] = plot_mac(g, out / f"mac_{stem}.png")
         figures[(g.variant, g.budget)] = {k: p.name for k, p in made.items()}
     write_text(out / "summary.json", dumps([g.to_dict() for g in groups]))
     path = out / name
