@@ -35,6 +35,13 @@ class CMAES:
     """
 
     name = "cma-es"
+    #: capabilities (adapters.capabilities)
+    anytime = True
+    uses_gradients = False
+    batch = True
+    supports_x0 = True
+    #: the distribution it wraps (its version is listed by `femu optimizers`)
+    library = 'cma'
 
     def min_budget(self, n_var: int, popsize: int | None = None, **options) -> int:
         """One generation: `popsize`, by default CMA-ES's 4 + floor(3 ln n_var) (11 with 12

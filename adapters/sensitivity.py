@@ -38,6 +38,13 @@ class Sensitivity:
     """
 
     name = "sensitivity"
+    #: capabilities (adapters.capabilities)
+    anytime = True
+    uses_gradients = True
+    batch = False
+    supports_x0 = True
+    #: the distribution it wraps (its version is listed by `femu optimizers`)
+    library = 'scipy'
 
     def min_budget(self, n_var: int, **options) -> int:
         """A start point and one Jacobian: n_var + 1 evaluations (budget.jacobian_cost)."""

@@ -30,6 +30,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from adapters.capabilities import check_options
 from adapters.budget import check_budget, check_min_budget, check_x0_mode
 from adapters.harness import RunResult, check_takes_x0
 from adapters.registry import get, module_of
@@ -61,6 +62,8 @@ def _check_options(options, optimizers: list[str]) -> dict[str, dict]:
     if extra:
         raise ValueError(f"options given for {extra[0]!r}, which is not among the study's optimizers "
                          f"({', '.join(optimizers)})")
+    for name, opts in options.items():
+        check_options(name, get(name), opts)
     try:  # records are JSON: the options must survive the round trip unchanged
         return json.loads(dumps(options, indent=None))
     except (TypeError, ValueError) as exc:
