@@ -33,7 +33,7 @@ def add_arguments(s) -> None:
     s.add_argument("--x0", choices=("none", "all"), default="none",
                    help="what every solver is told of the start: none (each draws its own from its seed) or all "
                         "(each is given the model's initial parameters)")
-    s.add_argument("--option", action="append", default=[], metavar="NAME.KEY=VALUE",
+    s.add_argument("--option", action="append", default=None, metavar="NAME.KEY=VALUE",
                    help="an option for optimizer NAME's minimize, VALUE in JSON (20, 0.5, true, \"text\", [1, 2]); "
                         "repeat for more (`femu optimizers` lists each one's options and defaults)")
     s.add_argument("--retry-failed", action="store_true",
