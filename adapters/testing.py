@@ -31,6 +31,7 @@ n_var, xl, xu, x0 and a vectorised evaluate).
 from __future__ import annotations
 
 import contextlib
+import io
 import logging
 import os
 import random
@@ -101,11 +102,13 @@ def _fd_output():
     sys.stdout.flush()
     sys.stderr.flush()
     saved = [os.dup(1), os.dup(2)]
+    text = io.StringIO()  # Python-level writes, whatever sys.stdout is (pytest replaces it)
     with tempfile.TemporaryFile(mode="w+b") as tmp:
         os.dup2(tmp.fileno(), 1)
         os.dup2(tmp.fileno(), 2)
         try:
-            yield out
+            with contextlib.redirect_stdout(text), contextlib.redirect_stderr(text):
+                yield out
         finally:
             sys.stdout.flush()
             sys.stderr.flush()
@@ -114,7 +117,7 @@ def _fd_output():
             for fd in saved:
                 os.close(fd)
             tmp.seek(0)
-            out.append(tmp.read().decode(errors="replace"))
+            out.append(text.getvalue() + tmp.read().decode(errors="replace"))
 
 
 def check_optimizer(optimizer, problem_factory=None, budget: int | None = None, seeds=(0, 1),
