@@ -50,6 +50,7 @@ def ratios(names, budget: int, seeds, problems=PROBLEMS) -> list[dict]:
             a, b = median_delta(name, pid, budget, seeds), median_delta(ref, pid, budget, seeds)
             rows.append({"optimizer": name, "reference": what, "problem": pid, "adapter": a, "library": b,
                          "ratio": a / b})
+            print(f"{name} on {pid}: {a:.3g} / {b:.3g} = {a / b:.3g}", file=sys.stderr, flush=True)
     return rows
 
 
@@ -68,7 +69,8 @@ def table(rows, budget: int, seeds) -> str:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--optimizers", default=",".join(REFERENCES))
+    ap.add_argument("--optimizers", default=",".join(REFERENCES),
+                    help="built-ins, comma-separated (mlp-surrogate and nevergrad-ngopt take minutes per run)")
     ap.add_argument("--budget", type=int, default=1000)
     ap.add_argument("--seeds", type=int, default=5)
     ap.add_argument("--write", action="store_true", help="write the table into docs/suite.md")
