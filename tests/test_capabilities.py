@@ -197,3 +197,13 @@ def test_the_report_leaves_out_fixed_budget_values_below_the_budget_of_an_optimi
     old = [adapters.RunResult.from_dict({k: v for k, v in r.to_dict().items() if k != "capabilities"})
            for r in result.runs]
     assert benchmark_statistics(old)["one_budget"] == {"scipy-sa": 200}
+
+
+def test_the_study_report_says_which_curves_are_from_one_budget(tmp_path, capsys):
+    from femu.studies.study import run_study
+
+    run_study("scipy-sa,random-search", "0-1", 60, tmp_path / "s", workers=0, progress=False)
+    assert main(["report", str(tmp_path / "s"), "--out", str(tmp_path / "r")]) == 0
+    text = (tmp_path / "r" / "report.md").read_text()
+    assert "Not anytime: `scipy-sa`. Their schedule follows the budget" in text
+    assert "`random-search`. Their" not in text
