@@ -130,7 +130,8 @@ def check_options(name: str, cls, options: dict) -> None:
         return
     if any(p.kind is p.VAR_KEYWORD for p in params.values()):
         return
-    known = default_options(cls)
+    skip = {"self", "objective", "bounds", "budget", "rng", "x0"}
+    known = [n for n, p in params.items() if n not in skip and p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)]
     for key in options:
         if key not in known:
             raise ValueError(f"optimizer {name!r} has no option {key!r}; its options: "
