@@ -22,7 +22,7 @@ signature (an ``x0`` keyword or ``**kwargs``), as `adapters.harness.check_takes_
 from __future__ import annotations
 
 import inspect
-from importlib.metadata import PackageNotFoundError, packages_distributions, version
+from importlib.metadata import PackageNotFoundError, version
 from typing import Any
 
 #: The capability flags, in the order they are listed.
@@ -72,16 +72,25 @@ def effective_options(cls, options: dict) -> dict[str, Any]:
 
 
 def distribution_of(cls) -> tuple[str | None, str | None]:
-    """(distribution name, version) of the installed package that provides `cls`'s module,
-    (None, None) for a module that no installed distribution provides (a file in the current
-    directory, a test's class)."""
+    """(distribution name, version) of the installed package that provides `cls`: femu-bench
+    for the built-ins, the entry point's distribution for a registered plugin (as
+    `adapters.registry.get` loaded it), else the distribution named like the class's top-level
+    module if one is installed; (None, None) otherwise (a file in the current directory, a
+    test's class). Cheap: no scan of every installed distribution (that took seconds, inside a
+    run's time limit)."""
+    from .registry import loaded_from
+
     top = cls.__module__.split(".")[0]
-    for dist in packages_distributions().get(top, []):
-        try:
-            return dist, version(dist)
-        except PackageNotFoundError:
-            continue
-    return None, None
+    if top == "adapters":
+        name = "femu-bench"
+    elif loaded_from(cls) is not None:
+        return loaded_from(cls)
+    else:
+        name = top
+    try:
+        return name, version(name)
+    except PackageNotFoundError:
+        return None, None
 
 
 def describe(name: str, cls) -> dict[str, Any]:

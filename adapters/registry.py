@@ -41,6 +41,16 @@ BUILTINS = {
 }
 
 
+#: (distribution, version) of each plugin class loaded from an entry point, by class
+_FROM: dict = {}
+
+
+def loaded_from(cls) -> tuple[str, str] | None:
+    """(distribution name, version) of the package whose entry point `get` loaded `cls` from,
+    or None (a built-in, a class named by its import path, or not loaded through an entry point)."""
+    return _FROM.get(cls)
+
+
 def _plugins() -> dict:
     return {ep.name: ep for ep in entry_points(group=ENTRY_POINT_GROUP)}
 
@@ -64,7 +74,11 @@ def get(name: str) -> type:
         except Exception as exc:  # a broken third-party package: say which one
             raise ValueError(f"optimizer {name!r}: entry point {ep.value!r} in group {ENTRY_POINT_GROUP!r} "
                              f"could not be loaded: {type(exc).__name__}: {exc}") from exc
-        return _checked(cls, f"optimizer {name!r}: entry point {ep.value!r}")
+        cls = _checked(cls, f"optimizer {name!r}: entry point {ep.value!r}")
+        dist = getattr(ep, "dist", None)
+        if dist is not None:
+            _FROM[cls] = (dist.name, dist.version)
+        return cls
     if ":" in name:
         return _import_path(name)
     raise ValueError(f"unknown optimizer {name!r}; available: {', '.join(available())}")
