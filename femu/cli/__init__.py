@@ -16,7 +16,7 @@ import sys
 import warnings
 
 #: The commands, in the order `femu --help` lists them: each is the module femu.cli.<name>.
-COMMANDS = ("model", "suite", "study", "results", "report", "reproduce", "diagnose", "identify")
+COMMANDS = ("model", "suite", "optimizers", "study", "results", "report", "reproduce", "diagnose", "identify")
 
 
 def _module(name: str):

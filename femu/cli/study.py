@@ -35,19 +35,46 @@ def add_arguments(s) -> None:
     s.add_argument("--x0", choices=("none", "all"), default="none",
                    help="what every solver is told of the start: none (each draws its own from its seed) or all "
                         "(each is given the model's initial parameters)")
+    s.add_argument("--option", action="append", default=None, metavar="NAME.KEY=VALUE",
+                   help="an option for optimizer NAME's minimize, VALUE in JSON (20, 0.5, true, \"text\", [1, 2]); "
+                        "repeat for more (`femu optimizers` lists each one's options and defaults)")
     s.add_argument("--retry-failed", action="store_true",
                    help="run again the runs stored as failed or timeout (they are kept otherwise)")
+
+
+def parse_options(items: list[str]) -> dict[str, dict]:
+    """{optimizer: {key: value}} from --option NAME.KEY=VALUE items (VALUE in JSON); ValueError
+    naming the item otherwise. NAME may be a package.module:Class path (the key follows its
+    last dot)."""
+    import json
+
+    out: dict[str, dict] = {}
+    for item in items:
+        left, eq, text = item.partition("=")
+        name, dot, key = left.rpartition(".")
+        if not eq or not dot or not name or not key.isidentifier():
+            raise ValueError(f"--option {item!r}: expected NAME.KEY=VALUE, e.g. cma-es.sigma0=0.2")
+        try:
+            value = json.loads(text)
+        except ValueError:
+            raise ValueError(f"--option {item!r}: the value {text!r} is not JSON (a text is written with "
+                             f"quotes: {name}.{key}='\"{text}\"')") from None
+        if key in out.setdefault(name, {}):
+            raise ValueError(f"--option {item!r}: {name}.{key} is given twice")
+        out[name][key] = value
+    return out
 
 
 def run(args) -> int:
     """`femu study`: run the grid into the store, print a one-line summary."""
     from femu.studies.study import run_study
 
+    options = parse_options(getattr(args, "option", []) or [])
     try:
         result = run_study(args.optimizers, args.seeds, args.budget, args.store, variants=args.variants,
                            workers=args.workers, scheduler=args.scheduler, time_limit_s=args.time_limit, suite=args.suite,
                            progress=not args.no_progress, retry_failed=getattr(args, "retry_failed", False),
-                           x0=getattr(args, "x0", "none"))
+                           x0=getattr(args, "x0", "none"), options=options or None)
     except KeyboardInterrupt:
         print(f"femu study: interrupted; the finished runs are in {args.store}: the same command resumes the study",
               file=sys.stderr)

@@ -95,6 +95,29 @@ def costs(runs) -> dict:
     return out
 
 
+def not_anytime(runs) -> dict[str, int]:
+    """{solver: its smallest run budget} for the solvers that are not anytime: their record's
+    capabilities say so, or (records written before capabilities were recorded) the optimizer's
+    class does not declare anytime = True, or cannot be loaded. Their best-so-far below the
+    budget is not what a run of that budget would find (the schedule follows the budget)."""
+    from adapters.capabilities import capabilities
+    from adapters.registry import get
+
+    out: dict[str, int] = {}
+    for r in runs:
+        caps = getattr(r, "capabilities", None) or {}
+        if "anytime" in caps:
+            anytime = bool(caps["anytime"])
+        else:
+            try:
+                anytime = capabilities(get(r.optimizer))["anytime"]
+            except ValueError:
+                anytime = False
+        if not anytime:
+            out[r.optimizer] = min(out.get(r.optimizer, r.budget), r.budget)
+    return dict(sorted(out.items()))
+
+
 def benchmark_statistics(runs) -> dict:
     """Every number of the benchmark report of the suite runs among `runs` (RunResults):
     problems and targets, ERT per solver, group and target level, ECDFs, fixed-budget
@@ -107,6 +130,10 @@ def benchmark_statistics(runs) -> dict:
     traces = [st.RunTrace(r.optimizer, r.variant, r.seed, r.n_evals, tuple(tuple(t) for t in r.trace))
               for r in runs]
     budgets = fixed_budgets(max(r.budget for r in runs))
+    one_budget = not_anytime(runs)
+    # a solver that is not anytime has no honest value below its budget: left out
+    fixed = [fb for fb in st.fixed_budget(traces, targets, budgets)
+             if fb.solver not in one_budget or fb.budget >= one_budget[fb.solver]]
     comparisons, not_compared = {}, None
     for metric in COMPARISON_METRICS:
         try:
@@ -120,7 +147,7 @@ def benchmark_statistics(runs) -> dict:
             "budget": max(r.budget for r in runs), "n_runs": len(runs), "problems": problems,
             "target_levels": list(st.target_levels()),
             "ert": st.ert_table(traces, targets), "ecdf": st.ecdfs(traces, targets),
-            "fixed_budget": st.fixed_budget(traces, targets, budgets), "comparisons": comparisons,
+            "fixed_budget": fixed, "one_budget": one_budget, "comparisons": comparisons,
             "not_compared": not_compared if not comparisons else None, "costs": costs(runs),
             "convergence": convergence(traces, targets)}
 
@@ -168,8 +195,22 @@ def _fixed_budget_lines(s: dict) -> list[str]:
         q1, med, q3 = fb.quartiles
         rows.setdefault((fb.group, fb.solver), {})[fb.budget] = f"{_g(med)} [{_g(q1)}, {_g(q3)}]"
     budgets = sorted({fb.budget for fb in s["fixed_budget"]})
+    one = s.get("one_budget", {})
+    blank = lambda so, b: "not anytime" if so in one and b < one[so] else ""  # noqa: E731
     return markdown_table(["group", "solver"] + [f"after {b}" for b in budgets],
-                          [[g, so] + [v.get(b, "") for b in budgets] for (g, so), v in sorted(rows.items())])
+                          [[g, so] + [v.get(b, blank(so, b)) for b in budgets] for (g, so), v in sorted(rows.items())])
+
+
+def _one_budget_lines(s: dict) -> list[str]:
+    """The note on solvers whose curves are from one budget (not anytime)."""
+    one = s.get("one_budget", {})
+    if not one:
+        return []
+    names = ", ".join(f"`{k}` (budget {b})" for k, b in one.items())
+    return [f"Not anytime: {names}. Their schedule follows the budget (`femu optimizers` lists each "
+            "optimizer's capabilities), so their ECDF, ERT and convergence curves below the budget are from one "
+            "budget's runs, not what runs of a smaller budget would find; their fixed-budget values below it are "
+            "left out.", ""]
 
 
 def _comparison_lines(c: st.Comparison) -> list[str]:
@@ -195,7 +236,8 @@ def render_benchmark(s: dict, figures: dict, source: str) -> str:
     lines += markdown_table(["id", "n_var", "f_opt", "known as", "J(x0)", "top target", "last target"],
                             [[p["id"], p["n_var"], f"{p['f_opt']:.10g}", p["f_opt_kind"], f"{p['f_start']:.4g}",
                               _g(p["targets"][0]), _g(p["targets"][-1])] for p in s["problems"]])
-    lines += ["", "## Expected running time (ERT)", ""] + _ert_lines(s)
+    lines += [""] + _one_budget_lines(s)
+    lines += ["## Expected running time (ERT)", ""] + _ert_lines(s)
     lines += [f"![ERT]({figures['ert']})", "", "## Fixed-target ECDFs (instances pooled)", "",
               f"![ECDF]({figures['ecdf']})", "", "## Fixed-budget precision: median [q1, q3] of J - f_opt", ""]
     lines += _fixed_budget_lines(s) + [""] + [f"![fixed budget {g}]({f})" for g, f in figures["fixed_budget"].items()]

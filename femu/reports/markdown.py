@@ -151,6 +151,21 @@ def _paper_section(p: PaperComparison) -> list[str]:
     return lines
 
 
+def _not_anytime(names) -> list[str]:
+    """The optimizers among `names` that do not declare anytime = True (or cannot be loaded)."""
+    from adapters.capabilities import capabilities
+    from adapters.registry import get
+
+    out = []
+    for name in names:
+        try:
+            if not capabilities(get(name))["anytime"]:
+                out.append(name)
+        except ValueError:
+            out.append(name)
+    return out
+
+
 def render_markdown(groups: list[GroupSummary], figures: dict, source: str) -> str:
     """The report text from the summary records; `figures` maps (variant, budget) to
     {kind: file name}."""
@@ -210,6 +225,11 @@ def render_markdown(groups: list[GroupSummary], figures: dict, source: str) -> s
         for kind, cap in captions.items():
             if kind in fig:
                 lines += [f"![{cap}]({fig[kind]})", "", f"*{cap}.*", ""]
+        one = _not_anytime([s.optimizer for s in g.solvers])
+        if one:
+            lines += [f"Not anytime: {', '.join(f'`{o}`' for o in one)}. Their schedule follows the budget (`femu "
+                      f"optimizers`), so their curves below {g.budget} evaluations are from runs of budget {g.budget}, "
+                      "not what runs of a smaller budget would find.", ""]
         failures = [(s.optimizer, *f) for s in g.solvers for f in s.failures]
         if failures:
             lines += ["### Failed runs", ""]
