@@ -7,3 +7,18 @@ import os as _os
 
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     _os.environ.setdefault(_var, "1")
+
+
+def one_blas_thread():
+    """A context in which the BLAS/OpenMP pools run one thread: every evaluation runs in it, so
+    that J does not depend on the thread count a user set (a multi-threaded BLAS sums in another
+    order: up to 2e-8 relative on some suite problems). threadpoolctl's controller is built once."""
+    global _CONTROLLER
+    if _CONTROLLER is None:
+        from threadpoolctl import ThreadpoolController
+
+        _CONTROLLER = ThreadpoolController()
+    return _CONTROLLER.limit(limits=1)
+
+
+_CONTROLLER = None
