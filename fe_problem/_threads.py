@@ -22,3 +22,16 @@ def one_blas_thread():
 
 
 _CONTROLLER = None
+
+
+def blas_pinned(func):
+    """`func` run inside `one_blas_thread` (a decorator): for building the matrices a problem
+    evaluates with, which go through BLAS products too."""
+    import functools
+
+    @functools.wraps(func)
+    def wrapper(*args, **kwargs):
+        with one_blas_thread():
+            return func(*args, **kwargs)
+
+    return wrapper

@@ -25,7 +25,7 @@ from .parameters import Parameter
 from .solver import ModalSolver, take_rows
 from .sparse import SparseModalSolver
 from .terms import DofMap, Terms, dense_terms
-from ._threads import one_blas_thread
+from ._threads import blas_pinned, one_blas_thread
 
 #: Free DOFs above which `solver="auto"` takes the sparse path. Measured (benchmarks/
 #: crossover.py): per point, the dense batched eigvalsh and the sparse shift-invert solve
@@ -101,6 +101,7 @@ class AffineModel:
     the cores this process may use); the result does not depend on it.
     """
 
+    @blas_pinned  # K and M are built with BLAS products: the same matrices on any thread count
     def __init__(self, model: FrameModel, parameters: tuple[Parameter, ...] = (), solver: str = "auto",
                  workers: int | None = None):
         self.model = model

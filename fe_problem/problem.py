@@ -20,7 +20,7 @@ from .modal_data import ModalData, load_modal_data
 from .modal import ModalResult, frequencies_hz
 from .model import FrameModel, load_model
 from .assembly import AffineModel
-from ._threads import one_blas_thread
+from ._threads import blas_pinned, one_blas_thread
 from .parameters import Parameter, element_moduli
 
 WEIGHTS = ("gamma", "unit")
@@ -87,6 +87,7 @@ class UpdatingProblem:
     objective values; every row counts as one FE evaluation in `n_evals`.
     """
 
+    @blas_pinned  # the pairing and initial modes: the same on any thread count
     def __init__(self, model: FrameModel | str | None = None, data: ModalData | str = "paper",
                  parameters: tuple[Parameter, ...] | None = None, weights="gamma",
                  shape_weight: float = 0.0, n_model_modes: int | None = None, name: str | None = None,

@@ -30,6 +30,7 @@ from concurrent.futures.process import BrokenProcessPool
 import numpy as np
 import scipy.linalg
 import scipy.sparse as sp
+from ._threads import one_blas_thread
 from scipy.sparse.linalg import ArpackNoConvergence, LinearOperator, eigsh, splu
 
 
@@ -101,7 +102,8 @@ def _chunk(token: str, blob: bytes, theta: np.ndarray, n_modes: int, shapes: boo
         if len(_KEPT) >= _KEEP:
             _KEPT.pop(next(iter(_KEPT)))
         _KEPT[token] = solver
-    return [solver._modes(t, n_modes, shapes, rows, sens) for t in theta]
+    with one_blas_thread():  # as in the parent (AffineModel.eigen): results independent of the thread count
+        return [solver._modes(t, n_modes, shapes, rows, sens) for t in theta]
 
 
 class SparseModalSolver:

@@ -41,6 +41,7 @@ from .modal import modal_analysis
 from .model import FrameModel, load_model, regular_frame, split_elements
 from .parameters import element_moduli
 from .problem import UpdatingProblem
+from ._threads import blas_pinned
 
 #: The minimum J of the paper problem (see docs/suite.md for the commands that certify it).
 PAPER_F_OPT = 5.4136727410825565e-06
@@ -218,6 +219,7 @@ def _n_dof(model: FrameModel) -> int:
 
 
 @lru_cache(maxsize=32)
+@blas_pinned  # the synthetic data: the same on any thread count
 def _truth_and_data(problem_id: str) -> tuple[np.ndarray, ModalData]:
     """The hidden truth (Pa) and the synthetic data of a synthetic instance.
 

@@ -206,14 +206,16 @@ def test_ioh_export_round_trips(study, tmp_path):
     for run in runs:
         r = by_key[(run.optimizer, run.seed)]
         assert r.function_name == PREFIX + "paper" and r.dimension == 12
-        assert r.function_id == FUNCTION_IDS["paper"] == 1 and r.instance == 1
+        assert r.function_id == FUNCTION_IDS["paper"] == 20001 and r.instance == 1
+        assert r.function_id > 24                        # clear of BBOB's function ids 1-24
         assert r.evals == run.n_evals
         assert terms.objective(r.best_y) == pytest.approx(run.best_f, rel=1e-9)
         assert r.best_y == pytest.approx((run.best_f - PAPER_F_OPT) / terms.scale, rel=1e-9)
         # the logged points are the trace's improvements, then ioh's last-evaluation line
         imp = improvements(run)
         np.testing.assert_array_equal(r.points[: len(imp), 0], [k for k, _ in imp])
-        np.testing.assert_allclose(r.points[: len(imp), 1], terms.raw([f for _, f in imp]), rtol=0, atol=1e-10)
+        # at full precision, not ioh's 10 fixed decimals
+        np.testing.assert_allclose(r.points[: len(imp), 1], terms.raw([f for _, f in imp]), rtol=1e-15, atol=0)
         assert r.points[-1, 0] == run.n_evals
     meta = json.loads(next((out / "random-search").glob("IOHprofiler_*.json")).read_text())
     assert meta["maximization"] is False and meta["algorithm"]["name"] == "random-search"
@@ -224,6 +226,23 @@ def test_ioh_export_round_trips(study, tmp_path):
         x = np.asarray(entry["best"]["x"])
         assert np.all((x >= 0) & (x <= 1))
         np.testing.assert_allclose(x, terms.unit(rs[entry["seed"]].best_x), atol=1e-6)
+
+
+def test_ioh_export_keeps_a_precision_of_1e_14_that_ten_decimals_would_round_to_0(study, tmp_path):
+    import dataclasses
+
+    run = study.runs()[0]
+    terms = ioh_terms("paper")
+    tiny = PAPER_F_OPT + 1.2345678901234e-14 * terms.scale
+    trace = [list(t) for t in run.trace if t[1] > tiny] + [[run.n_evals, tiny]]
+    close = dataclasses.replace(run, trace=trace, best_f=tiny)
+    out = export_runs([close], tmp_path / "ioh")
+    (r,) = read_ioh(out)
+    assert r.points[-1, 1] == pytest.approx(terms.raw(tiny), rel=1e-15) and r.points[-1, 1] > 1e-14
+    dat = next(out.rglob("*.dat")).read_text()
+    assert dat.splitlines()[0].split() == ["evaluations", "raw_y"]     # ioh's columns, no extra one
+    meta = json.loads(next(out.rglob("IOHprofiler_*.json")).read_text())
+    assert meta["attributes"] == ["evaluations", "raw_y"]
 
 
 def test_ioh_check_catches_a_changed_file(study, tmp_path):

@@ -11,8 +11,9 @@ def add_arguments(rp) -> None:
     rp.add_argument("--out", type=directory, default=None,
                     help="output directory: report.md, summary.json (stats.json for suite runs) and PNG figures")
     rp.add_argument("--json", action="store_true",
-                    help="print the benchmark statistics of the suite runs as JSON (targets, ERT, mean ranks, "
-                         "Friedman, pairwise tests); with --out, also write the report")
+                    help="print the benchmark statistics of the runs as JSON (targets, ERT with its bootstrapped "
+                         "range, comparisons on problems as blocks, per-problem tests, aggregate ECDF, profiles); "
+                         "with --out, also write the report")
     rp.add_argument("--ioh", action="store_true", help="also export IOHprofiler files to OUT/ioh")
 
 
