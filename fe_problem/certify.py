@@ -91,10 +91,12 @@ def certify_minimum(problem, starts: int = 4, seed: int = 0, truth=None, max_nfe
         # converges to the last bits (J's residual is not zero: Gauss-Newton alone is linear)
         u = least_squares(fun, (x - xl) / span, jac=jac, bounds=(0.0, 1.0), method="trf", ftol=1e-15,
                           xtol=1e-15, gtol=1e-15, max_nfev=max_nfev // 4).x
-        u = minimize(value_grad, u, jac=True, method="L-BFGS-B", bounds=[(0.0, 1.0)] * n,
-                     options={"ftol": 1e-16, "gtol": 1e-14, "maxiter": max_nfev, "maxcor": 30}).x
+        done = float(np.sum(fun(u) ** 2)) < 1e-20  # a zero residual reached: nothing to polish
+        if not done:
+            u = minimize(value_grad, u, jac=True, method="L-BFGS-B", bounds=[(0.0, 1.0)] * n,
+                         options={"ftol": 1e-16, "gtol": 1e-14, "maxiter": max_nfev, "maxcor": 30}).x
         free = (u > 1e-9) & (u < 1 - 1e-9)
-        if free.any():
+        if not done and free.any() and free.sum() <= len(fun(u)):  # LM needs no fewer residuals than variables
             def sub(v, u=u, free=free):
                 w = u.copy()
                 w[free] = v

@@ -289,10 +289,12 @@ def _design_lines(d: dict) -> list[str]:
                      + (f" and Friedman p >= {d['friedman']:.2g}" if "friedman" in d else ""))
     if not parts:
         return ["No pairwise test is possible: fewer than two solvers on a shared problem.", ""]
-    weak = [k for k in ("mannwhitneyu_holm", "wilcoxon_holm") if k in d and d[k] > d["alpha"]]
+    names = {"mannwhitneyu_holm": "per-problem Mann-Whitney (more seeds)",
+             "wilcoxon_holm": "Wilcoxon-Holm on the problems (more problems)"}
+    weak = [names[k] for k in names if k in d and d[k] > d["alpha"]]
     return ["Smallest p-values this design can reach: " + "; ".join(parts) + "."
-            + (f" **No {' or '.join(k.split('_')[0] for k in weak)} test can separate two solvers at alpha "
-               f"{d['alpha']}: run more seeds (or problems).**" if weak else ""), ""]
+            + (f" **No {' and no '.join(weak)} test can separate two solvers at alpha {d['alpha']}.**"
+               if weak else ""), ""]
 
 
 def _aggregate_lines(s: dict) -> list[str]:
