@@ -291,3 +291,29 @@ def test_live_ioh_logging_matches_the_replayed_export(tmp_path):
     assert replay.points[-1, 1] == pytest.approx(replay.best_y, abs=1e-10)
     assert live.points[-1, 1] >= replay.points[-1, 1] - 1e-10
     assert math.isclose(live.attributes["seed"], 3)
+
+
+def test_a_study_of_variants_gets_the_benchmark_statistics(study, report, capsys):
+    # not a suite study: the statistics are there all the same (`femu report --json`)
+    capsys.readouterr()
+    assert cli.main(["report", str(study.path), "--json"]) == 0
+    s = json.loads(capsys.readouterr().out)
+    (p,) = s["problems"]
+    assert p["id"] == "paper" and p["f_opt"] == PAPER_F_OPT and p["f_opt_kind"] == "certified"
+    assert p["targets"][0] == pytest.approx(100 * p["target_scale"])
+    # one problem: no comparison on problems as blocks, said; per-problem tests on 3 pairs
+    assert s["comparisons"] == {} and "at least 2 common problems" in s["not_compared"]
+    pairs = s["per_problem"]["final"]["pairs"]
+    assert {frozenset((q["a"], q["b"])) for q in pairs} == {frozenset(("random-search", BROKEN)),
+                                                            frozenset(("random-search", TINY)), frozenset((BROKEN, TINY))}
+    # the broken solver never reaches a target past its 20 evaluations: its aggregate area is the smallest
+    area = s["aggregate"]["area"]
+    assert set(area) == {"random-search", BROKEN, TINY} and area[BROKEN] == min(area.values())
+    assert {q["tolerance"] for q in s["profiles"]} == {1e-1, 1e-3, 1e-5, 1e-7}
+    assert s["design"]["mannwhitneyu"] == pytest.approx(0.1)            # 3 seeds: 2 / C(6, 3)
+    # the Markdown report links the benchmark report, which draws the aggregate and the profiles
+    path, md = report
+    assert "[benchmark.md](benchmark.md)" in md
+    bench = (path.parent / "benchmark.md").read_text()
+    assert "![aggregated ECDF](aggregate_ecdf.png)" in bench and "![profiles](profiles.png)" in bench
+    assert (path.parent / "aggregate_ecdf.png").stat().st_size > 5000

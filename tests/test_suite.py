@@ -148,3 +148,11 @@ def test_femu_suite_build_fills_noisy_references_and_bad_specs_fail_in_one_line(
     assert main(["suite", "nope"]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("femu suite: error: suite selection 'nope' matches no problem") and "\n" not in err
+
+
+def test_j_cannot_go_negative_where_1_minus_mac_rounds_below_0():
+    p = fp.suite_problem("frame-shape/12/2")
+    raw = 1.0 - p.correlation(p.truth).mac              # 1 - MAC as computed: rounds below 0 here
+    assert np.nansum(raw) < 0
+    j = p.evaluate(np.vstack([p.truth, p.truth]))
+    assert np.all(j >= 0.0) and np.all(j < 1e-14)

@@ -237,3 +237,17 @@ def test_every_builtin_spends_its_exact_budget_at_dimensions_12_and_96(pid):
         if need > 1:  # below its computed minimum the method is refused before it runs
             with pytest.raises(ValueError, match=f"needs a budget of at least {need} evaluations"):
                 run(name, fp.suite_problem(pid), need - 1, 0)
+
+
+def test_a_record_within_rounding_below_f_opt_is_accepted_and_reported(tmp_path, capsys):
+    from femu.studies.store import check_record
+
+    store = Store(tmp_path / "rounding")
+    for k in range(2):
+        # a record of a version that did not clamp 1 - MAC: best J -3e-15 (seen on hframe-shape)
+        store.write(_record("a", k, [[1, 4e-3], [600, -3e-15 * (k + 1)]]))
+        store.write(_record("b", k, [[1, 4e-3], [900, 1e-5]]))
+    s = _report_json(store.path, capsys)
+    assert s["below_f_opt"] == [] and s["n_runs"] == 4
+    bad = _record("a", 9, [[1, 4e-3], [600, -1e-9]]).to_dict()
+    assert "field 'best_f'" in check_record(bad, "hframe-freq+12+1__a__b1000__s9")
