@@ -71,14 +71,21 @@ def _band(frfs: FRFSet, band_hz, n_modes):
 
 
 def check_coordinates(frfs: FRFSet, model) -> None:
-    """Raise FRFFileError naming file and channel if a channel's or the reference's node is not in `model`."""
-    ids = set(model.node_ids)
-    for k, (node, _) in enumerate(frfs.coordinates):
+    """Raise FRFFileError naming file and channel if a channel's or the reference's node is not
+    in `model`, or its direction is not one of the model's nodal DOFs (its layout's)."""
+    ids, names = set(model.node_ids), model.layout.names
+    for k, (node, d) in enumerate(frfs.coordinates):
         if node not in ids:
             raise FRFFileError(f"{frfs.channel_label(k)}: node {node} is not in model {model.name!r} "
                                f"(its nodes: {min(ids)}..{max(ids)})")
+        if d not in names:
+            raise FRFFileError(f"{frfs.channel_label(k)}: direction {d!r} is not a DOF of model {model.name!r} "
+                               f"(its nodes have {', '.join(names)})")
     if frfs.reference[0] not in ids:
         raise FRFFileError(f"{frfs.sources[0]}: reference node {frfs.reference[0]} is not in model {model.name!r}")
+    if frfs.reference[1] not in names:
+        raise FRFFileError(f"{frfs.sources[0]}: reference direction {frfs.reference[1]!r} is not a DOF of model "
+                           f"{model.name!r} (its nodes have {', '.join(names)})")
 
 
 def _inside(chart: P.Chart, lo: float, hi: float) -> tuple[list, list]:

@@ -11,8 +11,8 @@ column of the FRF matrix: the measured coordinates are the coordinates that chan
 fixed one is `reference`. Several files are merged (same axis, form, units and reference).
 
 Layouts (docs/identify.md has examples):
-- UFF 58: function type 4 (FRF), complex ordinate; directions 1 (x), 2 (y), 6 (rz), a negative
-  direction flips the sign; ordinate type 12 / 11 / 8 (acceleration, velocity, displacement)
+- UFF 58: function type 4 (FRF), complex ordinate; directions 1..6 (x, y, z, rx, ry, rz; a
+  planar model's nodes have 1, 2 and 6, checked against the model), a negative direction flips the sign; ordinate type 12 / 11 / 8 (acceleration, velocity, displacement)
   over 13 (force) gives accelerance / mobility / receptance. ID line 1 may name the model:
   ``model: hframe``.
 - `.npz`: ``frequency_hz`` (n_lines,), ``frf`` (n_channels, n_lines) complex,
@@ -30,10 +30,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..dofs import DEFAULT_LAYOUT, SPATIAL
+from ..dofs import SPATIAL
 
-#: UFF direction codes (1..6 for x, y, z, rx, ry, rz) of the model's nodal DOFs, and back
-UFF_DIRECTION = {name: SPATIAL.index(name) + 1 for name in DEFAULT_LAYOUT.names}
+#: UFF direction codes (1..6 for x, y, z, rx, ry, rz) of nodal DOFs, and back; which of them a
+#: model's nodes have is its layout's (checked by `identification.core.check_coordinates`)
+UFF_DIRECTION = {name: SPATIAL.index(name) + 1 for name in SPATIAL}
 _DIRECTION_OF = {v: k for k, v in UFF_DIRECTION.items()}
 _CODES_TEXT = ", ".join(f"{c} {n}" for n, c in UFF_DIRECTION.items())
 _NAMES_TEXT = ", ".join(UFF_DIRECTION)
@@ -119,7 +120,7 @@ def _uff_channel(ds: dict, where: str):
         if node <= 0 or code == 0:
             raise FRFFileError(f"{where}: missing {name} coordinate (node {node}, direction {code})")
         if abs(code) not in _DIRECTION_OF:
-            raise FRFFileError(f"{where}: {name} direction {code} is not a DOF of the model's nodes (use {_CODES_TEXT})")
+            raise FRFFileError(f"{where}: {name} direction {code} is not a nodal DOF (use {_CODES_TEXT})")
         coords.append((node, _DIRECTION_OF[abs(code)], -1.0 if code < 0 else 1.0))
     ordinate = int(ds.get("ordinate_spec_data_type", 12))
     if ordinate not in FORM_OF_ORDINATE or int(ds.get("orddenom_spec_data_type", 13)) != 13:

@@ -8,11 +8,12 @@ import dataclasses
 
 import numpy as np
 
+from ..dofs import PLANAR_FRAME
 from .edits import part_fields
 from .types import Element, FrameModel, LumpedMass, Material, Node, Section, Support
 
 #: Base fixity of `regular_frame`: the directions fixed at every base node.
-BASES = {"fixed": ("x", "y", "rz"), "pinned": ("x", "y")}
+BASES = {"fixed": PLANAR_FRAME.names, "pinned": PLANAR_FRAME.translations}
 
 
 def split_elements(model: FrameModel, parts: int) -> FrameModel:
@@ -29,9 +30,9 @@ def split_elements(model: FrameModel, parts: int) -> FrameModel:
     parts = int(parts)
     if parts == 1:
         return model
-    xy = {n.id: (n.x, n.y) for n in model.nodes}
-    a = np.array([xy[e.node_i] for e in model.elements], dtype=float)
-    b = np.array([xy[e.node_j] for e in model.elements], dtype=float)
+    at = model.coordinates
+    a = np.array([at[model.node_position(e.node_i)] for e in model.elements], dtype=float)
+    b = np.array([at[model.node_position(e.node_j)] for e in model.elements], dtype=float)
     pts = np.empty((parts - 1,) + a.shape)
     prev = a
     for k in range(parts - 1):  # the same floating-point steps as repeated split_element calls
@@ -42,11 +43,12 @@ def split_elements(model: FrameModel, parts: int) -> FrameModel:
     nodes, elements = list(model.nodes), []
     for i, e in enumerate(model.elements):
         ends = [e.node_i, *map(int, node_ids[i]), e.node_j]
-        nodes.extend(Node(int(node_ids[i, k]), float(pts[k, i, 0]), float(pts[k, i, 1])) for k in range(parts - 1))
+        nodes.extend(Node(int(node_ids[i, k]), *map(float, pts[k, i])) for k in range(parts - 1))
         for k in range(parts):
             elements.append(dataclasses.replace(
                 e, id=e.id if k == 0 else int(el_ids[i, k - 1]), node_i=ends[k], node_j=ends[k + 1],
                 release_i=e.release_i if k == 0 else None, release_j=e.release_j if k == parts - 1 else None,
+                releases_i=e.releases_i if k == 0 else (), releases_j=e.releases_j if k == parts - 1 else (),
                 **part_fields(e, k / parts, (k + 1) / parts)))
     return model.replace(nodes=tuple(nodes), elements=tuple(elements))
 
@@ -90,7 +92,7 @@ def regular_frame(bays: int, storeys: int, bay_width_m: float = 6.0, storey_heig
         sections={"column": column, "beam": beam}, elements=tuple(elements),
         masses=tuple(LumpedMass(n, float(floor_mass_kg)) for n in upper) if floor_mass_kg > 0 else (),
         supports=tuple(Support(c + 1, BASES[base]) for c in range(per)),
-        measured_dofs=tuple((n, d) for n in upper for d in ("x", "y")),
+        measured_dofs=tuple((n, d) for n in upper for d in PLANAR_FRAME.translations),
         description=description if description is not None else
         f"regular {bays}-bay {storeys}-storey frame, {bay_width_m:g} m bays, {storey_height_m:g} m storeys, {base} base")
 

@@ -112,6 +112,7 @@ def run(args) -> int:
     saved = str(save_model(model, args.save)) if args.save else None
     summary = {
         "name": model.name, "source": model.source, "description": model.description,
+        "dimension": model.layout.dimension, "node_dofs": list(model.layout.names),
         "n_nodes": len(model.nodes), "n_elements": len(model.elements), "n_dofs": model.n_dof,
         "n_free_dofs": system.n_free, "solver_path": system.path,
         "build_s": t1 - t0, "assemble_s": t2 - t1, "solve_s": t3 - t2,
@@ -134,6 +135,8 @@ def _print(s: dict, model, asked: int) -> None:
     print(f"model {s['name']}  ({s['source']})")
     if s["description"]:
         print(f"  {s['description']}")
+    kind = "planar frame" if s["dimension"] == 2 else "space frame"
+    print(f"  {kind} ({s['dimension']}-D): {len(s['node_dofs'])} DOFs per node ({', '.join(s['node_dofs'])})")
     print(f"  {s['n_nodes']} nodes, {s['n_elements']} elements ({', '.join(s['formulations'])}), "
           f"{s['n_dofs']} DOFs, mass {s['total_mass_kg']:.4f} kg")
     print(f"  {s['supports']} supports, {s['masses']} lumped masses, {s['springs']} springs, "
