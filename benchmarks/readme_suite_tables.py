@@ -100,9 +100,10 @@ def profile_lines(stats: dict) -> list[str]:
     for p in stats["profiles"]:
         for s in stats["solvers"]:
             rows.append([f"{p['tolerance']:g}", s, f"{p['data'][s][-1]:.2f}", f"{p['performance'][s][0]:.2f}"])
-    return (["Moré-Wild / Dolan-Moré profiles: the fraction of problems solved (J <= f_opt + tau (J(x0) - f_opt)) "
-             "within the budget, and the fraction on which the solver's ERT is the best:", ""]
-            + _table(["tau", "solver", "solved", "best"], rows))
+    return (["Moré-Wild / Dolan-Moré profiles, the end points: the data profile at its largest alpha (the fraction "
+             "of problems whose ERT to J <= f_opt + tau (J(x0) - f_opt) is at most the budget) and the performance "
+             "profile at ratio 1 (the fraction of problems on which the solver's ERT is the best):", ""]
+            + _table(["tau", "solver", "solved within the budget", "best"], rows))
 
 
 def design_line(stats: dict) -> str:

@@ -163,7 +163,7 @@ class ErtTable:
     """ERT (evaluations) per solver, group and target level; inf where no run hit. `lower`,
     `upper`: the 10 and 90 % points of COCO's bootstrapped run lengths with restarts
     (`ert_interval`); `beyond_budget`: the ERT exceeds the largest budget any of those runs had
-    (an extrapolation from restarts that no run made)."""
+    (an extrapolation from restarts that no run made; never for an infinite ERT)."""
 
     levels: tuple[float, ...]
     ert: dict          # {solver: {group: [ERT per level]}}
@@ -193,7 +193,7 @@ def ert_table(runs: list[RunTrace], targets: dict[str, Targets], samples: int = 
         ranges = [ert_interval(times[:, k], n_evals, samples=samples, seed=k) for k in range(times.shape[1])]
         lo.setdefault(solver, {})[group] = [a for a, _ in ranges]
         hi.setdefault(solver, {})[group] = [b for _, b in ranges]
-        beyond.setdefault(solver, {})[group] = [bool(v > n_evals.max()) for v in e]
+        beyond.setdefault(solver, {})[group] = [bool(math.isfinite(v) and v > n_evals.max()) for v in e]
     n = len(next(iter(targets.values())).deltas) if targets else 0
     return ErtTable(target_levels(n // PER_DECADE if n else DECADES), out, succ, count, lo, hi, beyond)
 
