@@ -156,3 +156,14 @@ def test_j_cannot_go_negative_where_1_minus_mac_rounds_below_0():
     assert np.nansum(raw) < 0
     j = p.evaluate(np.vstack([p.truth, p.truth]))
     assert np.all(j >= 0.0) and np.all(j < 1e-14)
+
+
+def test_the_reference_solve_certifies_the_papers_f_opt_within_its_precision():
+    from fe_problem.certify import certify_minimum
+
+    p = fp.suite_problem("paper/12/1")
+    c = certify_minimum(p, starts=3, seed=0)
+    # independent of benchmarks/suite_fopt.py's sensitivity and CMA-ES runs: the same minimum
+    assert abs(c.f_min - fs.PAPER_F_OPT) <= fs.PAPER_F_OPT_PRECISION
+    assert len(c.ends) == 4 and max(c.ends) - min(c.ends) < 1e-12 * fs.PAPER_F_OPT
+    assert float(p.evaluate(c.x)[0]) == pytest.approx(c.f_min, rel=1e-14)
