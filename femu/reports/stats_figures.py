@@ -68,6 +68,13 @@ def plot_ert(table: ErtTable, path) -> Path:
             v = np.asarray(values, dtype=float)
             ok = np.isfinite(v)
             axes[g].plot(x[ok], v[ok], color=colors[solver], lw=1.8, marker="o", ms=2.5)
+            if table.lower:  # COCO's bootstrapped 10-90 % range of the run lengths
+                lo = np.asarray(table.lower[solver][g], dtype=float)
+                hi = np.asarray(table.upper[solver][g], dtype=float)
+                axes[g].fill_between(x[ok], lo[ok], hi[ok], color=colors[solver], alpha=0.15, lw=0)
+            if table.beyond_budget:  # an ERT past every run's budget: an open marker
+                far = np.asarray(table.beyond_budget[solver][g], dtype=bool) & ok
+                axes[g].plot(x[far], v[far], ls="none", marker="o", ms=6, mfc="white", color=colors[solver])
             if not ok.all():  # the first target level none of the runs reached
                 axes[g].plot(x[np.argmin(ok)], 1.0, marker="x", color=colors[solver], ms=7, mew=2,
                              transform=axes[g].get_xaxis_transform(), clip_on=False)
@@ -75,8 +82,8 @@ def plot_ert(table: ErtTable, path) -> Path:
         ax.set(yscale="log", title=g, xlabel="target: decades below the top (log10 of Delta_top / Delta)",
                ylabel="ERT (FE evaluations)")
         ax.grid(True, which="both", alpha=0.25)
-    fig.suptitle("Expected running time (COCO ERT) per target; x on the top edge: first target never reached",
-                 fontsize=11)
+    fig.suptitle("Expected running time (COCO ERT) per target\nband: bootstrapped 10-90 %; open marker: beyond the "
+                 "budget; x on the top edge: first target never reached", fontsize=10)
     _legend(fig, colors)
     return save_figure(fig, path)
 
