@@ -77,7 +77,12 @@ def min_budget(optimizer, n_var: int, **options: Any) -> int:
 
 def check_min_budget(name: str, optimizer, budget: int, n_var: int, **options: Any) -> None:
     """ValueError if `budget` is below what optimizer `name` needs (see `min_budget`)."""
-    need = min_budget(optimizer, n_var, **options)
+    check_budget_covers(name, min_budget(optimizer, n_var, **options), budget, n_var, **options)
+
+
+def check_budget_covers(name: str, need: int, budget: int, n_var: int, **options: Any) -> None:
+    """ValueError if `budget` is below `need`, the minimum budget optimizer `name` stated (asked
+    in its worker by adapters.sandbox.optimizer_facts, or `min_budget`)."""
     if budget < need:
         how = f" with options {options}" if options else ""
         raise ValueError(f"optimizer {name!r} needs a budget of at least {need} evaluations, got {budget} "

@@ -58,6 +58,11 @@ class RunResult:
     x0: ``all`` when the solver was given the problem's initial point, ``none`` otherwise.
     versions: Python's and every run library's version (adapters.provenance.library_versions).
     f_opt: the problem's known optimum J (suite problems, set by studies), None if unknown.
+    verified: True when the optimizer ran in a worker process without the problem and this
+    record was made by the evaluating side (adapters.sandbox); False for a run in the problem's
+    own process (``run(..., isolated=False)``, for debugging; and records made before the
+    sandbox), whose counts a plugin could have bypassed.
+    output: what the optimizer printed (stdout and stderr of its worker, the end kept).
     """
 
     optimizer: str
@@ -83,6 +88,8 @@ class RunResult:
     versions: dict = field(default_factory=dict)
     format: str = RECORD_FORMAT
     f_opt: float | None = None
+    verified: bool = False
+    output: str = ""
 
     @property
     def overhead_s(self) -> float:
@@ -291,14 +298,24 @@ def _start(optimizer, name: str, problem, x0: str) -> dict:
 
 
 def run(name: str, problem, budget: int, seed: int, time_limit_s: float | None = None,
-        variant: str = "paper", x0: str = "none", **options: Any) -> RunResult:
+        variant: str = "paper", x0: str = "none", isolated: bool = True, **options: Any) -> RunResult:
     """Run optimizer `name` on `problem` with exactly `budget` FE evaluations and `seed`.
+
+    isolated (default): the optimizer runs in a worker process that never holds the problem
+    (adapters.sandbox); this process evaluates, counts, times and judges the run, and the
+    record is ``verified``. isolated=False runs it in this process, for debugging: a plugin can
+    then reach the problem, so the record has verified False and reports say so.
 
     x0: ``none`` (default: the solver is told nothing about the start) or ``all`` (it gets
     the problem's initial point as ``minimize(..., x0=array)``); see adapters.budget.X0_MODES.
     Never raises for a failing optimizer: its record has status ``failed`` and the error.
     Unknown names and bad budgets, seeds or x0 modes raise ValueError before anything runs.
     """
+    if isolated:
+        from .sandbox import run_isolated
+
+        return run_isolated(name, problem, budget, seed, time_limit_s=time_limit_s, variant=variant, x0=x0,
+                            **options)
     from .registry import get
 
     cls = get(name)

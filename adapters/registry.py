@@ -72,6 +72,23 @@ def get(name: str) -> type:
 _DOTTED = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*")
 
 
+def check_name(name) -> str:
+    """`name` if it names an optimizer (a built-in, an installed plugin or an import path
+    ``package.module:Class``), checked without importing a plugin's code; ValueError naming the
+    known ones otherwise. Whether it loads is found out where it runs (adapters.sandbox)."""
+    if not isinstance(name, str) or not name:
+        raise ValueError(f"unknown optimizer {name!r}; available: {', '.join(available())}")
+    if name in BUILTINS or name in _plugins():
+        return name
+    module, colon, attr = name.partition(":")
+    if colon and _DOTTED.fullmatch(module) and attr.isidentifier():
+        return name
+    if colon:
+        raise ValueError(f"optimizer {name!r}: not a registry name or an import path package.module:Class "
+                         f"(available: {', '.join(available())})")
+    raise ValueError(f"unknown optimizer {name!r}; available: {', '.join(available())}")
+
+
 def _import_path(name: str) -> type:
     """An optimizer named by its import path ``package.module:Class`` (not registered: for
     trying out a class, e.g. in a test, in every worker process of a study)."""

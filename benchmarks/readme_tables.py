@@ -65,13 +65,16 @@ def scale_table(figures: dict) -> str:
     sizes = sorted(int(k.split(":")[1]) for k in per_item if k.startswith("evaluate_scale:"))
     if not sizes:
         raise ValueError("no figure 'evaluate_scale:N' in the benchmark JSON: run benchmarks/test_bench_scale.py")
-    lines = ["| free DOFs | parameters | `evaluate`, one point | OpenSeesPy rebuild + eigen | speed-up "
-             "| max rel. diff of the 10 frequencies to the reference |", "|---|---|---|---|---|---|"]
+    lines = ["| free DOFs | parameters | `evaluate`, one point | bare Cholesky + ARPACK floor | evaluate / floor "
+             "| OpenSeesPy rebuild + eigen | speed-up over OpenSeesPy "
+             "| max rel. diff of the 10 frequencies to the reference |", "|---|---|---|---|---|---|---|---|"]
     for n in sizes:
         ours, ops = per_item[f"evaluate_scale:{n}"], per_item.get(f"opensees_scale:{n}")
+        floor = per_item.get(f"floor_scale:{n}")
         ratio = f"{ops['min_s'] / ours['min_s']:.1f}x" if ops else ""
-        lines.append(f"| {n:,} | {ours['n_params']} | {_ms(ours['min_s'])} | {_ms(ops['min_s']) if ops else ''} "
-                     f"| {ratio} | {ours['max_rel_diff_to_reference']:.1e} |")
+        over = f"{ours['min_s'] / floor['min_s']:.2f}x" if floor else ""
+        lines.append(f"| {n:,} | {ours['n_params']} | {_ms(ours['min_s'])} | {_ms(floor['min_s']) if floor else ''} "
+                     f"| {over} | {_ms(ops['min_s']) if ops else ''} | {ratio} | {ours['max_rel_diff_to_reference']:.1e} |")
     for r in figures.get("slopes", []):
         goal = "" if r["goal"] is None else f" (goal <= {r['goal']:g}: {'met' if r['met'] else '**not met**'})"
         lines.append(f"\n{r['label']}: {r['slope']:.2f}{goal}")
@@ -83,6 +86,12 @@ def scale_table(figures: dict) -> str:
                    f"{_ms(w2['cpu_this_process_s'])} here + {_ms(w2['cpu_workers_s'])} in the worker with 2")
         lines.append(f"\nA batch of 4 points at 3,000 DOFs: {_ms(w1['min_s'])} per point with 1 process, "
                      f"{_ms(w2['min_s'])} with 2 ({w1['min_s'] / w2['min_s']:.2f}x){cpu}.")
+    diag = sorted((int(k.split(":")[1]), v) for k, v in per_item.items() if k.startswith("diagnosis:"))
+    if diag:
+        lines += ["", "| `fp.diagnose`, one solver process | wall | CPU | cause |", "|---|---|---|---|"]
+        lines += [f"| {n:,} free DOFs | {_ms(v['min_s'])} | {_ms(v['cpu_s'])} | {v['cause']}"
+                  + (" (several candidates cannot be told apart) |" if v["cause"] == "undetermined"
+                     else f" {v['location']} |") for n, v in diag]
     return "\n".join(lines) + "\n"
 
 

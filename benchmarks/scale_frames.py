@@ -4,7 +4,7 @@ frame in OpenSeesPy.
 `regular_frame(bays, storeys)`: bays of 6 m, storeys of 3.5 m, fixed at every base node;
 steel columns (A 1.2e-2 m^2, I 2.5e-4 m^4) and beams (A 8e-3 m^2, I 3e-4 m^4), E 210 GPa,
 density 7850 kg/m^3, one Euler-Bernoulli element per member with its consistent mass.
-Free DOFs: 3 * (bays + 1) * storeys. `SIZES` are the frames of the three benchmark sizes.
+Free DOFs: 3 * (bays + 1) * storeys. `SIZES` are the frames of the four benchmark sizes.
 """
 
 from __future__ import annotations
@@ -15,8 +15,8 @@ import openseespy.opensees as ops
 import fe_problem as fp
 from fe_problem.model import FrameModel, Material, Section
 
-#: DOF target -> (bays, storeys): 300, 3,000 and 9,000 free DOFs (3 per free node).
-SIZES = {300: (9, 10), 3000: (24, 40), 9000: (49, 60)}
+#: DOF target -> (bays, storeys): 300, 3,000, 9,000 and 30,000 free DOFs (3 per free node).
+SIZES = {300: (9, 10), 3000: (24, 40), 9000: (49, 60), 30000: (99, 100)}
 BAY_M, STOREY_M = 6.0, 3.5
 STEEL = Material(2.1e11, 7850.0, 0.3)
 COLUMN, BEAM = Section(1.2e-2, 2.5e-4), Section(8.0e-3, 3.0e-4)

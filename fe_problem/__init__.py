@@ -1,30 +1,61 @@
 """femu-bench physics: frame FE models (planar today), modal analysis, correlation, measured data,
-and the FE model-updating problem. Knows nothing of optimizers."""
+and the FE model-updating problem. Knows nothing of optimizers.
 
-from . import _threads  # noqa: F401  (one BLAS thread: before numpy loads)
-from .correlation import comac, frequency_errors_pct, mac, pair_modes
-from .modal_data import (DataFileError, ModalData, load_modal_data, paper_table, save_modal_data,
-                   synthetic_measurement)
-from .modal import ModalResult, modal_analysis
-from .model import (FrameModel, ModelFileError, add_mass, crack_element, load_model, regular_frame, release_element_end,
-                    save_model, split_element, split_elements, with_formulation)
-from .assembly import AffineModel
-from .parameters import Parameter, element_moduli
-from .problem import CorrelationReport, UpdatingProblem
-from .diagnosis import Diagnosis, diagnose
-from .suite import SuiteProblem, select_suite, suite_entry, suite_ids, suite_problem
+The public names are loaded on first use (PEP 562 `__getattr__`): `import fe_problem` costs no
+scipy and no diagnosis, so that `femu --help` answers at once (issue 25); `from fe_problem
+import X` and `fe_problem.X` work as before.
+"""
 
-__all__ = [
-    "AffineModel", "CorrelationReport", "Diagnosis", "diagnose", "DataFileError", "FrameModel", "ModalData", "ModalResult",
-    "ModelFileError", "Parameter", "UpdatingProblem", "add_mass", "comac", "crack_element", "element_moduli",
-    "frequency_errors_pct", "load_modal_data", "load_model", "mac", "modal_analysis", "pair_modes",
-    "paper_table", "regular_frame", "release_element_end", "save_modal_data", "save_model", "split_element",
-    "split_elements",
-    "synthetic_measurement", "with_formulation", "SuiteProblem", "select_suite", "suite_entry", "suite_ids",
-    "suite_problem",
-]
+from __future__ import annotations
 
-# From FRFs to modal data (issue 12): the synthetic test rig, FRF files, identification
-from .identification import FRFFileError, FRFSet, Identification, identify, read_frf, synthetic_frf  # noqa: E402
+import importlib
 
-__all__ += ["FRFFileError", "FRFSet", "Identification", "identify", "read_frf", "synthetic_frf"]
+import os as _os
+
+# An optimizer's worker process (adapters.sandbox_worker) and every process it starts carry this
+# mark: the FE model, its data and the suite's hidden truths are not theirs to build.
+if _os.environ.get("FEMU_OPTIMIZER_PROCESS"):
+    raise ImportError("fe_problem: not available in an optimizer's process (the FE model, its data and the suite "
+                      "stay with the evaluating process; an optimizer sees only its objective)", name="fe_problem")
+
+from . import _threads  # noqa: F401,E402  (one BLAS thread: before numpy loads)
+
+#: public name -> the submodule that defines it
+_WHERE = {
+    **dict.fromkeys(("comac", "frequency_errors_pct", "mac", "pair_modes"), "correlation"),
+    **dict.fromkeys(("DataFileError", "ModalData", "load_modal_data", "paper_table", "save_modal_data",
+                     "synthetic_measurement"), "modal_data"),
+    **dict.fromkeys(("ModalResult", "modal_analysis"), "modal"),
+    **dict.fromkeys(("FrameModel", "ModelFileError", "add_mass", "crack_element", "load_model", "regular_frame",
+                     "regular_frame_3d", "release_element_end", "save_model", "split_element", "split_elements", "with_formulation"),
+                    "model"),
+    "AffineModel": "assembly",
+    **dict.fromkeys(("Parameter", "element_moduli"), "parameters"),
+    **dict.fromkeys(("CorrelationReport", "UpdatingProblem"), "problem"),
+    **dict.fromkeys(("Diagnosis", "diagnose"), "diagnosis"),
+    **dict.fromkeys(("SuiteProblem", "select_suite", "suite_entry", "suite_ids", "suite_problem"), "suite"),
+    # From FRFs to modal data (issue 12): the synthetic test rig, FRF files, identification
+    **dict.fromkeys(("FRFFileError", "FRFSet", "Identification", "identify", "read_frf", "synthetic_frf"),
+                    "identification"),
+}
+
+__all__ = sorted(_WHERE)
+
+
+def __getattr__(name: str):
+    """A public name (imported from its submodule on first use), or a submodule."""
+    where = _WHERE.get(name)
+    if where is not None:
+        value = getattr(importlib.import_module(f".{where}", __name__), name)
+        globals()[name] = value
+        return value
+    try:
+        return importlib.import_module(f".{name}", __name__)
+    except ModuleNotFoundError as exc:
+        if exc.name != f"{__name__}.{name}":
+            raise
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_WHERE))

@@ -20,8 +20,10 @@ import numpy as np
 import scipy.linalg
 import scipy.sparse as sp
 
+from .limits import MAX_SPARSE_DOFS  # noqa: F401  (fe_problem.assembly.MAX_SPARSE_DOFS, as before)
 from .model import FrameModel, ModelFileError
 from .parameters import Parameter
+from .paths import SOLVERS
 from .solver import ModalSolver, take_rows
 from .sparse import SparseModalSolver
 from .terms import DofMap, Terms, dense_terms
@@ -31,8 +33,6 @@ from ._threads import blas_pinned, one_blas_thread
 #: crossover.py): per point, the dense batched eigvalsh and the sparse shift-invert solve
 #: cost the same at about this size on frames of beam elements (10 modes).
 SPARSE_MIN_DOFS = 200
-
-SOLVERS = ("auto", "dense", "sparse")
 
 
 #: `solver="auto"` also takes the sparse path when the dense one would hold more than this
@@ -75,10 +75,6 @@ def check_dense_size(model: FrameModel, n_params: int) -> None:
                          "use a coarser model or fewer parameters")
 
 
-#: The most free DOFs the sparse path takes: a model larger than this is refused up front
-#: (its factorisations could exhaust memory, and each point would take minutes). A 90,000-DOF
-#: beam solves in about 7 s and 360 MB on this project's 2-core machine.
-MAX_SPARSE_DOFS = 250_000
 
 
 def check_sparse_size(model: FrameModel, n_free: int) -> None:

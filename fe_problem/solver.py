@@ -22,6 +22,21 @@ def cholesky(m: np.ndarray, name: str) -> np.ndarray:
                          "(a DOF with no mass: a released end of a massless element, or a zero density)") from None
 
 
+#: Entries within this fraction of a shape's largest |entry| count as tied for the sign rule.
+SIGN_TIE = 1e-8
+
+
+def signed(phi: np.ndarray) -> np.ndarray:
+    """Shapes (..., n, m) signed so that the entry that decides is positive: the first (lowest
+    row) whose magnitude is within `SIGN_TIE` of the largest. A symmetric structure has
+    modes whose two largest entries are equal and opposite; a plain argmax would let
+    rounding (a different factorisation, BLAS) choose between them and flip the shape."""
+    a = np.abs(phi)
+    first = np.argmax(a >= (1.0 - SIGN_TIE) * a.max(axis=-2, keepdims=True), axis=-2)
+    big = np.take_along_axis(phi, first[..., None, :], axis=-2)
+    return phi * np.where(big < 0, -1.0, 1.0)
+
+
 def take_rows(phi: np.ndarray, rows) -> np.ndarray:
     """Shapes (b, n_free, k) at free-DOF `rows`: (b, len(rows), k), zero where a row is -1."""
     rows = np.asarray(rows)
@@ -129,8 +144,7 @@ class ModalSolver:
         if self.mass_constant:
             y = self._q @ y
         phi = np.swapaxes(self._linv_batch(theta), 1, 2) @ y
-        big = np.take_along_axis(phi, np.abs(phi).argmax(axis=1)[:, None, :], axis=1)
-        phi = phi * np.where(big < 0, -1.0, 1.0)
+        phi = signed(phi)
         return lam[:, sl], (phi if rows is None else take_rows(phi, rows))
 
     def eigen_sensitivities(self, theta: np.ndarray, n_modes: int, rows=None):

@@ -33,6 +33,28 @@ import scipy.sparse as sp
 from ._threads import one_blas_thread
 from scipy.sparse.linalg import ArpackNoConvergence, LinearOperator, eigsh, splu
 
+from .solver import signed
+
+try:  # the Cholesky path: an optional extra (`pip install femu-bench[cholmod]`, needs libsuitesparse-dev)
+    from sksparse import cholmod as _cholmod
+except ImportError:  # SuperLU then: the same frequencies to 1e-10, slower per point (docs/scale.md)
+    _cholmod = None
+
+#: Factorisations of K - sigma M: "cholmod" (sparse Cholesky, scikit-sparse) and "superlu" (scipy).
+FACTORIZATIONS = ("cholmod", "superlu")
+
+
+def default_factorization() -> str:
+    """"cholmod" when scikit-sparse is installed, else "superlu"."""
+    return "superlu" if _cholmod is None else "cholmod"
+
+
+#: ARPACK's relative tolerance on the Ritz values of the shift-invert operator. The requirement:
+#: no frequency moves by more than 1e-10 relative against tol=0 (machine precision). Measured on
+#: the scale frames (300-9,000 DOFs, 10 modes; benchmarks/arpack_tolerance.py): at most 3e-12,
+#: for fewer solves per point; tests/test_sparse_cholesky.py holds it to 1e-10.
+ARPACK_TOL = 1e-10
+
 
 #: Free DOFs from which a batch of points is split over worker processes (below: one process).
 #: Measured at 300 DOFs (8 points, 10 modes): the parent's CPU time per point went from 4.40 ms
@@ -122,9 +144,15 @@ class SparseModalSolver:
     SHIFT = 0.5
 
     def __init__(self, k_trip, m_trip, n: int, x0: np.ndarray, name: str, workers: int | None = None,
-                 min_zero: int = 0):
+                 min_zero: int = 0, factorization: str | None = None, arpack_tol: float = ARPACK_TOL):
         self.n_free, self.name, self.n_params = n, name, len(x0)
         self.workers = default_workers() if workers is None else int(workers)
+        self.factorization = default_factorization() if factorization is None else factorization
+        if self.factorization not in FACTORIZATIONS or (self.factorization == "cholmod" and _cholmod is None):
+            raise ValueError(f"factorization must be one of {FACTORIZATIONS} (cholmod needs scikit-sparse), "
+                             f"got {self.factorization!r}")
+        self.arpack_tol = float(arpack_tol)
+        self._symbolic = None  # CHOLMOD's analysis of the pattern: made on first use in each process
         rows = np.concatenate([k_trip[0], m_trip[0]])
         cols = np.concatenate([k_trip[1], m_trip[1]])
         lin, slot = np.unique(rows * n + cols, return_inverse=True)
@@ -157,7 +185,10 @@ class SparseModalSolver:
     def _order(self, x0: np.ndarray) -> None:
         """Fix a fill-reducing ordering of the pattern once (SuperLU's minimum degree on A + A^T
         at x0): each point then factorises the permuted matrix as it is, without ordering anew.
-        `_perm` (new -> old DOF), and the permuted pattern with `_pdata`, the value index map."""
+        `_perm` (new -> old DOF), and the permuted pattern with `_pdata`, the value index map.
+        (The Cholesky path orders in CHOLMOD's analysis instead, `_analysis`.)"""
+        if self.factorization == "cholmod":
+            return
         a = sp.csc_matrix((self.k_data(x0) - self.sigma * self.m_data(x0), self.cols, self.indptr),
                           shape=(self.n_free, self.n_free))
         if self.n_free < 3:
@@ -171,9 +202,28 @@ class SparseModalSolver:
         self._pdata = tag.data.astype(np.int64) - 1
         self._pindices, self._pindptr = tag.indices, tag.indptr
 
+    def _analysis(self):
+        """CHOLMOD's symbolic analysis of the pattern (its fill-reducing order and the structure of
+        the factor), once per model and process: it is not pickled, a worker makes its own."""
+        if self._symbolic is None:
+            self._symbolic = _cholmod.analyze(self._csc(np.ones(len(self.rows))), mode="auto")
+        return self._symbolic
+
+    def _csc(self, data: np.ndarray) -> sp.csc_matrix:
+        """The symmetric matrix with values `data` on the pattern, as CSC: the CSR arrays of a
+        symmetric pattern read as CSC are its transpose, the same matrix."""
+        return sp.csc_matrix((data, self.cols, self.indptr), shape=(self.n_free, self.n_free))
+
     def _factor(self, a_data: np.ndarray):
-        """The LU factors of the matrix with values `a_data` on the pattern, in the fixed order:
-        a function b -> A^-1 b."""
+        """The factors of the matrix with values `a_data` on the pattern: a function b -> A^-1 b.
+        Cholesky (numeric step only, on the kept analysis), or LU in the fixed order."""
+        if self.factorization == "cholmod":
+            try:
+                chol = self._analysis().cholesky(self._csc(a_data))
+            except _cholmod.CholmodNotPositiveDefiniteError:
+                raise ValueError(f"model {self.name!r}: K - sigma M is not positive definite at this point (a "
+                                 "DOF with no stiffness and no mass, or a negative modulus?)") from None
+            return chol.solve_A
         ap = sp.csc_matrix((a_data[self._pdata], self._pindices, self._pindptr), shape=(self.n_free, self.n_free))
         try:
             lu = splu(ap, permc_spec="NATURAL", diag_pivot_thresh=0.0, options={"SymmetricMode": True})
@@ -242,7 +292,7 @@ class SparseModalSolver:
         while True:  # a wider Krylov space if the first does not converge (never seen on frames)
             try:
                 out = eigsh(kmat, k=k, M=mmat, sigma=self.sigma, which="LM", OPinv=op, v0=self._v0,
-                            ncv=min(self.n_free, ncv), tol=0.0, return_eigenvectors=vectors)
+                            ncv=min(self.n_free, ncv), tol=self.arpack_tol, return_eigenvectors=vectors)
                 break
             except ArpackNoConvergence:
                 if ncv >= min(self.n_free, 8 * k + 40):
@@ -265,8 +315,7 @@ class SparseModalSolver:
             return lam, None, None
         phi = phi[:, self.n_rigid:]
         phi = phi / np.sqrt(np.einsum("im,im->m", phi, self.matrix(self.m_data(theta)) @ phi))
-        big = phi[np.abs(phi).argmax(axis=0), np.arange(phi.shape[1])]
-        phi = phi * np.where(big < 0, -1.0, 1.0)
+        phi = signed(phi)
         dlam = None
         if sens:  # phi^T (dK_k - lambda dM_k) phi through the triplet map: no matrix per parameter
             q = phi[self.rows] * phi[self.cols]                  # (nnz, m)
@@ -322,6 +371,7 @@ class SparseModalSolver:
     def __getstate__(self):
         state = self.__dict__.copy()
         state["_blob"] = None
+        state["_symbolic"] = None  # CHOLMOD's analysis does not pickle: each process makes its own
         return state
 
     def eigen(self, theta: np.ndarray, n_modes: int, vectors: bool = False, rows=None):
@@ -337,4 +387,5 @@ class SparseModalSolver:
         return self._batch(theta, n_modes, True, rows, True)
 
 
-__all__ = ["PARALLEL_MIN_DOFS", "WORKERS_ENV", "SparseModalSolver", "default_workers"]
+__all__ = ["ARPACK_TOL", "FACTORIZATIONS", "PARALLEL_MIN_DOFS", "WORKERS_ENV", "SparseModalSolver",
+           "default_factorization", "default_workers"]

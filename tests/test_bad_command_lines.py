@@ -22,25 +22,6 @@ def _study(optimizers: str, *more: str, store: str = "S", seeds: str = "0") -> l
     return ["study", "--optimizers", optimizers, "--seeds", seeds, "--budget", "10", "--store", store, *more]
 
 
-class MinBudgetRaises:
-    def min_budget(self, n_var, **options):
-        raise RuntimeError("no budget for you")
-
-    def minimize(self, objective, bounds, budget, rng):
-        pass
-
-
-class MinBudgetNotANumber(MinBudgetRaises):
-    def min_budget(self, n_var, **options):
-        return "many"
-
-
-class NeedsArguments(MinBudgetRaises):
-    def __init__(self, required):
-        self.required = required
-
-
-AN_INSTANCE = MinBudgetRaises()
 
 #: Plugin modules whose top-level code fails when imported (written into the test directory).
 BAD_MODULES = {"raises_on_import.py": "raise RuntimeError('boom')\n",
@@ -110,8 +91,6 @@ CASES = [
      "--workers: must be an integer >= 0"),
     (["study", "--optimizers", "random-search", "--seeds", "0", "--budget", "10", "--store", "S", "--workers", "x"],
      "--workers: invalid int value"),
-    (["study", "--optimizers", "random-search", "--seeds", "0", "--budget", "10", "--store", "S", "--workers", "0",
-      "--time-limit", "5"], "--time-limit needs worker processes"),
     (["study", "--optimizers", "random-search", "--seeds", "0", "--budget", "10", "--store", "S", "--time-limit", "-1"],
      "--time-limit: must be a positive number"),
     (["study", "--optimizers", "random-search", "--seeds", "0", "--budget", "10", "--store", "S", "--time-limit", "nan"],
@@ -166,14 +145,14 @@ CASES = [
     (["suite", "paper/99"], "suite selection 'paper/99' matches no problem"),
     (["nosuchcommand"], "invalid choice: 'nosuchcommand'"),
     # plugins that cannot even be asked their minimum budget, or whose module cannot be imported
-    (_study("test_bad_command_lines:MinBudgetRaises"),
+    (_study("sample_plugins:MinBudgetRaises"),
      "optimizer class MinBudgetRaises: asking its min_budget(n_var=12) raised RuntimeError: no budget for you"),
-    (_study("test_bad_command_lines:MinBudgetNotANumber"),
+    (_study("sample_plugins:MinBudgetNotANumber"),
      "optimizer class MinBudgetNotANumber: min_budget must be a whole number of evaluations, got 'many'"),
-    (_study("test_bad_command_lines:NeedsArguments"), "optimizer class NeedsArguments: asking its min_budget(n_var=12) "
+    (_study("sample_plugins:NeedsArguments"), "optimizer class NeedsArguments: asking its min_budget(n_var=12) "
                                                       "raised TypeError"),
     (_study("adapters.protocol:Optimizer"), "asking its min_budget(n_var=12) raised TypeError: Protocols cannot be"),
-    (_study("test_bad_command_lines:AN_INSTANCE"), "'test_bad_command_lines:AN_INSTANCE' is not an optimizer class"),
+    (_study("sample_plugins:AN_INSTANCE"), "'sample_plugins:AN_INSTANCE' is not an optimizer class"),
     (_study("adapters.harness:BudgetedObjective"), "'adapters.harness:BudgetedObjective' is not an optimizer class"),
     (_study("raises_on_import:Opt"), "importing module 'raises_on_import' ran its top-level code, which raised "
                                      "RuntimeError: boom"),

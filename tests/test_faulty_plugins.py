@@ -3,7 +3,13 @@ gets an honest record (failed, timeout or ok with exactly its budget), nothing i
 nothing a plugin started outlives its run. Also: two studies on one store never run a run
 twice, and damaged run records are named with what to do.
 
-The plugins are classes of this module, reached in worker processes as "module:Class"."""
+Each optimizer runs in a worker process without the problem (adapters.sandbox): a cheat that
+reached the problem in the evaluating process finds nothing there, and one that tampers with
+its objective changes only its own copy, so it gains nothing (status ok, exactly its budget, the
+problem evaluated exactly the points charged). In the problem's own process (isolated=False,
+for debugging) the harness's cross-checks still catch them.
+
+The plugins are classes of tests/sample_plugins.py, reached in worker processes as "module:Class"."""
 
 from __future__ import annotations
 
@@ -24,137 +30,48 @@ from adapters.variants import make_problem
 from femu.cli import main
 from femu.studies.store import Store
 from femu.studies.study import run_study
+from sample_plugins import (AsksForTooMuch, CallsSysExit, ExitsHard, FindsTheProblemAndResetsItsCount, Interrupted,
+                            RaisesABaseException, RaisesInItsOwnCode, RaisesItsBudget, ReachesTheProblemThroughAClosure,
+                            ReplacesTheRecorder, ResetsTheCounter, ResetsTheHiddenCounter, ReturnsGarbage, Segfaults,
+                            SendsBadPoints, SendsNaN, SendsPointsOutOfBounds, SpawnsAndHangs, SwallowsTheStopSignal,
+                            UsesTheProblemBehind, WritesTheBudget)
 
 
 def plugin(cls) -> str:
-    return f"{__name__}:{cls.__name__}"
-
-
-def _points(bounds, rng, n):
-    return rng.uniform(*bounds, size=(n, len(bounds[0])))
+    return f"{cls.__module__}:{cls.__name__}"
 
 
 # -- plugins that try to spend more than their budget ------------------------------------------
-class UsesTheProblemBehind:
-    def minimize(self, objective, bounds, budget, rng):
-        objective.problem.evaluate(_points(bounds, rng, 5000))
+ISOLATED = [
+    (UsesTheProblemBehind, "failed", "has no attribute 'problem'", 0),
+    (ReachesTheProblemThroughAClosure, "failed", "has no attribute '_evaluate'", 0),
+    (ResetsTheCounter, "failed", "'n_evals' is read-only", 100),
+    (FindsTheProblemAndResetsItsCount, "failed", "StopIteration", 0),  # no problem among the worker's objects
+    (ResetsTheHiddenCounter, "ok", None, 300),  # its own copy of the count: every point was charged
+    (RaisesItsBudget, "ok", None, 300),  # its own copy of the budget: 300 of its 500 points evaluated
+    (WritesTheBudget, "failed", "'budget' is read-only", 0),
+    (AsksForTooMuch, "ok", None, 300),
+    (ReturnsGarbage, "stopped", None, 7),
+    (SendsBadPoints, "failed", "ValueError", 0),
+    (CallsSysExit, "failed", "SystemExit: the optimizer called sys.exit(3)", 4),
+    (ReplacesTheRecorder, "ok", None, 300),  # the recorder it replaced is not the one that counts
+    (SwallowsTheStopSignal, "ok", None, 300),
+    (SendsNaN, "failed", "ValueError", 0),
+    (SendsPointsOutOfBounds, "failed", "ValueError", 0),
+    (RaisesInItsOwnCode, "failed", "ZeroDivisionError", 6),
+    (RaisesABaseException, "failed", "Cancelled: cancelled by its own library", 2),
+]
 
 
-class ReachesTheProblemThroughAClosure:
-    def minimize(self, objective, bounds, budget, rng):
-        cells = [c.cell_contents for c in objective._evaluate.__closure__]
-        evaluate = next(c for c in cells if callable(c))
-        evaluate(_points(bounds, rng, 500))
-        objective(_points(bounds, rng, 1))
-
-
-class FindsTheProblemAndResetsItsCount:
-    """Finds the problem among all live objects, evaluates behind the harness and sets the
-    problem's own public counter back."""
-
-    def minimize(self, objective, bounds, budget, rng):
-        import gc
-
-        problem = next(o for o in gc.get_objects() if type(o).__name__ == "UpdatingProblem")
-        problem.evaluate(_points(bounds, rng, 500))
-        problem.n_evals = 0
-        objective(_points(bounds, rng, 1))
-
-
-class ResetsTheCounter:
-    def minimize(self, objective, bounds, budget, rng):
-        objective(_points(bounds, rng, 100))
-        objective.n_evals = 0
-
-
-class ResetsTheHiddenCounter:
-    def minimize(self, objective, bounds, budget, rng):
-        for _ in range(5):
-            objective._n_evals = 0
-            objective(_points(bounds, rng, 100))
-
-
-class RaisesItsBudget:
-    def minimize(self, objective, bounds, budget, rng):
-        objective._budget = 10**6
-        objective(_points(bounds, rng, 500))
-
-
-class WritesTheBudget:
-    def minimize(self, objective, bounds, budget, rng):
-        objective.budget = 10**6
-
-
-class AsksForTooMuch:
-    """One batch far larger than its budget: the rows that fit are evaluated, no more."""
-
-    def minimize(self, objective, bounds, budget, rng):
-        objective(_points(bounds, rng, 10 * budget))
-
-
-class ReturnsGarbage:
-    def minimize(self, objective, bounds, budget, rng):
-        objective(_points(bounds, rng, 7))
-        return "garbage"
-
-
-class SendsBadPoints:
-    def minimize(self, objective, bounds, budget, rng):
-        objective(np.ones((3, 5)))
-
-
-class CallsSysExit:
-    def minimize(self, objective, bounds, budget, rng):
-        objective(_points(bounds, rng, 4))
-        sys.exit(3)
-
-
-class ReplacesTheRecorder:
-    """Shadows the objective's bookkeeping method, so that its evaluations are not charged."""
-
-    def minimize(self, objective, bounds, budget, rng):
-        objective._record = lambda X, f: None
-        for _ in range(5):
-            objective(_points(bounds, rng, 100))
-
-
-class SwallowsTheStopSignal:
-    """Catches the end of the budget and keeps asking: each further call is refused unevaluated."""
-
-    def minimize(self, objective, bounds, budget, rng):
-        for _ in range(10):
-            try:
-                objective(_points(bounds, rng, 200))
-            except adapters.BudgetExhausted:
-                pass
-
-
-class SendsNaN:
-    def minimize(self, objective, bounds, budget, rng):
-        X = _points(bounds, rng, 4)
-        X[2, 3] = np.nan
-        objective(X)
-
-
-class SendsPointsOutOfBounds:
-    def minimize(self, objective, bounds, budget, rng):
-        objective(_points(bounds, rng, 2) * 1e3)
-
-
-class RaisesInItsOwnCode:
-    def minimize(self, objective, bounds, budget, rng):
-        objective(_points(bounds, rng, 6))
-        return 1 / 0
-
-
-class Cancelled(BaseException):
-    """An exception outside Exception, as some async and test libraries raise."""
-
-
-class RaisesABaseException:
-    def minimize(self, objective, bounds, budget, rng):
-        objective(_points(bounds, rng, 2))
-        raise Cancelled("cancelled by its own library")
+@pytest.mark.parametrize("cls,status,says,n_evals", ISOLATED, ids=[c[0].__name__ for c in ISOLATED])
+def test_a_sandboxed_plugin_gets_the_record_it_earned_and_nothing_more(cls, status, says, n_evals):
+    problem = make_problem("paper")
+    r = adapters.run(plugin(cls), problem, 300, 0)
+    assert r.status == status, r.error
+    assert r.n_evals == n_evals
+    assert (says is None and r.error is None) or says in r.error
+    assert r.verified
+    assert problem.points_evaluated == n_evals  # nothing evaluated that was not charged
 
 
 @pytest.mark.parametrize("cls,status,says,n_evals", [
@@ -179,8 +96,9 @@ class RaisesABaseException:
     (RaisesInItsOwnCode, "failed", "ZeroDivisionError", 6),
     (RaisesABaseException, "failed", "Cancelled: cancelled by its own library", 2),
 ])
-def test_a_plugin_gets_the_record_it_earned(cls, status, says, n_evals):
-    r = adapters.run(plugin(cls), make_problem("paper"), 300, 0)
+def test_in_the_problems_process_the_harness_catches_what_a_plugin_earned(cls, status, says, n_evals):
+    r = adapters.run(plugin(cls), make_problem("paper"), 300, 0, isolated=False)
+    assert not r.verified
     assert r.status == status, r.error
     assert r.n_evals == n_evals
     assert (says is None and r.error is None) or says in r.error
@@ -198,29 +116,6 @@ def test_the_objective_exposes_no_problem_and_only_read_only_counters():
 
 
 # -- plugins that end their process -------------------------------------------------------------
-class ExitsHard:
-    def minimize(self, objective, bounds, budget, rng):
-        objective(_points(bounds, rng, 3))
-        os._exit(7)
-
-
-class Segfaults:
-    def minimize(self, objective, bounds, budget, rng):
-        os.kill(os.getpid(), signal.SIGSEGV)
-
-
-class Interrupted:
-    def minimize(self, objective, bounds, budget, rng):
-        raise KeyboardInterrupt
-
-
-class SpawnsAndHangs:
-    """Starts a process of its own (as a solver binary would), writes its pid, and hangs."""
-
-    def minimize(self, objective, bounds, budget, rng, pid_file):
-        child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(600)"])
-        Path(pid_file).write_text(str(child.pid))
-        time.sleep(600)
 
 
 def test_a_plugin_that_ends_its_process_leaves_a_failed_record_and_the_study_goes_on(tmp_path):

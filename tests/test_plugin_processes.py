@@ -24,7 +24,7 @@ import pytest
 from femu.cli import main
 from femu.studies.store import Store
 from femu.studies.study import run_study
-from test_faulty_plugins import CallsSysExit, ExitsHard, Interrupted, Segfaults
+from sample_plugins import CallsSysExit, ExitsHard, Interrupted, Segfaults, SleepsLong, SpawnsAndReturns
 
 HERE = Path(__file__).parent
 
@@ -35,23 +35,6 @@ def plugin(cls) -> str:
 
 def _points(bounds, rng, n):
     return rng.uniform(*bounds, size=(n, len(bounds[0])))
-
-
-class SleepsLong:
-    """Evaluates once, then sleeps (a Ctrl-C lands in its sleep)."""
-
-    def minimize(self, objective, bounds, budget, rng):
-        objective(_points(bounds, rng, 2))
-        time.sleep(600)
-
-
-class SpawnsAndReturns:
-    """Starts a process of its own, writes its pid, and returns without ending it."""
-
-    def minimize(self, objective, bounds, budget, rng, pid_file):
-        child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(600)"])
-        Path(pid_file).write_text(str(child.pid))
-        objective(_points(bounds, rng, 2))
 
 
 def _femu(*args, **kw) -> subprocess.Popen:
@@ -81,8 +64,9 @@ def test_in_process_a_real_ctrl_c_stops_the_study_and_keeps_what_is_finished(tmp
     store = tmp_path / "s"
     p = _femu(*_study_args(f"random-search,{plugin(SleepsLong)}", store, "0"))
     claim = store / "runs" / f"paper__{plugin(SleepsLong)}__b100__s0.claim"
+    done = store / "runs" / "paper__random-search__b100__s0.json"  # the run before it is finished
     deadline = time.time() + 120
-    while not claim.exists() and time.time() < deadline:
+    while not (claim.exists() and done.exists()) and time.time() < deadline:
         time.sleep(0.1)
     time.sleep(1.0)  # the run is in its sleep
     p.send_signal(signal.SIGINT)
@@ -93,24 +77,41 @@ def test_in_process_a_real_ctrl_c_stops_the_study_and_keeps_what_is_finished(tmp
     assert not claim.exists()
 
 
-@pytest.mark.parametrize("cls,code", [(ExitsHard, 7), (Segfaults, -signal.SIGSEGV)])
-def test_in_process_a_plugin_that_ends_the_process_loses_only_its_run_which_is_redone(tmp_path, cls, code):
+@pytest.mark.parametrize("cls,code,n_evals", [(ExitsHard, 7, 3), (Segfaults, -signal.SIGSEGV, 0)])
+def test_in_process_a_plugin_that_ends_its_process_ends_only_its_worker(tmp_path, cls, code, n_evals):
+    """With --workers 0 the study runs in this process, but every optimizer in a worker of its own
+    (adapters.sandbox): a plugin's os._exit or segfault ends its worker, not the study (before the
+    sandbox it ended the study); its evaluations until then are kept, its claim released."""
     store = tmp_path / "s"
     first = _femu(*_study_args(f"random-search,{plugin(cls)}", store, "0"))
     out, err = first.communicate(timeout=300)
-    assert first.returncode == code, (out, err)
-    assert [r.optimizer for r in Store(store).runs()] == ["random-search"]  # the finished run is kept
-    claim = store / "runs" / f"paper__{plugin(cls)}__b100__s0.claim"
-    assert json.loads(claim.read_text())["pid"] == first.pid  # the claim of a process that is gone
-    # the same study in worker processes: the stale claim is retaken, with a warning, and the run recorded
-    again = _femu(*_study_args(f"random-search,{plugin(cls)}", store, "1"))
+    assert first.returncode == 0, (out, err)
+    assert "(2 new, 0 kept): 1 ok, 1 failed" in out
+    runs = {r.optimizer: r for r in Store(store).runs()}
+    assert runs[plugin(cls)].status == "failed" and f"exited with code {code}" in runs[plugin(cls)].error
+    assert runs[plugin(cls)].n_evals == n_evals and runs[plugin(cls)].verified
+    assert not list((store / "runs").glob("*.claim"))
+
+
+def test_a_study_killed_mid_run_leaves_a_stale_claim_that_the_next_study_retakes(tmp_path):
+    store = tmp_path / "s"
+    p = _femu(*_study_args(f"random-search,{plugin(SleepsLong)}", store, "0"))
+    claim = store / "runs" / f"paper__{plugin(SleepsLong)}__b100__s0.claim"
+    done = store / "runs" / "paper__random-search__b100__s0.json"
+    deadline = time.time() + 120
+    while not (claim.exists() and done.exists()) and time.time() < deadline:
+        time.sleep(0.1)
+    time.sleep(0.5)
+    p.kill()  # kill -9: no clean-up runs
+    p.communicate(timeout=60)
+    assert claim.exists() and json.loads(claim.read_text())["pid"] == p.pid
+    again = _femu(*_study_args(f"random-search,{plugin(SleepsLong)}", store, "1") + ["--time-limit", "2"])
     out, err = again.communicate(timeout=300)
     assert again.returncode == 0, (out, err)
-    assert f"was claimed by process {first.pid}, which ended without recording it" in err
-    assert "(1 new, 1 kept)" in out
+    assert f"was claimed by process {p.pid}, which ended without recording it" in err
     runs = {r.optimizer: r for r in Store(store).runs()}
-    assert runs[plugin(cls)].status == "failed" and "exited with code" in runs[plugin(cls)].error
-    assert not claim.exists()
+    assert runs[plugin(SleepsLong)].status == "timeout" and runs[plugin(SleepsLong)].n_evals == 2
+    assert not list((store / "runs").glob("*.claim"))
 
 
 def test_a_worker_ends_the_processes_its_plugin_left_behind(tmp_path):
@@ -140,10 +141,11 @@ def test_a_claim_whose_pid_now_belongs_to_another_process_is_stale(tmp_path):
     assert store.claim("paper__random-search__b50__s0") is False  # the live owner's claim is kept
 
 
-def test_the_cli_says_what_a_module_class_name_does_and_what_workers_0_cannot_stop():
+def test_the_cli_says_what_a_module_class_name_does_and_where_optimizers_run():
     from femu.cli import build_parser
 
     sub = build_parser()._subparsers._group_actions[0].choices["study"]
     text = " ".join(sub.format_help().split())
     assert "imports that module, and so runs its top-level code" in text
-    assert "0: run in this process, without --time-limit; a plugin that ends the process" in text
+    assert "0: run in this process (each optimizer still runs in a worker process of its own" in text
+    assert "--time-limit TIME_LIMIT wall-clock seconds per run" in text and "(default: 3600.0)" in text

@@ -16,42 +16,14 @@ from femu.reports.study import summarize, write_report
 from femu.studies.store import Store
 from femu.studies.study import run_study
 from adapters.variants import make_problem
+from sample_plugins import Broken, TinyES
 
 SEEDS = [0, 1, 2]
 BUDGET = 300
 
 
-class TinyES:
-    """A cheap second optimizer class: (1+4)-ES with step-size adaptation."""
-
-    name = "tiny-es"
-
-    def minimize(self, objective, bounds, budget, rng, sigma=0.2):
-        xl, xu = bounds
-        x = rng.uniform(xl, xu)
-        fx = objective(x[None])[0]
-        while True:
-            y = np.clip(x + sigma * (xu - xl) * rng.standard_normal((4, len(x))), xl, xu)
-            fy = objective(y)
-            k = int(np.argmin(fy))
-            if fy[k] < fx:
-                x, fx, sigma = y[k], fy[k], sigma * 1.5
-            else:
-                sigma *= 0.8
-
-
-class Broken:
-    """Fails after its first batch: the report must list it as failed."""
-
-    name = "broken"
-
-    def minimize(self, objective, bounds, budget, rng):
-        objective(rng.uniform(*bounds, size=(20, len(bounds[0]))))
-        raise RuntimeError("boom after 20 evaluations")
-
-
-TINY = f"{__name__}:TinyES"
-BROKEN = f"{__name__}:Broken"
+TINY = f"{TinyES.__module__}:TinyES"
+BROKEN = f"{Broken.__module__}:Broken"
 
 
 @pytest.fixture(scope="module")

@@ -26,26 +26,12 @@ from femu.cli import main
 from femu.studies.store import Store
 from femu.studies.study import parse_seeds, run_study
 from adapters.variants import make_problem
+from sample_plugins import Hangs, NeedsFifty, Raises, ReturnsNaN, Slow
 
 FEMU = [str(Path(sys.executable).parent / "femu")]
 
 
 # -- plugins for failure cases -------------------------------------------------------------
-class Raises:
-    """Evaluates one batch, then raises."""
-
-    def minimize(self, objective, bounds, budget, rng):
-        objective(rng.uniform(*bounds, size=(5, len(bounds[0]))))
-        raise RuntimeError("plugin bug")
-
-
-class ReturnsNaN:
-    """Tries to swap in a problem that returns NaN (as a broken model would): the objective
-    does not let it (the problem is not the plugin's to touch), and the run fails."""
-
-    def minimize(self, objective, bounds, budget, rng):
-        objective.problem = _NaNProblem()
-        objective(rng.uniform(*bounds, size=(3, len(bounds[0]))))
 
 
 class _NaNProblem:
@@ -57,32 +43,8 @@ class _NaNProblem:
         return np.full(len(X), np.nan)
 
 
-class Hangs:
-    """Never calls the objective again after its first batch: only a hard kill stops it."""
-
-    def minimize(self, objective, bounds, budget, rng):
-        objective(rng.uniform(*bounds, size=(2, len(bounds[0]))))
-        time.sleep(3600)
-
-
-class Slow:
-    """Calls the objective slowly: the harness stops it cooperatively at the time limit."""
-
-    def minimize(self, objective, bounds, budget, rng):
-        while True:
-            objective(rng.uniform(*bounds, size=(1, len(bounds[0]))))
-            time.sleep(0.05)
-
-
-class NeedsFifty:
-    min_budget = 50
-
-    def minimize(self, objective, bounds, budget, rng):
-        objective(rng.uniform(*bounds, size=(budget, len(bounds[0]))))
-
-
 def plugin(cls) -> str:
-    return f"{__name__}:{cls.__name__}"
+    return f"{cls.__module__}:{cls.__name__}"
 
 
 SAME = ("optimizer", "variant", "seed", "budget", "n_evals", "best_f", "best_x", "trace", "status", "options")
@@ -131,7 +93,7 @@ def test_bad_seeds_exit_2_with_one_line(tmp_path, capsys, spec, says):
     (["--optimizers", "nope"], "unknown optimizer 'nope'; available: pymoo-ga"),
     (["--optimizers", "random-search,random-search"], "'random-search' is given twice"),
     (["--optimizers", "no_such_module:X"], "cannot import 'X' from module 'no_such_module'"),
-    (["--optimizers", f"{__name__}:NeedsFifty", "--budget", "49"], "needs at least 50 evaluations"),
+    (["--optimizers", f"{NeedsFifty.__module__}:NeedsFifty", "--budget", "49"], "needs at least 50 evaluations"),
     (["--budget", "0"], "--budget: must be an integer >= 1"),
     (["--variants", "paper,moon"], "unknown problem variant 'moon'; available: paper, synthetic"),
     (["--time-limit", "0"], "--time-limit: must be a positive number"),
@@ -220,7 +182,8 @@ def test_hang_on_dask_is_killed_and_recorded(tmp_path, dask_address):
     res = run_study([plugin(Hangs), "random-search"], "0", 100, tmp_path / "s", scheduler=dask_address,
                     time_limit_s=2.0, progress=False)
     hang, rs = res.runs
-    assert hang.status == "timeout" and hang.n_evals == 0 and "terminated after" in hang.error
+    # stopped by the sandbox at its limit: its 2 evaluations are kept (before: lost with a killed process)
+    assert hang.status == "timeout" and hang.n_evals == 2 and "time limit of 2.0 s" in hang.error, hang.error
     assert rs.status == "ok" and rs.n_evals == 100
     assert time.perf_counter() - t0 < 30
 
@@ -266,8 +229,9 @@ def test_hanging_plugin_is_terminated_and_recorded_as_timeout(tmp_path):
                     time_limit_s=2.0, progress=False)
     elapsed = time.perf_counter() - t0
     hang, slow, rs = res.runs
-    assert hang.status == "timeout" and hang.n_evals == 0 and "terminated after" in hang.error
-    assert 3.2 <= hang.wall_s < 10  # killed at the hard deadline: 2 s + 1 s + 10 %
+    # stopped by the sandbox at its limit: its 2 evaluations are kept (before: lost with a killed process)
+    assert hang.status == "timeout" and hang.n_evals == 2 and "time limit of 2.0 s" in hang.error, hang.error
+    assert 2.6 <= hang.wall_s < 10  # its worker killed by the sandbox at 2 s + 0.5 s + 5 %
     # the cooperative limit keeps what was evaluated (a 0.05 s pause per evaluation: ~40 in 2 s)
     assert slow.status == "timeout" and 0 < slow.n_evals < 100 and math.isfinite(slow.best_f)
     assert rs.status == "ok" and rs.n_evals == 100

@@ -163,7 +163,8 @@ def _next_cause(cal, st: Setting, picks, sizes, kinds, n_fit, alpha: float, skip
                       st.model)
     if obs is not None:
         cal_k = dataclasses.replace(cal_k, obs=obs, base=profiled(obs, cal_k.hz0, cal_k.sh0))
-    found_k = screen_and_fit(cal_k, kinds, n_fit, keep=lambda c: _new_place(c, st.model, places))
+    ids = (frozenset(st.model.element_ids), frozenset(st.model.node_ids))  # once, not per candidate
+    found_k = screen_and_fit(cal_k, kinds, n_fit, keep=lambda c: _new_place(c, st.model, places, ids))
     if not found_k.candidates:
         return None
     sel_k = select(cal_k, found_k, alpha)
@@ -252,22 +253,25 @@ def _ambiguity() -> float:
 STIFFNESS_KINDS = ("stiffness_loss", "stiffness_gain")
 
 
-def _new_place(c: Candidate, model: FrameModel, places: list) -> bool:
+def _new_place(c: Candidate, model: FrameModel, places: list, ids=None) -> bool:
+    """Whether candidate `c` is at a place of `model` where no cause in `places` was found; `ids`:
+    the model's (element ids, node ids) as sets, made once for the thousands of candidates."""
+    element_ids, node_ids = ids if ids is not None else (frozenset(model.element_ids), frozenset(model.node_ids))
     loc = c.location or {}
-    if c.kind in STIFFNESS_KINDS and _touches_found_stiffness(model, loc.get("element"), places):
+    if c.kind in STIFFNESS_KINDS and _touches_found_stiffness(model, loc.get("element"), places, element_ids):
         return False
-    if "element" in loc and loc["element"] not in model.element_ids:
+    if "element" in loc and loc["element"] not in element_ids:
         return False
-    if "node" in loc and loc["node"] not in model.node_ids:
+    if "node" in loc and loc["node"] not in node_ids:
         return False
     # a further effect at a place already explained (a gain where a loss was found, a second
     # spread of the same loss) only corrects the first effect's form: not a new cause
     return c.location not in [where for _, where in places]
 
 
-def _touches_found_stiffness(model: FrameModel, element: int | None, places: list) -> bool:
+def _touches_found_stiffness(model: FrameModel, element: int | None, places: list, element_ids=None) -> bool:
     """Whether `element` shares a node with an element where a stiffness change was found."""
-    if element is None or element not in model.element_ids:
+    if element is None or element not in (model.element_ids if element_ids is None else element_ids):
         return False
     def ends(eid: int) -> set:
         return {model.element(eid).node_i, model.element(eid).node_j}

@@ -31,7 +31,7 @@ from typing import Iterator
 import numpy as np
 
 from ..assembly import AffineModel
-from ..solver import ModalSolver
+from ..solver import ModalSolver, signed
 from ..elements import beam2d
 from ..elements.frame2d import Geometry
 from ..model import FrameModel
@@ -109,8 +109,7 @@ class ElementBatch:
         lam, y = np.linalg.eigh(a)
         sl = slice(s._skip, s._skip + self.n_modes)
         phi = self.shape_map @ y[:, :, sl]
-        big = np.take_along_axis(phi, np.abs(phi).argmax(axis=1)[:, None, :], axis=1)
-        phi = phi * np.where(big < 0, -1.0, 1.0)
+        phi = signed(phi)  # the solvers' sign rule
         return frequencies_hz(lam[:, sl]), AffineModel.at_rows(phi, self.coord_rows)
 
 

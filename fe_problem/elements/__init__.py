@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from . import frame2d  # noqa: F401  (registers the planar formulations)
+from . import frame3d  # noqa: F401  (registers the space frame formulations)
 from .base import ElementFormulation, formulation, formulations, register
 
 if TYPE_CHECKING:

@@ -6,8 +6,6 @@ import argparse
 import sys
 from pathlib import Path
 
-from fe_problem.jsonutil import dumps
-
 
 def positive_int(text: str) -> int:
     """An argparse type: a whole number >= 1."""
@@ -36,6 +34,8 @@ def directory(text: str) -> str:
 
 def print_json(obj) -> None:
     """``obj`` as indented JSON on stdout (numpy values and dataclasses made plain)."""
+    from fe_problem.jsonutil import dumps  # numpy: not for `femu --help`
+
     sys.stdout.write(dumps(obj) + "\n")
 
 

@@ -17,10 +17,11 @@ import math
 import sys
 import warnings
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from fe_problem.diagnosis import Diagnosis
-from fe_problem.jsonutil import dumps
-from femu.reports.diagnosis import write_json, write_report
+# the diagnosis and its reports load when the command runs, not for `femu --help` (issue 25)
+if TYPE_CHECKING:
+    from fe_problem.diagnosis import Diagnosis
 from femu.reports.diagnosis_text import (cause_text, causes_lines, coordinate_labels, estimate_text, fmt, hz,
                                          mode_ranges, noise_text, pct, threshold_chi2_drop, verdict_lines)
 
@@ -74,6 +75,8 @@ def add_arguments(d) -> None:
 def run(args) -> int:
     """Entry point of `femu diagnose` (args: data, model, out, json, freq_noise, shape_noise)."""
     from fe_problem import diagnose, load_modal_data, load_model, save_model
+    from fe_problem.jsonutil import dumps
+    from femu.reports.diagnosis import write_json, write_report
 
     freq_noise, shape_noise = getattr(args, "freq_noise", None), getattr(args, "shape_noise", None)
     freq_noise = None if freq_noise is None else _positive(freq_noise, "--freq-noise")

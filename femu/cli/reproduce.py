@@ -14,7 +14,7 @@ import sys
 
 def add_arguments(rr) -> None:
     """The arguments of `femu reproduce`."""
-    from femu.reproduce import DEFAULT_BUDGET, DEFAULT_SEEDS
+    from femu.reproduce import DEFAULT_BUDGET, DEFAULT_SEEDS, DEFAULT_TIME_LIMIT_S
 
     rr.add_argument("--seeds", default=str(DEFAULT_SEEDS),
                     help="a count N (the seeds 0..N-1) or a list of seeds as for `femu study` "
@@ -23,6 +23,8 @@ def add_arguments(rr) -> None:
     rr.add_argument("--out", default="femu-reproduce", type=directory, help="output directory: OUT/store and OUT/report.md")
     rr.add_argument("--workers", type=int, default=None,
                     help="local worker processes (0: run in this process; default: every core)")
+    rr.add_argument("--time-limit", type=float, default=DEFAULT_TIME_LIMIT_S,
+                    help="wall-clock seconds per run before it is stopped (status timeout); default: %(default)s")
     out = rr.add_mutually_exclusive_group()
     out.add_argument("--json", action="store_true",
                      help="print the result as one JSON object (medians over seeds) instead of a table")
@@ -34,9 +36,10 @@ def run(args) -> int:
     """`femu reproduce`: run, report, print the table (or JSON, or Markdown)."""
     from fe_problem.jsonutil import dumps
     from femu.reports.reproduce import render_markdown, render_text
-    from femu.reproduce import reproduce
+    from femu.reproduce import DEFAULT_TIME_LIMIT_S, reproduce
 
-    res = reproduce(seeds=args.seeds, budget=args.budget, out=args.out, workers=args.workers)
+    res = reproduce(seeds=args.seeds, budget=args.budget, out=args.out, workers=args.workers,
+                    time_limit_s=getattr(args, "time_limit", DEFAULT_TIME_LIMIT_S))
     if args.json:
         sys.stdout.write(dumps(res) + "\n")
     elif args.markdown:

@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import sys
 
-from fe_problem.jsonutil import dumps
-
 from ._args import add_store_argument, stored_runs
 
 
@@ -19,6 +17,8 @@ def run(args) -> int:
     """`femu results STORE [--json]`: the stored runs, as a table or a JSON list."""
     _, runs = stored_runs(args, "results")
     if args.json:
+        from fe_problem.jsonutil import dumps
+
         sys.stdout.write(dumps([r.to_dict() for r in runs]) + "\n")
         return 0
     if not runs:

@@ -8,6 +8,7 @@ import sys
 def add_arguments(s) -> None:
     """The arguments of `femu study`."""
     from adapters.registry import available
+    from femu.studies.study import DEFAULT_TIME_LIMIT_S
 
     s.add_argument("--optimizers", required=True,
                    help="comma-separated registry names or package.module:Class paths (a path imports "
@@ -19,16 +20,17 @@ def add_arguments(s) -> None:
     s.add_argument("--budget", type=int, required=True, help="FE evaluations per run")
     s.add_argument("--store", required=True, help="directory of the result store")
     s.add_argument("--workers", type=int, default=None,
-                   help="local worker processes (default: every core). 0: run in this process, without "
-                        "--time-limit; a plugin that ends the process (os._exit, a crash) then ends the study, "
-                        "its run redone on resume")
+                   help="local worker processes (default: every core). 0: run in this process (each optimizer "
+                        "still runs in a worker process of its own, without the problem)")
     s.add_argument("--scheduler", default=None, help="address of a Dask scheduler (tcp://host:port) to run on instead of local processes")
     s.add_argument("--variants", default=None,
                    help="problem variants, comma-separated: paper, synthetic (default: paper, unless --suite)")
     s.add_argument("--suite", default=None,
                    help="suite problems, comma-separated ids or prefixes: hframe-freq/12, paper, frame-shape/24/1 "
                         "(`femu suite` lists them)")
-    s.add_argument("--time-limit", type=float, default=None, help="seconds per run before it is stopped (default: no limit)")
+    s.add_argument("--time-limit", type=float, default=DEFAULT_TIME_LIMIT_S,
+                   help="wall-clock seconds per run before it is stopped, status timeout, its evaluations until "
+                        "then kept (default: %(default)s)")
     s.add_argument("--no-progress", action="store_true", help="no progress bar (there is one only when stdout is a terminal)")
     s.add_argument("--x0", choices=("none", "all"), default="none",
                    help="what every solver is told of the start: none (each draws its own from its seed) or all "

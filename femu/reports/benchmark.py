@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from fe_problem.jsonutil import dumps
+from fe_problem.safe_files import write_text
 from femu.studies.tasks import is_suite_id
 
 from . import stats as st
@@ -383,9 +384,10 @@ def write_benchmark(runs, out_dir, source: str, name: str = "report.md") -> Path
     if s["comparisons"]:
         figures["cd"] = sf.plot_cd(s["comparisons"][BLOCK_VALUES[0]] if BLOCK_VALUES[0] in s["comparisons"]
                                    else next(iter(s["comparisons"].values())), out / "cd.png").name
-    (out / "stats.json").write_text(dumps(s) + "\n")
+    write_text(out / "stats.json", dumps(s) + "
+")
     path = out / name
-    path.write_text(render_benchmark(s, figures, source))
+    write_text(path, render_benchmark(s, figures, source))
     return path
 
 

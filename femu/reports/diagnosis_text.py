@@ -8,7 +8,10 @@ from __future__ import annotations
 
 import math
 
-from fe_problem.diagnosis import Cause, Diagnosis, Selection
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # annotations only: `femu --help` loads this without the diagnosis (issue 25)
+    from fe_problem.diagnosis import Cause, Diagnosis, Selection
 
 from .render import markdown_table
 

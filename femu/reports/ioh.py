@@ -47,6 +47,7 @@ import numpy as np
 
 from adapters.harness import RunResult
 from fe_problem.jsonutil import dumps
+from fe_problem.safe_files import write_text
 from .render import make_out_dir
 
 #: Prefix of the ioh function names: femu_paper, femu_hframe-freq, ...
@@ -168,14 +169,24 @@ def _analyzer(root: Path, algorithm: str, info: str, triggers: list):
 
     # the triggers list is held by the caller: ioh does not keep a trigger alive, and a freed
     # one crashes the process at the next evaluation
+    from femu.studies.store import safe_name
+
     full = ioh.logger.property.RawY(FULL, "{:.17g}")
     _PROPERTIES.append(full)  # as the triggers: ioh does not keep it alive
-    lg = ioh.logger.Analyzer(triggers=triggers, additional_properties=[full], root=str(root), folder_name=algorithm,
-                             algorithm_name=algorithm, algorithm_info=info, store_positions=False)
+    # the folder's name comes from the optimizer's (user input): a safe file-name piece
+    lg = ioh.logger.Analyzer(triggers=triggers, additional_properties=[full], root=str(root),
+                             folder_name=safe_name(algorithm), algorithm_name=algorithm, algorithm_info=info,
+                             store_positions=False)
     lg.add_run_attribute("seed", 0.0)
     lg.add_experiment_attribute("raw_y", "(J - f_opt) / scale, J the objective; f_opt and scale per function "
                                          "and instance in femu-ioh.json")
     return lg
+
+
+def _safe(name: str) -> str:
+    from femu.studies.store import safe_name
+
+    return safe_name(name)
 
 
 def full_precision(folder) -> None:
@@ -196,12 +207,12 @@ def full_precision(folder) -> None:
             if cells and cells[0] != "evaluations":
                 cells[i_raw] = cells[i_full]
             out.append(" ".join(c for k, c in enumerate(cells) if k != i_full))
-        dat.write_text("\n".join(out) + "\n")
+        write_text(dat, "\n".join(out) + "\n")
     for js in folder.rglob("IOHprofiler_*.json"):
         meta = json.loads(js.read_text())
         if FULL in meta.get("attributes", []):
             meta["attributes"] = [a for a in meta["attributes"] if a != FULL]
-            js.write_text(json.dumps(meta, indent=1))
+            write_text(js, json.dumps(meta, indent=1))
 
 
 class IOHLoggedProblem:
@@ -254,7 +265,9 @@ def run_logged(name: str, variant: str, budget: int, seed: int, out_dir, **optio
     result = run(name, wrapped, budget, seed, variant=variant, **options)
     wrapped.ioh.reset()
     logger.close()
-    full_precision(Path(out_dir) / name)
+    from femu.studies.store import safe_name
+
+    full_precision(Path(out_dir) / safe_name(name))
     return result
 
 
@@ -324,8 +337,8 @@ def export_runs(runs, out_dir, validate: bool = True) -> Path:
             problem.reset()
             problem.detach_logger()
         logger.close()
-        full_precision(out / alg)
-    (out / MARKER).write_text(dumps({
+        full_precision(out / _safe(alg))
+    write_text(out / MARKER, dumps({
         "format": "femu.ioh-export/1",
         "raw_y": "(J - f_opt) / raw_y_scale; x in [0, 1]: (x - xl) / (xu - xl)",
         "problems": {v: ioh_terms(v).to_dict() for v in sorted({r.variant for r in usable})},

@@ -14,6 +14,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from fe_problem.jsonutil import dumps
+from fe_problem.safe_files import write_text
 from femu.studies.store import Store
 
 from femu.studies.tasks import is_suite_id
@@ -41,6 +42,7 @@ def write_report(store_or_runs, out_dir, ioh: bool = False, source: str | None =
     source = source or default
     if not runs:
         raise ValueError(f"{source}: no finished runs to report on")
+    runs, notes = settings_apart(runs)
     suite = [r for r in runs if is_suite_id(r.variant)]
     variants = [r for r in runs if not is_suite_id(r.variant)]
     if suite:  # the benchmark report; runs on the named variants get theirs in variants.md
@@ -56,6 +58,9 @@ def write_report(store_or_runs, out_dir, ioh: bool = False, source: str | None =
             with path.open("a") as f:
                 f.write(f"\nThe benchmark statistics of these runs (targets, ERT, comparisons, aggregated ECDF, "
                         f"profiles) are in [{other.name}]({other.name}).\n")
+    if notes:
+        with path.open("a") as f:
+            f.write("\n## Notes on the runs\n\n" + "".join(f"- {n}\n" for n in notes))
     if ioh:
         from .ioh import export_runs
         export_runs(runs, Path(out_dir) / "ioh")
@@ -70,6 +75,41 @@ def shared_problem(runs) -> bool:
     return any(len(v) >= 2 for v in solvers.values())
 
 
+def _settings(r) -> tuple:
+    return (r.x0, dumps(r.options, indent=None))
+
+
+def settings_apart(runs) -> tuple[list, list[str]]:
+    """The runs with each optimizer's label carrying its settings where its runs differ in them
+    (x0, options), so that runs made with other settings are never pooled into one solver, and
+    the notes the report adds: which optimizers were split, and how many runs are unverified
+    (their optimizer ran in the problem's own process, adapters.run(..., isolated=False), or
+    they were recorded before the sandbox: their counts rest on the harness's cross-checks)."""
+    from dataclasses import replace
+
+    settings: dict[str, set] = {}
+    for r in runs:
+        settings.setdefault(r.optimizer, set()).add(_settings(r))
+    notes, out = [], []
+    for name, seen in sorted(settings.items()):
+        if len(seen) > 1:
+            notes.append(f"`{name}` was run with {len(seen)} different settings (x0, options); each is reported as "
+                         f"a solver of its own: " + "; ".join(f"x0 {x0}, options {opts}" for x0, opts in sorted(seen)))
+    for r in runs:
+        if len(settings[r.optimizer]) > 1:
+            label = f"{r.optimizer} [x0={r.x0}" + (f", options={dumps(r.options, indent=None)}" if r.options else "") + "]"
+            r = replace(r, optimizer=label)
+        out.append(r)
+    unverified = sorted({r.optimizer for r in out if not r.verified})
+    if unverified:
+        n = sum(1 for r in out if not r.verified)
+        notes.append(f"{n} run{'s' if n != 1 else ''} of {', '.join(f'`{u}`' for u in unverified)} "
+                     f"{'are' if n != 1 else 'is'} **unverified**: the optimizer ran in the problem's own process "
+                     f"(adapters.run(..., isolated=False), or a record made before the sandbox), where a plugin "
+                     f"can reach the problem behind its budget")
+    return out, notes
+
+
 def render_files(groups: list[GroupSummary], out_dir, source: str, name: str = "report.md") -> Path:
     """Render summary records as OUT/<name> (report.md), OUT/summary.json and the PNG figures."""
     out = make_out_dir(out_dir)
@@ -82,7 +122,7 @@ def render_files(groups: list[GroupSummary], out_dir, source: str, name: str = "
         if len(g.targets):
             made["ecdf"] = plot_ecdf(g, out / f"ecdf_{stem}.png")
         figures[(g.variant, g.budget)] = {k: p.name for k, p in made.items()}
-    (out / "summary.json").write_text(dumps([g.to_dict() for g in groups]))
+    write_text(out / "summary.json", dumps([g.to_dict() for g in groups]))
     path = out / name
-    path.write_text(render_markdown(groups, figures, source))
+    write_text(path, render_markdown(groups, figures, source))
     return path

@@ -1,8 +1,9 @@
 """The Dask executor and the child-process entry of a run.
 
-On Dask each run goes through `dask_task` in a worker; a run with a time limit runs in a fresh
-interpreter (``python -m femu.studies.child --run-task TASK_JSON OUT STARTED``), because Dask
-worker processes may not fork, and is killed at its hard deadline.
+On Dask each run goes through `dask_task` in a worker, its optimizer in a worker of the sandbox
+server of that Dask worker process (adapters.sandbox), which stops it at its time limit.
+`run_task_in_child` (``python -m femu.studies.child --run-task TASK_JSON OUT STARTED``) runs a
+task in a fresh interpreter killed at its hard deadline, for callers that need that.
 """
 
 from __future__ import annotations
@@ -32,12 +33,12 @@ _DASK_RUN_LOCK = threading.Lock()
 
 
 def dask_task(task: Task) -> dict:
-    """What a Dask worker runs for one task: in the worker when there is no time limit, else in
-    a child interpreter killed at the hard deadline."""
+    """What a Dask worker runs for one task: the run, its optimizer in a worker of the sandbox
+    server this Dask worker process starts once (adapters.sandbox, a subprocess: Dask worker
+    processes may not fork multiprocessing children, but may start programs). The sandbox stops
+    an optimizer at its time limit, so no child interpreter is needed for one."""
     with _DASK_RUN_LOCK:
-        if task.time_limit_s is None:
-            return run_task(task)
-        return run_task_in_child(task)
+        return run_task(task)
 
 
 def run_task_in_child(task: Task) -> dict:
@@ -60,7 +61,8 @@ def run_task_in_child(task: Task) -> dict:
                     t_start = now
                 if t_start is None and now - launched > STARTUP_LIMIT_S:
                     record = lost_record(task, "failed", startup_error(task), 0.0)
-                elif t_start is not None and now - t_start > hard_deadline_s(task.time_limit_s):
+                elif t_start is not None and task.time_limit_s is not None and \
+                        now - t_start > hard_deadline_s(task.time_limit_s):
                     record = lost_record(task, "timeout", hard_timeout_error(task, now - t_start), now - t_start)
                 if record is not None:
                     return record

@@ -3,30 +3,33 @@ through `running(n)` how many runs are under way.
 
 
 Executors
-- in-process (``workers=0``): one run after another in this process; no hard time limit. A
-  plugin's sys.exit() or KeyboardInterrupt (without a Ctrl-C) is a failed run, but nothing in
-  a process survives a plugin that ends it (os._exit, a segfault): the study stops there, its
-  finished runs kept, and the interrupted run (its claim stale) is run again on resume.
+- in-process (``workers=0``): one run after another in this process.
 - local pool (default, ``workers=None`` = every core): at most `workers` runs at once, each in
   its own process forked from a forkserver that has already imported numpy, scipy, the FE
   core and the study's optimizers (a few ms per run, once ~0.5 s to start the server). A run
-  that hangs or crashes takes only its own process with it, and the processes a plugin starts
-  are ended with its run. As with any multiprocessing
+  process that hangs or crashes takes only its own run with it. As with any multiprocessing
   code, a script that calls `run_study` needs the ``if __name__ == "__main__":`` guard.
 - Dask (``scheduler="tcp://host:port"``): one Dask task per run through
   ``dask.distributed.Client(address)``; the workers need femu-bench installed. Runs in one
   worker process go one at a time (some libraries draw from the process-global random
   generators, see `harness.seeded_global_rngs`): give workers one thread and more processes.
 
-Time limits: the harness stops a run cooperatively at its next objective call once
-`time_limit_s` has passed (status ``timeout``, with the evaluations done so far). A plugin
-that stops calling the objective is caught by a hard deadline of ``time_limit_s + 1 s + 10 %``
-after the run started (its problem built; a process that does not get there within
-STARTUP_LIMIT_S is given up as failed): its process is terminated (local pool) or its child
-interpreter killed (on Dask each run with a time limit runs in a child interpreter, because
-Dask worker processes may not fork) and the record has status ``timeout``, no evaluations
-(they died with the process) and an error saying so. Without a time limit there is no hard
-deadline.
+Under every executor the optimizer itself runs in a worker process of the sandbox
+(adapters.sandbox) that never holds the problem: the run's process evaluates, counts, times and
+judges. This process's sandbox server (started on first use, preloaded with the study's
+optimizers) serves the local pool's run processes too (they are given its address); each Dask
+worker process starts one of its own on first use.
+What a plugin does to its process (os._exit, a segfault, sys.exit, a patched harness, processes
+of its own) ends with its worker.
+
+Time limits: the sandbox stops a run at its next objective call once `time_limit_s` has passed,
+or, when the optimizer stops calling the objective, kills its worker at
+``time_limit_s + 0.5 s + 5 %`` (adapters.sandbox.worker_deadline_s); either way the record has
+status ``timeout`` and the evaluations done until then. The local pool keeps a backstop for a
+run process that itself hangs: it is terminated at ``time_limit_s + 5 s + 10 %`` after the run
+started (its problem built; a process that does not get there within STARTUP_LIMIT_S is given
+up as failed), with status ``timeout`` and no evaluations. Without a time limit there is no
+deadline (`femu study` and `femu reproduce` always give one).
 
 """
 
@@ -40,6 +43,8 @@ import sys
 import time
 from collections import deque
 from typing import Callable, Iterable, Iterator
+
+from adapters.sandbox import server_address, use_server
 
 from .kill import kill_descendants, kill_tree
 from .tasks import STARTUP_LIMIT_S, Task, hard_deadline_s, hard_timeout_error, lost_record, run_task, startup_error
@@ -57,9 +62,11 @@ class InProcess:
         running(0)
 
 
-def _child(conn, task: Task) -> None:
-    """Body of a local-pool process: says when the run starts, then sends its record."""
+def _child(conn, task: Task, server: str) -> None:
+    """Body of a local-pool process: says when the run starts, then sends its record. The run's
+    optimizer runs in a worker of the study's worker server at `server` (adapters.sandbox)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's: it stops the children
+    use_server(server)
     record = run_task(task, on_start=lambda: conn.send(None))
     kill_descendants()  # processes the plugin started do not outlive its run
     conn.send(record)
@@ -107,17 +114,20 @@ class LocalPool:
         # spec). Only effective before the server starts (the first pool of this process).
         spec = getattr(sys.modules.get("__main__"), "__spec__", None)
         main = [spec.name] if spec is not None and spec.name else []
-        self.ctx.set_forkserver_preload(["__main__", *main, "femu.studies.study", *preload])
+        self.ctx.set_forkserver_preload(["__main__", *main, "femu.studies.study"])
+        self.preload = list(preload)  # the optimizers' modules: imported by the workers' server
 
     def run(self, tasks: list[Task], running: Callable[[int], None]) -> Iterator[tuple[Task, dict]]:
         queue = deque(tasks)
         live: dict = {}  # receiving end -> _Live
+        server = server_address(self.preload)  # the optimizers run in its workers, never in a run's process
         try:
             while queue or live:
                 while queue and len(live) < self.workers:
                     task = queue.popleft()
                     recv, send = self.ctx.Pipe(duplex=False)
-                    proc = self.ctx.Process(target=_child, args=(send, task), name=f"femu {task.key}", daemon=True)
+                    proc = self.ctx.Process(target=_child, args=(send, task, server), name=f"femu {task.key}",
+                                            daemon=True)
                     proc.start()
                     send.close()  # so that recv sees EOF if the child dies
                     live[recv] = _Live(task, proc, recv)

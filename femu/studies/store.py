@@ -15,6 +15,7 @@ process, told apart by its start time) is stale and taken over, with a warning.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import os
@@ -24,6 +25,7 @@ import time
 import warnings
 from contextlib import contextmanager
 from pathlib import Path
+from urllib.parse import quote
 
 import psutil
 
@@ -94,6 +96,8 @@ def check_record(d, key: str) -> str | None:
         return f"field 'x0': must be none or all, got {shown(d.get('x0'))}"
     for name, ok, need in (("error", d.get("error") is None or isinstance(d["error"], str), "a string or null"),
                            ("host", isinstance(d.get("host", ""), str), "a string"),
+                           ("verified", isinstance(d.get("verified", False), bool), "true or false"),
+                           ("output", isinstance(d.get("output", ""), str), "a string"),
                            ("versions", isinstance(d.get("versions", {}), dict), "an object of library -> version")):
         if not ok:
             return f"field {name!r}: must be {need}, got {shown(d.get(name))}"
@@ -132,10 +136,30 @@ def _claim_started(path: Path) -> float | None:
     return float(started) if isinstance(started, (int, float)) and not isinstance(started, bool) else None
 
 
+#: Characters a name keeps in a run's file name; every other one is percent-encoded.
+_SAFE_NAME = "-_.:"
+#: The longest key kept as it is (a file name has at most 255 bytes, with room for suffixes).
+MAX_KEY_CHARS = 200
+
+
+def safe_name(text: str, keep: str = "") -> str:
+    """`text` as a piece of a file name: letters, digits and ``-_.:`` (and `keep`) as they are,
+    every other character percent-encoded (``/`` as ``%2F``), so that a name from user input (an
+    optimizer's entry point named ``../../escaped``) can neither leave the directory nor collide
+    with another name; a leading dot is encoded too (no hidden files)."""
+    out = quote(str(text), safe=_SAFE_NAME + keep)
+    return "%2E" + out[1:] if out.startswith(".") else out
+
+
 def run_key(variant: str, optimizer: str, budget: int, seed: int) -> str:
     """The key (file stem) of one run in a store: ``VARIANT__OPTIMIZER__bBUDGET__sSEED``; the
-    slashes of a suite id (``hframe-freq/12/1``) become ``+`` (``hframe-freq+12+1``)."""
-    return f"{variant.replace('/', '+')}__{optimizer}__b{int(budget)}__s{int(seed)}"
+    slashes of a suite id (``hframe-freq/12/1``) become ``+`` (``hframe-freq+12+1``), and the
+    names are made safe file-name pieces (`safe_name`); a key longer than MAX_KEY_CHARS keeps
+    its start and a SHA-256 of the whole."""
+    key = f"{safe_name(variant.replace('/', '+'), '+')}__{safe_name(optimizer)}__b{int(budget)}__s{int(seed)}"
+    if len(key) > MAX_KEY_CHARS:
+        key = f"{key[:MAX_KEY_CHARS - 18]}~{hashlib.sha256(key.encode()).hexdigest()[:16]}"
+    return key
 
 
 def _umask() -> int:
@@ -215,8 +239,7 @@ class Store:
                     return False
                 owner = self._owner(path)
                 warnings.warn(f"{path}: run {key} was claimed by process {owner[0] if owner else '?'}, which ended "
-                              f"without recording it (a study killed, or with --workers 0 a plugin that ended the "
-                              f"process); running it again")
+                              f"without recording it (a study killed); running it again")
                 path.unlink(missing_ok=True)
                 continue
             except OSError as exc:  # a read-only place, a file in the way, a full disk
@@ -232,6 +255,30 @@ class Store:
         path = self.runs_dir / f"{key}.claim"
         if self._owner(path) == (os.getpid(), socket.gethostname()):
             path.unlink(missing_ok=True)
+
+    def remove_stale_claims(self) -> list[str]:
+        """Remove every claim of a process that is gone (a study killed before it could release
+        them); the keys removed. A claim whose run was recorded is only left over (one warning
+        for all); one whose run was not says so by name (the study that asks for it runs it).
+        Live claims stay."""
+        if not self.runs_dir.is_dir():
+            return []
+        gone = sorted(p for p in self.runs_dir.glob("*.claim") if self._stale(p))
+        left_over = []
+        for p in gone:
+            if p.with_suffix(".json").exists():
+                left_over.append(p.stem)
+            else:
+                owner = self._owner(p)
+                warnings.warn(f"{p}: run {p.stem} was claimed by process {owner[0] if owner else '?'}, which ended "
+                              f"without recording it (a study killed); the claim is removed and the run is done by "
+                              f"the study that asks for it")
+            p.unlink(missing_ok=True)
+        if left_over:
+            warnings.warn(f"{self.runs_dir}: removed {len(left_over)} stale claim{'s' if len(left_over) != 1 else ''} "
+                          f"of recorded runs left by a study that was killed ({', '.join(left_over[:3])}"
+                          f"{', ...' if len(left_over) > 3 else ''})")
+        return [p.stem for p in gone]
 
     def claimed(self) -> set[str]:
         """Keys of the runs that some process has claimed and not yet released."""

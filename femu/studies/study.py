@@ -30,9 +30,10 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from adapters.budget import check_budget, check_min_budget, check_x0_mode
-from adapters.harness import RunResult, check_takes_x0
-from adapters.registry import get, module_of
+from adapters.budget import check_budget, check_budget_covers, check_x0_mode
+from adapters.harness import RunResult
+from adapters.registry import check_name, module_of
+from adapters.sandbox import optimizer_facts, server_address
 from adapters.variants import VARIANTS
 from fe_problem.suite import select_suite
 from fe_problem.jsonutil import dumps
@@ -44,6 +45,10 @@ from .progress import Progress
 from .seeds import parse_names, parse_seeds
 from .store import Store
 from .tasks import Task, n_var_of, run_task
+
+#: Wall-clock seconds per run when `femu study` is not given --time-limit: far beyond an
+#: honest run of the suite's budgets on one core, so that only a hanging plugin meets it.
+DEFAULT_TIME_LIMIT_S = 3600.0
 
 #: Statuses that --retry-failed runs again.
 RETRY_STATUSES = ("failed", "timeout")
@@ -117,10 +122,10 @@ def check_budget_for(optimizers: list[str], budget, variants: list[str], options
     budget = check_budget(budget, "--budget")
     n_vars = sorted({n_var_of(v) for v in variants})
     for name in optimizers:
-        cls = get(name)  # ValueError naming the known ones
+        facts = optimizer_facts(name, n_vars, options.get(name, {}))  # a plugin is asked in a worker
         for n_var in n_vars:
             try:
-                check_min_budget(name, cls, budget, n_var, **options.get(name, {}))
+                check_budget_covers(name, facts["min_budget"][n_var], budget, n_var, **options.get(name, {}))
             except ValueError as exc:
                 raise ValueError(f"--budget {budget}: {exc}") from None
     return budget
@@ -167,7 +172,10 @@ def _check_inputs(optimizers, seeds, budget, variants, workers, scheduler, time_
     variants = _problems(variants, suite)
     seeds = parse_seeds(seeds)
     for name in optimizers:
-        get(name)  # ValueError naming the known ones, before the options are looked at
+        check_name(name)  # ValueError naming the known ones, before the options are looked at (no import)
+    # the sandbox's server, its workers finding the study's optimizers imported: for the checks
+    # below (a plugin is asked in a worker) and the runs
+    server_address([m for m in map(module_of, optimizers) if m])
     options = _check_options(options, optimizers)
     budget = check_budget_for(optimizers, budget, variants, options)
     if time_limit_s is not None and not (isinstance(time_limit_s, (int, float)) and math.isfinite(time_limit_s)
@@ -178,9 +186,6 @@ def _check_inputs(optimizers, seeds, budget, variants, workers, scheduler, time_
     if scheduler is not None:
         check_scheduler_address(scheduler)
     check_workers(workers)
-    if workers == 0 and time_limit_s is not None:
-        raise ValueError("--time-limit needs worker processes (--workers >= 1 or --scheduler): in this process "
-                         "a plugin that stops calling the objective cannot be stopped")
     return optimizers, seeds, budget, variants, options
 
 
@@ -238,11 +243,15 @@ def run_study(optimizers, seeds, budget: int, store, variants=None, workers: int
     store = store if isinstance(store, Store) else Store(store)
     x0 = check_x0_mode(x0, "--x0")
     if x0 == "all":
+        n_vars = sorted({n_var_of(v) for v in variants})
         for name in optimizers:
-            check_takes_x0(name)
+            refused = optimizer_facts(name, n_vars, options.get(name, {}))["x0_refused"]
+            if refused:
+                raise ValueError(refused)
     grid = [Task(o, v, budget, s, options.get(o, {}), time_limit_s, x0)
             for v in variants for o in optimizers for s in seeds]
     stored = _stored_runs(store, grid)
+    store.remove_stale_claims()  # left by studies that were killed, whatever runs they were for
     wanted = [t for t in grid if t.key not in stored or (retry_failed and stored[t.key].status in RETRY_STATUSES)]
     # the cluster is reached before any claim: an unreachable one leaves nothing in the store
     cluster = DaskCluster(scheduler) if scheduler is not None and wanted else None
@@ -267,6 +276,7 @@ def run_study(optimizers, seeds, budget: int, store, variants=None, workers: int
             for task, record in executor.run(todo, bar.running):
                 result = RunResult.from_dict(record)
                 store.write(result)
+                store.release(task.key)  # the run has ended: its claim goes now, not with the study
                 records[task.key] = result
                 bar.done(result.status in RETRY_STATUSES)
     finally:

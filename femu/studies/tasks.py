@@ -88,13 +88,15 @@ def lost_record(task: Task, status: str, error: str, wall_s: float) -> dict:
     """The record of a run whose process returned nothing (hard timeout, crash)."""
     return RunResult(optimizer=task.optimizer, problem=_problem_name(task.variant), seed=task.seed,
                      budget=task.budget, options=dict(task.options), wall_s=wall_s, status=status, x0=task.x0,
-                     error=error, variant=task.variant, host=platform.node()).to_dict()
+                     error=error, variant=task.variant, host=platform.node(), verified=True).to_dict()
 
 
 def hard_deadline_s(time_limit_s: float | None) -> float | None:
     """Seconds after a run's start (problem built) at which its process is killed: the limit
-    plus a grace of 1 s + 10 % for the cooperative stop to land."""
-    return None if time_limit_s is None else time_limit_s + 1.0 + 0.1 * time_limit_s
+    plus a grace of 5 s + 10 %. A backstop: the run's process itself stops its optimizer's
+    worker at the limit (adapters.sandbox.worker_deadline_s) and records the evaluations done;
+    this deadline catches only a run process that hangs itself."""
+    return None if time_limit_s is None else time_limit_s + 5.0 + 0.1 * time_limit_s
 
 
 #: Seconds a run with a time limit may take to start (process, imports, problem build) before

@@ -1,0 +1,364 @@
+"""The evaluating side of a sandboxed run: the problem stays here, the optimizer runs elsewhere.
+
+`run_isolated` runs one optimizer in a worker process (adapters.sandbox_worker) forked for
+this run from a worker server that never imported the FE package. The worker gets the bounds,
+the budget, the seed, x0 when asked for and the options; its objective is a proxy that sends
+points here. This process evaluates them through `harness.BudgetedObjective` (the one place
+that counts, refuses what exceeds the budget, keeps the best point and times the run) and
+decides the run's status from what it saw:
+
+- ``ok``: it stopped the run because the budget was spent (the worker is ended at once);
+- ``timeout``: it stopped the run at its time limit, at the next request after the limit or,
+  when none comes, at the hard deadline `worker_deadline_s` (the worker is killed; the
+  evaluations done so far are kept);
+- ``stopped``: the optimizer's minimize returned before the budget was spent;
+- ``failed``: it raised (the error is the worker's text), or its process ended without a word,
+  or it broke the protocol.
+
+What an optimizer raises, prints or patches stays in its worker, which is ended with every
+process it started when its run ends; its stdout and stderr are the record's ``output``.
+
+The server: one per process that runs optimizers (started on first use, ended with that
+process); a study's run processes use their study's (`use_server`).
+"""
+
+from __future__ import annotations
+
+import atexit
+import os
+import pickle
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from contextlib import contextmanager
+from multiprocessing.connection import Client
+
+import numpy as np
+import psutil
+
+from .budget import check_budget, check_seed, check_x0_mode, jacobian_cost
+from .harness import RunResult, BudgetedObjective, BudgetExhausted, TimeLimitExceeded, _overrun, _problem_count
+from .processes import kill_tree
+from .provenance import library_versions
+from .registry import check_name
+from .sandbox_worker import DONE, ERROR, EVAL, LSQ, STOP, VALUES
+
+#: Seconds a worker server may take to start (a loaded machine, numpy and the optimizers' imports).
+SERVER_START_S = 120.0
+#: Seconds a worker may take to load its optimizer and say it is ready (its library's import).
+READY_S = 120.0
+#: Characters of a run's captured stdout and stderr kept in its record (the end is kept).
+OUTPUT_CHARS = 20_000
+
+
+def worker_deadline_s(time_limit_s: float | None) -> float | None:
+    """Seconds after a run's start at which a worker that has not asked for anything since the
+    limit passed is killed (status ``timeout``): the limit plus 0.5 s + 5 %."""
+    return None if time_limit_s is None else time_limit_s + 0.5 + 0.05 * time_limit_s
+
+
+class WorkerServer:
+    """A worker server process (adapters.sandbox_worker) with its Unix socket in a private
+    temporary directory; `preload`: modules its workers find imported (the optimizers)."""
+
+    def __init__(self, preload=()):
+        self._dir = tempfile.mkdtemp(prefix="femu-sandbox-")  # mode 0700: this user only
+        self.address = os.path.join(self._dir, "server")
+        self.owner = os.getpid()
+        # the mark fe_problem refuses to import under, inherited by every process a plugin starts
+        env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p), FEMU_OPTIMIZER_PROCESS="1")
+        self._log = open(os.path.join(self._dir, "server.log"), "w+")
+        # its own session: a Ctrl-C in the terminal reaches the evaluating process, which ends the run
+        self._proc = subprocess.Popen([sys.executable, "-m", "adapters.sandbox_worker", self.address, *preload],
+                                      stdin=subprocess.PIPE, stdout=self._log, stderr=self._log, env=env,
+                                      start_new_session=True)
+        t0 = time.perf_counter()
+        while not os.path.exists(self.address):
+            if self._proc.poll() is not None or time.perf_counter() - t0 > SERVER_START_S:
+                self._log.seek(0)
+                why = self._log.read()[-2000:]
+                self.close()
+                raise RuntimeError(f"the optimizers' worker server did not start: {why}")
+            time.sleep(0.005)
+
+    def close(self) -> None:
+        """End the server (its workers are ended by their runs)."""
+        if self._proc.poll() is None:
+            self._proc.stdin.close()
+            try:
+                self._proc.wait(5)
+            except subprocess.TimeoutExpired:
+                self._proc.kill()
+                self._proc.wait()
+        self._log.close()
+        shutil.rmtree(self._dir, ignore_errors=True)
+
+
+_server: WorkerServer | None = None
+_address: str | None = None
+
+
+def use_server(address: str | None) -> None:
+    """Run this process's optimizers in workers of the server at `address` (a study's run
+    processes use their study's server); None: a server of this process's own."""
+    global _address
+    _address = address
+
+
+def server_address(preload=()) -> str:
+    """The address of the worker server this process uses, started on first use."""
+    global _server
+    if _address is not None:
+        return _address
+    if _server is None or _server.owner != os.getpid() or _server._proc.poll() is not None:
+        _server = WorkerServer(preload)
+        atexit.register(_server.close)
+    return _server.address
+
+
+class _Worker:
+    """One worker of the server: connected, its pid known; ended with everything it started."""
+
+    def __init__(self, preload=()):
+        self.address = server_address(preload)
+        self.conn = Client(self.address, family="AF_UNIX")
+        if not self.conn.poll(SERVER_START_S):
+            raise RuntimeError("the optimizers' worker server did not answer")
+        self.pid = int(self.conn.recv())
+        fd, self.output_path = tempfile.mkstemp(prefix="femu-run-", suffix=".out")
+        os.close(fd)
+
+    def cpu_s(self) -> float:
+        """CPU seconds of the worker so far (its own and its reaped children's)."""
+        try:
+            t = psutil.Process(self.pid).cpu_times()
+            return t.user + t.system + t.children_user + t.children_system
+        except psutil.Error:
+            return 0.0
+
+    def output(self) -> str:
+        try:
+            with open(self.output_path, errors="replace") as fh:
+                text = fh.read()
+        except OSError:
+            return ""
+        return text if len(text) <= OUTPUT_CHARS else "[...]\n" + text[-OUTPUT_CHARS:]
+
+    def exit_code(self, wait_s: float = 2.0) -> int | None:
+        """The worker's exit code once it has ended (its server records it), None if unknown."""
+        path = f"{self.address}.exit.{self.pid}"
+        t0 = time.perf_counter()
+        while time.perf_counter() - t0 < wait_s:
+            try:
+                with open(path) as fh:
+                    return int(fh.read())
+            except (OSError, ValueError):
+                time.sleep(0.01)
+        return None
+
+    def end(self) -> None:
+        kill_tree(self.pid)
+        try:
+            os.unlink(f"{self.address}.exit.{self.pid}")
+        except OSError:
+            pass
+        self.conn.close()
+        try:
+            os.unlink(self.output_path)
+        except OSError:
+            pass
+
+
+def describe(name: str, n_vars, options: dict | None = None) -> dict:
+    """Ask optimizer `name` in a worker (its code never runs in this process): ``{"min_budget":
+    {n_var: evaluations}, "x0_refused": None or why it cannot be given x0}``; ValueError when
+    it cannot be loaded."""
+    check_name(name)
+    worker = _Worker(_preload(name))
+    try:
+        worker.conn.send({"describe": True, "name": name, "n_vars": [int(n) for n in n_vars],
+                          "options": dict(options or {}), "output_path": worker.output_path,
+                          "sys_path": list(sys.path), "cwd": os.getcwd()})
+        if not worker.conn.poll(READY_S):
+            raise ValueError(f"optimizer {name!r}: loading it took more than {READY_S:.0f} s")
+        kind, answer = worker.conn.recv()
+    except (EOFError, OSError):
+        raise ValueError(f"optimizer {name!r}: its process ended while it was loaded") from None
+    finally:
+        worker.end()
+    if kind != "described":
+        raise ValueError(answer)
+    return answer
+
+
+def optimizer_facts(name: str, n_vars, options: dict | None = None) -> dict:
+    """What a study checks before it runs optimizer `name`: ``{"min_budget": {n_var: need},
+    "x0_refused": None or why it cannot be given x0}``. A built-in is asked here (the project's
+    own code); any other optimizer in a worker (`describe`), so that no plugin code ever runs in
+    a process that holds problems or writes the store. ValueError when it cannot be loaded."""
+    from .registry import BUILTINS, get
+
+    if name not in BUILTINS:
+        return describe(name, n_vars, options)
+    from .budget import min_budget
+    from .harness import check_takes_x0
+
+    cls = get(name)
+    try:
+        check_takes_x0(name, cls)
+        refused = None
+    except ValueError as exc:
+        refused = str(exc)
+    return {"min_budget": {int(n): min_budget(cls, int(n), **(options or {})) for n in n_vars}, "x0_refused": refused}
+
+
+def _preload(name: str) -> list[str]:
+    from .registry import module_of
+
+    module = module_of(name)
+    return [module] if module else []
+
+
+def run_isolated(name: str, problem, budget: int, seed: int, time_limit_s: float | None = None,
+                 variant: str = "paper", x0: str = "none", **options) -> RunResult:
+    """`harness.run` with the optimizer in a worker process (see the module doc); the record
+    has ``verified`` True and the worker's stdout and stderr in ``output``. ValueError (before
+    anything is evaluated) for an unknown name, a bad budget, seed or x0, a budget below the
+    optimizer's minimum, or x0 given to an optimizer that takes none."""
+    check_name(name)
+    seed, budget, x0 = check_seed(seed), check_budget(budget), check_x0_mode(x0)
+    n_var = int(problem.n_var)
+    xl, xu = np.asarray(problem.xl, dtype=float), np.asarray(problem.xu, dtype=float)
+    worker = _Worker(_preload(name))
+    counted0 = _problem_count(problem)
+    status, error = None, None
+    try:
+        worker.conn.send({"name": name, "n_var": n_var, "xl": xl.tolist(), "xu": xu.tolist(), "budget": budget,
+                          "seed": seed, "options": dict(options), "time_limit_s": time_limit_s,
+                          "jacobian_cost": jacobian_cost(n_var), "output_path": worker.output_path,
+                          "sys_path": list(sys.path), "cwd": os.getcwd(),
+                          "x0": None if x0 == "none" else np.asarray(problem.x0, dtype=float).tolist()})
+        if not worker.conn.poll(READY_S):
+            raise ValueError(f"optimizer {name!r}: loading it took more than {READY_S:.0f} s")
+        try:
+            kind, why = worker.conn.recv()
+        except (EOFError, OSError):
+            raise ValueError(f"optimizer {name!r}: its process ended while it was loaded: "
+                             f"{worker.output()[-500:]}") from None
+        if kind != "ready":
+            raise ValueError(why)
+        cpu0, worker_cpu0 = time.process_time(), worker.cpu_s()
+        wall0 = time.perf_counter()
+        # the cooperative clock (BudgetedObjective's) starts at the optimizer's first request, so
+        # that the wake-ups of a loaded machine between two processes do not eat its time; the
+        # hard deadline counts from now, its optimizer loaded
+        objective = _Lazy(lambda: BudgetedObjective(problem, budget, time_limit_s))
+        with _one_core(worker.pid):
+            status, error = _serve(worker, objective, problem, time_limit_s)
+        objective = objective.get()
+        wall = time.perf_counter() - wall0
+        cpu = time.process_time() - cpu0 + max(worker.cpu_s() - worker_cpu0, 0.0)
+    except KeyboardInterrupt:  # a real Ctrl-C (the worker ignores SIGINT): the study stops
+        raise
+    finally:
+        output = worker.output()
+        worker.end()
+    overrun = _overrun(problem, counted0, objective, budget)
+    if overrun:
+        status, error = "failed", overrun
+    return RunResult(
+        optimizer=name, problem=getattr(problem, "name", type(problem).__name__), seed=int(seed),
+        budget=int(budget), options=dict(options), n_evals=objective.n_evals, best_f=objective.best_f,
+        best_x=[] if objective.best_x is None else objective.best_x.tolist(), trace=objective.finish_trace(),
+        wall_s=wall, cpu_s=cpu, fe_s=objective.fe_s, fe_cpu_s=objective.fe_cpu_s,
+        opt_cpu_s=max(cpu - objective.fe_cpu_s, 0.0), n_jacobians=objective.n_jacobians, x0=x0, status=status,
+        error=error, variant=variant, host=os.uname().nodename, versions=library_versions(), verified=True,
+        output=output)
+
+
+class _Lazy:
+    """The run's BudgetedObjective, made on first use."""
+
+    def __init__(self, make):
+        self._make, self._value = make, None
+
+    def get(self) -> BudgetedObjective:
+        if self._value is None:
+            self._value = self._make()
+        return self._value
+
+
+@contextmanager
+def _one_core(worker_pid: int):
+    """This thread and the worker on one core for the run, this thread's cores put back after.
+
+    The two take turns (a request, its values, the next request): on one core each hands the
+    core straight to the other, while on two cores of a loaded machine every turn waits for
+    the scheduler (a ping-pong of two processes on this 2-core machine, measured once: 27 us against
+    300 us a round trip)."""
+    try:
+        before = os.sched_getaffinity(0)
+        core = psutil.Process().cpu_num()
+        core = core if core in before else min(before)
+        os.sched_setaffinity(0, {core})
+        os.sched_setaffinity(worker_pid, {core})
+    except (AttributeError, OSError, psutil.Error):  # not Linux, or the worker is gone: run as it is
+        yield
+        return
+    try:
+        yield
+    finally:
+        os.sched_setaffinity(0, before)
+
+
+def _serve(worker: _Worker, lazy: _Lazy, problem, time_limit_s) -> tuple[str, str | None]:
+    """Answer the worker's requests until the run ends; the run's (status, error)."""
+    conn, n_var = worker.conn, int(problem.n_var)
+    deadline = worker_deadline_s(time_limit_s)
+    t0 = time.perf_counter()
+    while True:
+        if deadline is not None and not conn.poll(max(0.0, t0 + deadline - time.perf_counter())):
+            return "timeout", (f"stopped after {time.perf_counter() - t0:.1f} s: the optimizer passed its time limit "
+                               f"of {time_limit_s} s without asking for an evaluation; the evaluations done until "
+                               f"then are kept")
+        try:
+            message = conn.recv_bytes()
+        except (EOFError, OSError):
+            code = worker.exit_code()
+            how = "exited" if code is None else f"exited with code {code}"
+            return "failed", (f"the optimizer's process {how} without finishing its run; the evaluations done "
+                              f"until then are kept")
+        tag, body = message[:1], message[1:]
+        objective = lazy.get()
+        try:
+            if tag == EVAL:
+                if len(body) % (8 * n_var):
+                    return "failed", "protocol: the optimizer's process sent points of a wrong size"
+                X = np.frombuffer(body, dtype=float).reshape(-1, n_var)
+                f = objective(X)
+                conn.send_bytes(VALUES + objective.n_evals.to_bytes(8, "little") + np.asarray(f, float).tobytes())
+            elif tag == LSQ and len(body) == 1 + 8 * n_var:
+                x = np.frombuffer(body[1:], dtype=float)
+                out = objective.least_squares(x, jacobian=bool(body[0]))
+                conn.send_bytes(VALUES + pickle.dumps((objective.n_evals, out.f, out.residuals, out.jacobian)))
+            elif tag == DONE:
+                try:
+                    kind, text = pickle.loads(body)
+                except Exception:
+                    return "failed", "protocol: the optimizer's process sent an unreadable end of run"
+                if kind == "returned":
+                    return ("ok" if objective.n_evals >= objective.budget else "stopped"), None
+                return "failed", str(text)
+            else:
+                return "failed", "protocol: the optimizer's process sent an unknown request"
+        except BudgetExhausted:  # the budget is spent: nothing the optimizer does after this counts
+            return "ok", None
+        except TimeLimitExceeded as exc:
+            return "timeout", str(exc)
+        except (ValueError, FloatingPointError, TypeError) as exc:  # bad points, NaN values: the plugin's to handle
+            try:
+                conn.send_bytes(ERROR + pickle.dumps((type(exc).__name__, str(exc))))
+            except OSError:
+                pass

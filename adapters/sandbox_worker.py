@@ -1,0 +1,346 @@
+"""The optimizer's side of a sandboxed run: the worker server and the objective proxy.
+
+``python -m adapters.sandbox_worker SOCKET [MODULE ...]`` (started by `adapters.sandbox`) makes
+imports of the FE package and the application (``fe_problem``, ``femu``) fail, imports numpy,
+the plugin layer and the MODULEs named (the optimizers a study will run), then listens on the
+Unix socket SOCKET. Every connection is one run: the server forks a worker for it, which
+
+1. sends its pid, receives the run's spec (optimizer name, bounds, budget, seed, x0, options,
+   the file that takes its stdout and stderr),
+2. loads the optimizer, checks its minimum budget and x0 (its own code runs only here), says
+   ``ready`` or why not,
+3. calls ``minimize`` with an `ObjectiveProxy`: each call sends the points to the evaluating
+   process and waits for their values; the evaluating process alone counts them, holds the
+   budget, the best point, the clock and decides the run's status,
+4. says how minimize ended, and waits to be ended (with every process it started) by the
+   evaluating process.
+
+The worker never holds the problem, its data, the FE model or a suite instance's truth: they
+are not in this process (the server never imported them) and importing their packages fails.
+The server ends when its owner closes its stdin.
+"""
+
+from __future__ import annotations
+
+import os
+
+import importlib
+import importlib.abc
+import pickle
+import signal
+import socket
+import struct
+import sys
+import threading
+import time
+import traceback
+from collections import namedtuple
+
+from . import _threads  # noqa: F401  (one BLAS thread per worker: before numpy loads)
+
+#: Packages an optimizer's process may not import: the FE model, its data, the suite (with its
+#: hidden truths) and the application.
+BLOCKED_PACKAGES = ("fe_problem", "femu")
+
+#: Message tags (first byte) from the worker: points to evaluate, a least-squares request, the end.
+EVAL, LSQ, DONE = b"E", b"L", b"D"
+#: Tags of the evaluating side's answers: values, a stop (budget or time), an error to raise.
+VALUES, STOP, ERROR = b"F", b"S", b"X"
+
+#: What `ObjectiveProxy.least_squares` returns (as the problem's LeastSquares).
+LeastSquares = namedtuple("LeastSquares", "f residuals jacobian")
+
+
+class _Refused(importlib.abc.MetaPathFinder):
+    """Import hook of the optimizer's process: the FE package and the application are refused."""
+
+    def find_spec(self, name, path=None, target=None):
+        if name.partition(".")[0] in BLOCKED_PACKAGES:
+            raise ImportError(f"{name}: not available in the optimizer's process (the FE model, its data and the "
+                              f"suite stay with the evaluating process; an optimizer sees only its objective)",
+                              name=name)
+        return None
+
+
+class ObjectiveProxy:
+    """The objective an optimizer gets in its worker: ``objective(X) -> f`` for a batch (n,
+    n_var) or one point, ``least_squares(x, jacobian=True)``, and read-only copies of what the
+    evaluating side has charged (`n_evals`, `remaining`). Nothing it holds can change the count:
+    the count, the budget, the best point and the clock are the evaluating process's.
+
+    `best_f`, `best_x` and `trace` are the worker's own view of the values it received (a
+    convenience for an optimizer; the run record is the evaluating side's)."""
+
+    def __init__(self, conn, spec: dict):
+        import numpy as np
+
+        self._np = np
+        self._conn = conn
+        self._lock = threading.Lock()  # one request at a time, also from a plugin's threads
+        self._n_var = int(spec["n_var"])
+        self._budget = int(spec["budget"])
+        self._jacobian_cost = int(spec["jacobian_cost"])
+        self._time_limit_s = spec["time_limit_s"]
+        self._xl = np.array(spec["xl"], dtype=float)
+        self._xu = np.array(spec["xu"], dtype=float)
+        self._n_evals = 0
+        self._best_f, self._best_x, self._trace = float("inf"), None, []
+        self._stopped: BaseException | None = None
+
+    n_var = property(lambda self: self._n_var, doc="The number of parameters.")
+    budget = property(lambda self: self._budget, doc="The run's budget (FE evaluations).")
+    n_evals = property(lambda self: self._n_evals, doc="Evaluations the evaluating side has charged so far.")
+    remaining = property(lambda self: self._budget - self._n_evals, doc="Evaluations left in the budget.")
+    jacobian_cost = property(lambda self: self._jacobian_cost,
+                             doc="FE evaluations charged for a least_squares call with the Jacobian (n_var + 1).")
+    time_limit_s = property(lambda self: self._time_limit_s, doc="The run's time limit in seconds, or None.")
+    bounds = property(lambda self: (self._xl.copy(), self._xu.copy()), doc="(xl, xu), copies.")
+    best_f = property(lambda self: self._best_f, doc="Best value received (inf before the first).")
+    best_x = property(lambda self: None if self._best_x is None else self._best_x.copy(),
+                      doc="The point of best_f (a copy), or None.")
+    trace = property(lambda self: [list(t) for t in self._trace], doc="Best-so-far [[n_evals, f], ...] received.")
+
+    #: Names a plugin may read but not assign (as on harness.BudgetedObjective): a plugin that
+    #: tries is told at once instead of changing only its own copy.
+    READ_ONLY = ("problem", "n_evals", "budget", "remaining", "best_f", "best_x", "trace", "fe_s", "fe_cpu_s",
+                 "n_jacobians", "jacobian_cost", "time_limit_s", "n_var", "bounds")
+
+    def __setattr__(self, name, value):
+        if name in self.READ_ONLY:
+            raise AttributeError(f"the objective's {name!r} is read-only: the evaluating process owns the budget "
+                                 "and its counts")
+        super().__setattr__(name, value)
+
+    def _request(self, message: bytes) -> bytes:
+        for stream in (sys.stdout, sys.stderr):  # what it printed so far is in its record, even if ended now
+            stream.flush()
+        with self._lock:
+            if self._stopped is not None:  # the run is over: nothing more is evaluated
+                raise self._stopped
+            self._conn.send_bytes(message)
+            answer = self._conn.recv_bytes()
+        tag, body = answer[:1], answer[1:]
+        if tag == STOP:
+            from .harness import BudgetExhausted, TimeLimitExceeded
+
+            kind, text = pickle.loads(body)
+            exc = BudgetExhausted() if kind == "budget" else TimeLimitExceeded(text)
+            self._stopped = exc
+            raise exc
+        if tag == ERROR:
+            kind, text = pickle.loads(body)
+            raise {"ValueError": ValueError, "FloatingPointError": FloatingPointError}.get(kind, TypeError)(text)
+        return body
+
+    def _received(self, X, f) -> None:
+        start = self._n_evals
+        np = self._np
+        running = np.fmin.accumulate(np.concatenate(([self._best_f], f)))
+        new = np.flatnonzero(running[1:] < running[:-1])
+        self._trace.extend([start + int(i) + 1, float(f[i])] for i in new)
+        if len(new):
+            self._best_f, self._best_x = float(f[new[-1]]), X[new[-1]].copy()
+
+    def __call__(self, X):
+        np = self._np
+        X = np.atleast_2d(np.asarray(X, dtype=float))
+        if X.ndim != 2 or X.shape[1] != self._n_var:
+            raise ValueError(f"the points must have shape (n, {self._n_var}), got {X.shape}")
+        body = self._request(EVAL + np.ascontiguousarray(X).tobytes())
+        n_evals = int.from_bytes(body[:8], "little")
+        f = np.frombuffer(body[8:], dtype=float).copy()
+        self._received(X[: len(f)], f)
+        self._n_evals = n_evals
+        return f
+
+    def least_squares(self, x, jacobian: bool = True):
+        """Objective, weighted frequency residuals and (with `jacobian`) their Jacobian at one
+        point, charged by the evaluating side as `adapters.harness.BudgetedObjective.least_squares`."""
+        np = self._np
+        X = np.atleast_2d(np.asarray(x, dtype=float))
+        if X.shape != (1, self._n_var):
+            raise ValueError(f"least_squares takes one point of {self._n_var} parameters, got shape {X.shape}")
+        body = self._request(LSQ + bytes([bool(jacobian)]) + X.tobytes())
+        n_evals, f, residuals, jac = pickle.loads(body)
+        self._received(X, np.array([f]))
+        self._n_evals = n_evals
+        return LeastSquares(f, residuals, jac)
+
+
+def _start(conn, spec: dict):
+    """The optimizer instance and minimize's keywords, or a ValueError saying why it cannot run."""
+    import numpy as np
+
+    from .budget import check_min_budget
+    from .harness import check_takes_x0
+    from .registry import get
+
+    cls = get(spec["name"])
+    optimizer = cls()
+    check_min_budget(spec["name"], optimizer, spec["budget"], spec["n_var"], **spec["options"])
+    start = {}
+    if spec["x0"] is not None:
+        check_takes_x0(spec["name"], optimizer)
+        start = {"x0": np.array(spec["x0"], dtype=float)}
+    return optimizer, start
+
+
+def _describe(spec: dict) -> dict:
+    """What the evaluating side asks before any run: the minimum budget of optimizer `name` on
+    each n_var with its options, and whether it takes x0."""
+    from .budget import min_budget
+    from .harness import check_takes_x0
+    from .registry import get
+
+    cls = get(spec["name"])
+    need = {n: min_budget(cls, n, **spec["options"]) for n in spec["n_vars"]}
+    try:
+        check_takes_x0(spec["name"], cls)
+        takes_x0 = None
+    except ValueError as exc:
+        takes_x0 = str(exc)
+    return {"min_budget": need, "x0_refused": takes_x0}
+
+
+def _capture_output(path: str) -> None:
+    """Send this process's stdout and stderr (and those of every process it starts) to `path`."""
+    fd = os.open(path, os.O_WRONLY | os.O_APPEND)
+    os.dup2(fd, 1)
+    os.dup2(fd, 2)
+    os.close(fd)
+    for stream in (sys.stdout, sys.stderr):
+        stream.reconfigure(line_buffering=True)
+
+
+def worker(conn) -> None:
+    """One run (see the module doc), on the connection `conn` to the evaluating process."""
+    conn.send(os.getpid())
+    spec = conn.recv()
+    _capture_output(spec["output_path"])
+    # the evaluating process's path and directory now (the server's are those of its start)
+    sys.path[:] = [p for p in spec.get("sys_path", sys.path)]
+    importlib.invalidate_caches()
+    try:
+        os.chdir(spec.get("cwd", os.getcwd()))
+    except OSError:
+        pass
+    if spec.get("describe"):
+        try:
+            conn.send(("described", _describe(spec)))
+        except BaseException as exc:
+            conn.send(("refused", str(exc) if isinstance(exc, ValueError) else f"{type(exc).__name__}: {exc}"))
+        conn.recv()  # ended by the evaluating process
+        return
+    try:
+        optimizer, start = _start(conn, spec)
+    except BaseException as exc:
+        message = str(exc) if isinstance(exc, ValueError) else f"{type(exc).__name__}: {exc}"
+        conn.send(("refused", message))
+        conn.recv()
+        return
+    import numpy as np
+
+    proxy = ObjectiveProxy(conn, spec)
+    conn.send(("ready", None))
+    try:
+        optimizer.minimize(proxy, proxy.bounds, proxy.budget, np.random.default_rng(spec["seed"]), **start,
+                           **spec["options"])
+        outcome = ("returned", None)
+    except SystemExit as exc:
+        outcome = ("raised", f"SystemExit: the optimizer called sys.exit({exc.code!r})")
+    except KeyboardInterrupt:  # Ctrl-C goes to the evaluating process only: this one is the plugin's
+        outcome = ("raised", "KeyboardInterrupt: raised by the optimizer (no Ctrl-C was pressed)")
+    except BaseException as exc:
+        outcome = ("raised", f"{type(exc).__name__}: {exc}\n{traceback.format_exc(limit=6)}")
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except Exception:
+            pass
+    conn.send_bytes(DONE + pickle.dumps(outcome))
+    conn.recv()  # the evaluating process ends this process and every one it started
+
+
+def _watch_evaluator(pid: int) -> None:
+    """End this worker's process group (the worker and what it started) once the evaluating
+    process `pid` is gone (killed at a hard deadline, or its study stopped): a worker without
+    its evaluating side has nothing left to do."""
+    while True:
+        time.sleep(0.25)
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            os.killpg(0, signal.SIGKILL)
+        except PermissionError:  # the pid was taken by another user's process: ours is gone
+            os.killpg(0, signal.SIGKILL)
+
+
+def _reap(address: str) -> None:
+    """Reap the server's workers, leaving each one's exit code in ADDRESS.exit.PID for its
+    evaluating process (a worker that dies says nothing itself)."""
+    while True:
+        try:
+            pid, status = os.waitpid(-1, 0)
+        except ChildProcessError:
+            time.sleep(0.05)
+            continue
+        try:
+            with open(f"{address}.exit.{pid}", "w") as fh:
+                fh.write(str(os.waitstatus_to_exitcode(status)))
+        except OSError:
+            pass
+
+
+def _watch_owner() -> None:
+    """End the server when its owner closes our stdin (or dies)."""
+    try:
+        while os.read(0, 4096):
+            pass
+    finally:
+        os._exit(0)
+
+
+def serve(address: str, preload: list[str]) -> None:
+    """The worker server: import hook, preloads, then one forked worker per connection."""
+    sys.meta_path.insert(0, _Refused())
+    import numpy  # noqa: F401
+
+    import adapters.harness  # noqa: F401
+    import adapters.registry  # noqa: F401
+
+    for module in preload:
+        try:
+            __import__(module)
+        except BaseException:  # a broken plugin module fails its own runs, with its own error
+            pass
+    from multiprocessing.connection import Connection
+
+    listener = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    listener.bind(address + ".tmp")
+    listener.listen(64)
+    os.rename(address + ".tmp", address)  # the address appears only once it accepts
+    threading.Thread(target=_reap, args=(address,), daemon=True).start()
+    threading.Thread(target=_watch_owner, daemon=True).start()
+    while True:
+        sock, _ = listener.accept()
+        if os.fork() == 0:
+            listener.close()
+            signal.signal(signal.SIGINT, signal.SIG_IGN)  # a Ctrl-C is the evaluating process's
+            os.setsid()  # its own process group: ended as one when the evaluating side is gone
+            pid, _, _ = struct.unpack("3i", sock.getsockopt(socket.SOL_SOCKET, socket.SO_PEERCRED,
+                                                           struct.calcsize("3i")))
+            threading.Thread(target=_watch_evaluator, args=(pid,), daemon=True).start()
+            null = os.open(os.devnull, os.O_RDONLY)
+            os.dup2(null, 0)
+            os.close(null)
+            code = 0
+            try:
+                worker(Connection(sock.detach()))
+            except BaseException:
+                code = 1
+            os._exit(code)
+        sock.close()
+
+
+if __name__ == "__main__":
+    serve(sys.argv[1], sys.argv[2:])

@@ -1,0 +1,59 @@
+"""What the sandbox costs: a 1,000-evaluation run on the H-frame (variant paper) with its
+optimizer in a worker process (adapters.run, the default) against the same run in the
+problem's own process (adapters.run(..., isolated=False), the debugging mode; before the
+sandbox every run was so).
+
+One optimizer that asks for one point per call (scipy-sa: dual annealing, 1,000 round trips
+between the two processes) and two that ask for whole populations (pymoo-ga, cma-es). The
+worker server is started once before timing, as a study does (its start, ~0.5-2 s, is per
+process, not per run); each timed run includes its worker's fork and the optimizer's start.
+The figures are wall seconds per evaluation of the whole adapters.run call, filed as
+"sandbox:<name>" and "inproc:<name>"; the session's ratio table (conftest.RATIOS) gives
+in-process / sandboxed, whose goals are 1/1.5 (one point per call) and 1/1.1 (populations).
+Both modes give the same record (the same seed, the same points): checked here.
+"""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+
+from adapters import run
+from adapters.registry import module_of
+from adapters.sandbox import server_address
+from adapters.variants import make_problem
+
+BUDGET = 1000
+SEED = 0
+ROUNDS = 5
+NAMES = ("scipy-sa", "pymoo-ga", "cma-es")
+
+
+@pytest.mark.benchmark(group="sandbox")
+@pytest.mark.parametrize("name", NAMES)
+def test_sandbox_cost(benchmark, record, name):
+    """Both modes in turn within each round, so that both see the same load of a shared
+    machine; the benchmark's own time is that of the pair."""
+    server_address([module_of(n) for n in NAMES])  # started once, as in a study
+    for isolated in (True, False):
+        run(name, make_problem("paper"), 50, SEED, isolated=isolated)  # the optimizer's library imported
+    records = {True: [], False: []}
+    per_eval = {True: [], False: []}
+
+    def one_round():
+        for isolated in (True, False):
+            problem = make_problem("paper")
+            t0 = time.perf_counter()
+            result = run(name, problem, BUDGET, SEED, isolated=isolated)
+            per_eval[isolated].append((time.perf_counter() - t0) / BUDGET)
+            records[isolated].append(result)
+
+    benchmark.pedantic(one_round, rounds=ROUNDS)
+    for isolated, rs in records.items():
+        assert all(r.status == "ok" and r.n_evals == BUDGET and r.verified == isolated for r in rs)
+    # one seed, one run, whatever the mode: the same points, the same best
+    assert len({(r.best_f, tuple(r.best_x)) for r in records[True] + records[False]}) == 1
+    for isolated in (True, False):
+        record(f"{'sandbox' if isolated else 'inproc'}:{name}", BUDGET, per_item_s=per_eval[isolated],
+               budget=BUDGET, seed=SEED)

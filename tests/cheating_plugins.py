@@ -1,0 +1,222 @@
+"""Plugins that try to get evaluations, a better record or a status they did not earn, by every
+route found in issue 22 and a few more. Each one, if its route worked, would evaluate far more
+points than its budget (MANY) or report a value it never paid for; tests/test_sandbox.py checks
+that none of them gains anything through adapters.run, `femu study` and `femu reproduce`.
+
+Like tests/sample_plugins.py, a module that imports neither the FE package nor the application."""
+
+from __future__ import annotations
+
+import copy
+import gc
+import os
+import pickle
+import subprocess
+import sys
+import threading
+import time
+
+import numpy as np
+
+import adapters
+
+#: Points a cheat tries to evaluate behind its budget.
+MANY = 2000
+
+
+def _points(bounds, rng, n):
+    return rng.uniform(*bounds, size=(n, len(bounds[0])))
+
+
+class DeepCopiesTheObjective:
+    """A deep copy of the objective, hoping the copy's evaluations are not counted."""
+
+    def minimize(self, objective, bounds, budget, rng):
+        twin = copy.deepcopy(objective)
+        twin(_points(bounds, rng, MANY))
+        objective(_points(bounds, rng, 1))
+
+
+class PicklesTheObjective:
+    """A pickled and unpickled objective, hoping for a fresh count."""
+
+    def minimize(self, objective, bounds, budget, rng):
+        twin = pickle.loads(pickle.dumps(objective))
+        twin(_points(bounds, rng, MANY))
+        objective(_points(bounds, rng, 1))
+
+
+class BuildsTheProblemFromScratch:
+    """Builds the paper problem itself and evaluates it freely, then sends only its best point."""
+
+    def minimize(self, objective, bounds, budget, rng):
+        from adapters.variants import make_problem
+
+        problem = make_problem("paper")
+        X = _points(bounds, rng, MANY)
+        objective(X[np.argmin(problem.evaluate(X))][None])
+
+
+class ReadsTheSuiteTruth:
+    """Looks for a suite instance's hidden truth: on the objective, then by rebuilding the instance."""
+
+    def minimize(self, objective, bounds, budget, rng):
+        for name in ("truth", "f_opt", "problem"):
+            if hasattr(objective, name):
+                objective(np.atleast_2d(getattr(objective, name, None) or getattr(objective.problem, "truth")))
+                return
+        from fe_problem.suite import suite_problem
+
+        objective(suite_problem("hframe-freq/12/1").truth[None])
+
+
+class FindsTheProblemInMemory:
+    """Searches every object of its process for a problem, a truth or an optimum."""
+
+    def minimize(self, objective, bounds, budget, rng):
+        for o in gc.get_objects():
+            if o is objective:
+                continue
+            if type(o).__name__.endswith("Problem") and hasattr(o, "evaluate"):
+                o.evaluate(_points(bounds, rng, MANY))
+                break
+            if isinstance(o, dict) and (isinstance(o.get("truth"), np.ndarray) or isinstance(o.get("f_opt"), float)):
+                raise RuntimeError(f"found {sorted(o)[:5]}")  # an instance's truth or a known optimum
+        objective(_points(bounds, rng, 1))
+
+
+class CallsUncountedMethods:
+    """correlation() and friends, uncounted on the problem: asked of the objective."""
+
+    def minimize(self, objective, bounds, budget, rng):
+        for _ in range(MANY):
+            objective.correlation(_points(bounds, rng, 1)[0])
+
+
+class EvaluatesFromThreads:
+    """Many threads calling the objective at once, hoping some calls slip through uncounted."""
+
+    def minimize(self, objective, bounds, budget, rng):
+        points = [_points(bounds, rng, 50) for _ in range(40)]
+        errors = []
+
+        def call(X):
+            try:
+                objective(X)
+            except BaseException as exc:  # the stop signal, in some threads
+                errors.append(exc)
+
+        threads = [threading.Thread(target=call, args=(X,)) for X in points]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+        objective(_points(bounds, rng, 1))
+
+
+class EvaluatesFromAFork:
+    """A forked child evaluates behind the parent's back, then the parent goes on."""
+
+    def minimize(self, objective, bounds, budget, rng):
+        pid = os.fork()
+        if pid == 0:
+            try:
+                objective(_points(bounds, rng, MANY))
+            finally:
+                os._exit(0)
+        os.waitpid(pid, 0)
+        objective(_points(bounds, rng, 1))
+
+
+class EvaluatesInASubprocess:
+    """A fresh interpreter (inheriting nothing of the harness) builds the problem and searches."""
+
+    def minimize(self, objective, bounds, budget, rng):
+        code = ("import numpy as np; from adapters.variants import make_problem; p = make_problem('paper'); "
+                "X = np.random.default_rng(0).uniform(p.xl, p.xu, (2000, p.n_var)); "
+                "print(' '.join(map(repr, X[np.argmin(p.evaluate(X))])))")
+        out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+        if out.returncode:
+            raise RuntimeError(f"the subprocess could not build the problem: {out.stderr.strip().splitlines()[-1]}")
+        objective(np.array([float(v) for v in out.stdout.split()])[None])
+
+
+class ClaimsBudgetSpent:
+    """Raises the harness's own end-of-budget signal after a few evaluations, hoping for ``ok``."""
+
+    def minimize(self, objective, bounds, budget, rng):
+        objective(_points(bounds, rng, 5))
+        raise adapters.BudgetExhausted()
+
+
+class ClaimsTimeout:
+    """Raises the harness's own time-limit signal, hoping for ``timeout`` (not ``failed``)."""
+
+    def minimize(self, objective, bounds, budget, rng):
+        objective(_points(bounds, rng, 5))
+        from adapters.harness import TimeLimitExceeded
+
+        raise TimeLimitExceeded("time limit of 1 s exceeded")
+
+
+class PatchesTheHarness:
+    """Patches the harness so that evaluations are free and every run is ``ok``: in its own
+    process (and for later runs, if they shared it)."""
+
+    def minimize(self, objective, bounds, budget, rng):
+        import adapters.harness as harness
+        import adapters.sandbox_worker as worker
+
+        harness.BudgetedObjective.__call__ = lambda self, X: np.zeros(len(np.atleast_2d(X)))
+        harness.BudgetedObjective._record = lambda self, X, f: None
+        harness.run = lambda *a, **k: None
+        worker.ObjectiveProxy.__call__ = lambda self, X: np.zeros(len(np.atleast_2d(X)))
+        objective(_points(bounds, rng, 3))
+
+
+class ForgesItsEnd:
+    """Writes the end-of-run message itself after 3 evaluations, claiming it spent the budget."""
+
+    def minimize(self, objective, bounds, budget, rng):
+        objective(_points(bounds, rng, 3))
+        conn = objective._conn
+        conn.send_bytes(b"D" + pickle.dumps(("returned", "budget spent")))
+        time.sleep(60)
+
+
+class ForgesValues:
+    """Sends the evaluating side a reply-shaped message instead of a request."""
+
+    def minimize(self, objective, bounds, budget, rng):
+        objective(_points(bounds, rng, 3))
+        objective._conn.send_bytes(b"F" + np.zeros(8).tobytes())
+        time.sleep(60)
+
+
+class ResetsItsCountAndBudget:
+    """Sets every counter it can reach on its objective back, and its budget up."""
+
+    def minimize(self, objective, bounds, budget, rng):
+        for _ in range(10):
+            objective(_points(bounds, rng, 100))
+            objective.__dict__["_n_evals"] = 0
+            objective.__dict__["_budget"] = 10**9
+
+
+class PrintsALot:
+    """Prints to stdout and stderr, and from a process of its own: all of it belongs in its record."""
+
+    def minimize(self, objective, bounds, budget, rng):
+        print("PLUGIN-STDOUT {not json")
+        print("PLUGIN-STDERR", file=sys.stderr)
+        subprocess.run(["echo", "PLUGIN-CHILD"])
+        while True:
+            objective(_points(bounds, rng, 10))
+
+
+class Hangs:
+    """Evaluates once and then never calls the objective again."""
+
+    def minimize(self, objective, bounds, budget, rng):
+        objective(_points(bounds, rng, 2))
+        time.sleep(3600)

@@ -1,0 +1,208 @@
+"""The sandbox (issue 22): every optimizer runs in a worker process that never holds the problem,
+so no route a plugin takes gets it an evaluation it was not charged, a status it did not earn,
+a hidden truth, or a say in later runs. Checked through adapters.run, `femu study` and `femu
+reproduce` with the plugins of tests/cheating_plugins.py, each of which would evaluate far more
+than its budget (or report a value it never paid for) if its route worked.
+
+The invariant every run is held to: the problem evaluated exactly the points the record charges
+(`points_evaluated == n_evals <= budget`), and the record is ``verified``."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import adapters
+import cheating_plugins as cp
+from adapters.variants import make_problem
+from femu.reports.study import write_report
+from femu.studies.store import Store, run_key, safe_name
+from fe_problem.suite import suite_problem
+
+HERE = Path(__file__).parent
+BUDGET = 300
+
+
+def plugin(cls) -> str:
+    return f"{cls.__module__}:{cls.__name__}"
+
+
+# route -> (status, n_evals, words of the error or None)
+ROUTES = [
+    (cp.DeepCopiesTheObjective, "failed", 0, "TypeError"),  # the proxy holds a connection: no copy
+    (cp.PicklesTheObjective, "failed", 0, "TypeError"),
+    (cp.BuildsTheProblemFromScratch, "failed", 0, "not available in the optimizer's process"),
+    (cp.ReadsTheSuiteTruth, "failed", 0, "not available in the optimizer's process"),
+    (cp.FindsTheProblemInMemory, "stopped", 1, None),  # found nothing: its one honest point
+    (cp.CallsUncountedMethods, "failed", 0, "has no attribute 'correlation'"),
+    (cp.EvaluatesFromThreads, "ok", BUDGET, None),  # every thread's points charged: the budget ends it
+    (cp.EvaluatesFromAFork, "ok", BUDGET, None),  # the child's points charged the same
+    (cp.EvaluatesInASubprocess, "failed", 0, "could not build the problem"),
+    (cp.ClaimsBudgetSpent, "failed", 5, "BudgetExhausted"),  # its own stop signal is not the harness's
+    (cp.ClaimsTimeout, "failed", 5, "TimeLimitExceeded"),
+    (cp.PatchesTheHarness, "stopped", 3, None),  # it patched its own copies only: its 3 points charged
+    (cp.ForgesItsEnd, "stopped", 3, None),  # an end it sends itself is a return, never "ok"
+    (cp.ForgesValues, "failed", 3, "protocol"),
+    (cp.ResetsItsCountAndBudget, "ok", BUDGET, None),
+    (cp.PrintsALot, "ok", BUDGET, None),
+]
+
+
+@pytest.mark.parametrize("cls,status,n_evals,says", ROUTES, ids=[r[0].__name__ for r in ROUTES])
+def test_no_route_gains_anything_through_adapters_run(cls, status, n_evals, says):
+    problem = make_problem("paper")
+    r = adapters.run(plugin(cls), problem, BUDGET, 0)
+    assert (r.status, r.n_evals) == (status, n_evals), r.error
+    assert says is None and r.error is None or says in r.error, r.error
+    assert problem.points_evaluated == r.n_evals <= BUDGET  # not one point uncharged
+    assert r.verified
+
+
+def test_a_suite_problems_truth_and_optimum_never_reach_the_optimizer():
+    problem = suite_problem("hframe-freq/12/1")
+    assert problem.truth is not None and problem.f_opt == 0.0
+    before = problem.points_evaluated  # J(truth), checked when the instance is built
+    r = adapters.run(plugin(cp.ReadsTheSuiteTruth), problem, BUDGET, 0)
+    assert r.status == "failed" and r.n_evals == 0 and r.best_f == float("inf"), r.error
+    assert "not available in the optimizer's process" in r.error
+    assert problem.points_evaluated == before
+
+
+def test_a_plugin_that_patches_the_harness_changes_no_later_run():
+    honest_before = adapters.run("random-search", make_problem("paper"), BUDGET, 3)
+    patched = adapters.run(plugin(cp.PatchesTheHarness), make_problem("paper"), BUDGET, 0)
+    assert patched.status == "stopped" and patched.n_evals == 3
+    problem = make_problem("paper")
+    honest_after = adapters.run("random-search", problem, BUDGET, 3)
+    assert honest_after.status == "ok" and problem.points_evaluated == honest_after.n_evals == BUDGET
+    assert honest_after.best_f == honest_before.best_f and honest_after.best_x == honest_before.best_x
+    assert honest_after.best_f > 0
+
+
+def test_what_a_plugin_prints_is_in_its_record_not_on_the_callers_output(capfd):
+    r = adapters.run(plugin(cp.PrintsALot), make_problem("paper"), BUDGET, 0)
+    out, err = capfd.readouterr()
+    for words in ("PLUGIN-STDOUT {not json", "PLUGIN-STDERR", "PLUGIN-CHILD"):
+        assert words in r.output and words not in out + err
+
+
+def test_a_plugin_that_hangs_is_stopped_at_its_time_limit_with_its_evaluations_kept():
+    problem = make_problem("paper")
+    r = adapters.run(plugin(cp.Hangs), problem, BUDGET, 0, time_limit_s=1.0)
+    assert r.status == "timeout" and r.n_evals == 2 == problem.points_evaluated, r.error
+    assert "time limit of 1.0 s" in r.error and r.wall_s < 1.0 + 0.5 + 0.05 + 1.0
+
+
+def test_the_debugging_mode_runs_in_this_process_and_is_marked_unverified(tmp_path):
+    verified = adapters.run("random-search", make_problem("paper"), 50, 0)
+    debug = adapters.run("random-search", make_problem("paper"), 50, 1, isolated=False)
+    assert verified.verified and not debug.verified
+    report = write_report([verified, debug], tmp_path / "r").read_text()
+    assert "1 run of `random-search` is **unverified**" in report
+
+
+# -- femu study ------------------------------------------------------------------------------------
+STUDY = [(cp.BuildsTheProblemFromScratch, "failed", 0), (cp.EvaluatesFromAFork, "ok", BUDGET),
+         (cp.ClaimsBudgetSpent, "failed", 5), (cp.ClaimsTimeout, "failed", 5), (cp.PatchesTheHarness, "stopped", 3),
+         (cp.ForgesItsEnd, "stopped", 3), (cp.PrintsALot, "ok", BUDGET), (cp.Hangs, "timeout", 2)]
+
+
+def _femu(*args) -> subprocess.CompletedProcess:
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(HERE), os.environ.get("PYTHONPATH", "")]))
+    return subprocess.run([sys.executable, "-m", "femu", *args], env=env, capture_output=True, text=True,
+                          timeout=900)
+
+
+@pytest.mark.parametrize("workers", ["0", "2"])
+def test_no_route_gains_anything_through_femu_study(tmp_path, workers):
+    names = [plugin(c) for c, _, _ in STUDY] + ["random-search"]
+    store = tmp_path / "s"
+    done = _femu("study", "--optimizers", ",".join(names), "--seeds", "0", "--budget", str(BUDGET), "--store",
+                 str(store), "--workers", workers, "--time-limit", "3", "--no-progress")
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.count("\n") == 1 and done.stdout.startswith("femu study: 9 runs"), done.stdout
+    assert "PLUGIN-" not in done.stdout + done.stderr
+    runs = {r.optimizer: r for r in Store(store).runs()}
+    for cls, status, n_evals in STUDY:
+        r = runs[plugin(cls)]
+        assert (r.status, r.n_evals) == (status, n_evals), (cls.__name__, r.error)
+        assert r.verified
+    assert "PLUGIN-STDOUT {not json" in runs[plugin(cp.PrintsALot)].output
+    # the patcher ran before random-search in the same study: random-search is as it is alone
+    alone = adapters.run("random-search", make_problem("paper"), BUDGET, 0)
+    assert (runs["random-search"].status, runs["random-search"].best_f) == ("ok", alone.best_f)
+    assert not list((store / "runs").glob("*.claim"))
+
+
+def test_runs_with_other_settings_are_never_pooled_in_a_report(tmp_path):
+    store = tmp_path / "s"
+    for x0, seeds in (("none", "0-1"), ("all", "2-3")):
+        done = _femu("study", "--optimizers", "random-search", "--seeds", seeds, "--budget", "50", "--store",
+                     str(store), "--x0", x0, "--no-progress", "--workers", "0")
+        assert done.returncode == 0, done.stderr
+    done = _femu("report", str(store), "--out", str(tmp_path / "r"))
+    assert done.returncode == 0, done.stderr
+    report = (tmp_path / "r" / "report.md").read_text()
+    assert "`random-search` was run with 2 different settings" in report
+    assert "random-search [x0=none]" in report and "random-search [x0=all]" in report
+    summary = json.loads((tmp_path / "r" / "summary.json").read_text())
+    seeds = {name: s["seeds"] for g in summary for name, s in g["solvers"].items()}
+    assert seeds == {"random-search [x0=all]": [2, 3], "random-search [x0=none]": [0, 1]}
+
+
+# -- names from user input -------------------------------------------------------------------------
+def test_names_from_user_input_become_safe_distinct_file_names():
+    keys = [run_key("paper", name, 100, 0) for name in
+            ("../../../../escaped", "..%2F..", "a/b", "a_b", ".hidden", "x" * 400, "x" * 401)]
+    assert len(set(keys)) == len(keys)
+    for key in keys:
+        assert "/" not in key and not key.startswith(".") and len(key) <= 200 and "\0" not in key
+    # the names the project has always used keep their keys (existing stores stay readable)
+    assert run_key("hframe-freq/12/1", "random-search", 100, 0) == "hframe-freq+12+1__random-search__b100__s0"
+    assert run_key("paper", "tests.mod:Cls", 5, 1) == "paper__tests.mod:Cls__b5__s1"
+    assert safe_name("../x") == "%2E.%2Fx"
+
+
+# -- femu reproduce, with installed plugins --------------------------------------------------------
+ENTRY_POINTS = {"prints-a-lot": "PrintsALot", "hangs": "Hangs", "../../../../escaped": "ClaimsBudgetSpent",
+                "from-scratch": "BuildsTheProblemFromScratch"}
+
+
+def _install_plugins(site: Path) -> None:
+    """A distribution with entry points in group femu.optimizers, found on the path (as pip installs it)."""
+    info = site / "femu_cheats-0.1.dist-info"
+    info.mkdir(parents=True)
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: femu-cheats\nVersion: 0.1\n")
+    (info / "entry_points.txt").write_text(
+        "[femu.optimizers]\n" + "".join(f"{k} = cheating_plugins:{v}\n" for k, v in ENTRY_POINTS.items()))
+
+
+def test_femu_reproduce_keeps_its_json_clean_stops_a_hanging_plugin_and_writes_only_in_its_store(tmp_path):
+    site, out = tmp_path / "site", tmp_path / "deep" / "er" / "out"
+    _install_plugins(site)
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(HERE), str(site), os.environ.get("PYTHONPATH", "")]))
+    done = subprocess.run([sys.executable, "-m", "femu", "reproduce", "--seeds", "1", "--budget", "100",
+                           "--time-limit", "3", "--out", str(out), "--json", "--workers", "2"],
+                          env=env, capture_output=True, text=True, timeout=900, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr[-3000:]
+    result = json.loads(done.stdout)  # valid JSON: nothing a plugin printed is in it
+    assert "PLUGIN-" not in done.stdout + done.stderr
+    solvers = result["solvers"]
+    assert solvers["hangs"]["statuses"] == {"timeout": 1}
+    assert solvers["../../../../escaped"]["statuses"] == {"failed": 1}
+    assert solvers["from-scratch"]["statuses"] == {"failed": 1}
+    assert solvers["prints-a-lot"]["statuses"] == {"ok": 1} and solvers["prints-a-lot"]["n_evals"] == 100
+    store = Store(out / "store")
+    runs = {r.optimizer: r for r in store.runs()}
+    assert "PLUGIN-CHILD" in runs["prints-a-lot"].output
+    assert all(r.verified for r in runs.values())
+    # the escaped name's record is in the store, and nothing was written beside it
+    assert (store.runs_dir / f"{run_key('paper', '../../../../escaped', 100, 0)}.json").exists()
+    written = {p for p in tmp_path.rglob("*") if p.is_file()}
+    assert all(site in p.parents or out in p.parents for p in written), sorted(map(str, written))
