@@ -384,8 +384,7 @@ def write_benchmark(runs, out_dir, source: str, name: str = "report.md") -> Path
     if s["comparisons"]:
         figures["cd"] = sf.plot_cd(s["comparisons"][BLOCK_VALUES[0]] if BLOCK_VALUES[0] in s["comparisons"]
                                    else next(iter(s["comparisons"].values())), out / "cd.png").name
-    write_text(out / "stats.json", dumps(s) + "
-")
+    write_text(out / "stats.json", dumps(s) + "\n")
     path = out / name
     write_text(path, render_benchmark(s, figures, source))
     return path
