@@ -18,6 +18,8 @@ import pickle
 from concurrent.futures.process import BrokenProcessPool  # loky's own is a subclass
 from typing import Any, Callable
 
+from ._threads import one_blas_thread
+
 #: The environment of a worker process: one BLAS thread (thousands of small solves), and no
 #: pool of its own.
 WORKER_ENV = {"FEMU_SOLVER_WORKERS": "1", "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
@@ -68,7 +70,8 @@ def _run(token: str, blob: bytes, method: str, items, args: tuple) -> list:
             _KEPT.pop(next(iter(_KEPT)))
         _KEPT[token] = obj
     call = getattr(obj, method)
-    return [call(item, *args) for item in items]
+    with one_blas_thread():  # as in the parent (AffineModel.eigen): results independent of the thread count
+        return [call(item, *args) for item in items]
 
 
 def map_split(local: Callable, token: str, blob: Callable[[], bytes], method: str, parts: list,

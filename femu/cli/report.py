@@ -18,8 +18,9 @@ def add_arguments(rp) -> None:
                     help="output directory: report.md, summary.json (stats.json for suite runs) and PNG figures "
                          "(required unless --json)")
     rp.add_argument("--json", action="store_true",
-                    help="print the benchmark statistics of the suite runs as JSON (targets, ERT, mean ranks, "
-                         "Friedman, pairwise tests); with --out, also write the report (required unless --out)")
+                    help="print the benchmark statistics of the runs as JSON (targets, ERT with its bootstrapped "
+                         "range, comparisons on problems as blocks, per-problem tests, aggregate ECDF, profiles); "
+                         "with --out, also write the report (required unless --out)")
     rp.add_argument("--ioh", action="store_true", help="also export IOHprofiler files to OUT/ioh")
 
 

@@ -65,11 +65,40 @@ def parse_options(items: list[str]) -> dict[str, dict]:
     return out
 
 
+def seeds_warning(optimizers, seeds, variants, suite, alpha: float = 0.05) -> str | None:
+    """The warning `femu study` prints when its seeds are too few for any per-problem pairwise
+    test (Mann-Whitney U, Holm over every pair and problem) to separate two solvers at alpha;
+    None when they suffice, or when the arguments are bad (the study says why)."""
+    from fe_problem.suite import select_suite
+    from femu.reports.stats import seeds_can_separate, smallest_p
+    from femu.studies.seeds import parse_names, parse_seeds
+
+    try:
+        n_seeds = len(parse_seeds(seeds))
+        n_opt = len(parse_names(optimizers, "optimizers"))
+        problems = (len(parse_names(variants, "variants")) if variants else (0 if suite else 1))
+        problems += len(select_suite(suite)) if suite else 0
+    except ValueError:
+        return None
+    if n_opt < 2 or seeds_can_separate(n_seeds, n_opt, problems, alpha):
+        return None
+    m = n_opt * (n_opt - 1) // 2 * problems
+    return (f"femu study: warning: with {n_seeds} seed(s) per solver no pairwise test can separate two solvers: "
+            f"the smallest Mann-Whitney p is {smallest_p('mannwhitneyu', n_seeds, n_seeds):.2g}, "
+            f"{smallest_p('mannwhitneyu', n_seeds, n_seeds, n_tests=m):.2g} after Holm over {m} tests "
+            f"(alpha {alpha}); use more seeds")
+
+
 def run(args) -> int:
     """`femu study`: run the grid into the store, print a one-line summary."""
     from femu.studies.study import run_study
 
     options = parse_options(getattr(args, "option", []) or [])
+
+    warning = seeds_warning(args.optimizers, args.seeds, args.variants, args.suite)
+    if warning:
+        print(warning, file=sys.stderr)
+
     try:
         result = run_study(args.optimizers, args.seeds, args.budget, args.store, variants=args.variants,
                            workers=args.workers, scheduler=args.scheduler, time_limit_s=args.time_limit, suite=args.suite,

@@ -6,7 +6,8 @@ femu.reports.render. A report renders records and computes nothing new.
 (convergence, ECDF, overhead, mean error vs the paper, updated parameters, the frame in its
 first modes, MAC matrices); with ``ioh`` also DIR/ioh. Runs on suite
 problems (`femu study --suite`) get the benchmark report instead (femu.reports.benchmark:
-DIR/report.md, DIR/stats.json), and runs on variants beside them DIR/variants.md.
+DIR/report.md, DIR/stats.json), and runs on variants beside them DIR/variants.md; a study of
+variants only where two solvers share a problem gets the benchmark report as DIR/benchmark.md.
 """
 
 from __future__ import annotations
@@ -54,6 +55,11 @@ def write_report(store_or_runs, out_dir, ioh: bool = False, source: str | None =
                 f.write(f"\nThe runs on problem variants (not suite problems) are reported in [{other.name}]({other.name}).\n")
     else:
         path = render_files(summarize(runs), out_dir, source)
+        if shared_problem(runs):  # the benchmark statistics of any study with a comparison to make
+            other = write_benchmark(runs, out_dir, source, name="benchmark.md")
+            with path.open("a") as f:
+                f.write(f"\nThe benchmark statistics of these runs (targets, ERT, comparisons, aggregated ECDF, "
+                        f"profiles) are in [{other.name}]({other.name}).\n")
     if notes:
         with path.open("a") as f:
             f.write("\n## Notes on the runs\n\n" + "".join(f"- {n}\n" for n in notes))
@@ -61,6 +67,14 @@ def write_report(store_or_runs, out_dir, ioh: bool = False, source: str | None =
         from .ioh import export_runs
         export_runs(runs, Path(out_dir) / "ioh")
     return path
+
+
+def shared_problem(runs) -> bool:
+    """Whether at least two solvers ran a common problem (a comparison can be made)."""
+    solvers: dict = {}
+    for r in runs:
+        solvers.setdefault(r.variant, set()).add(r.optimizer)
+    return any(len(v) >= 2 for v in solvers.values())
 
 
 def _settings(r) -> tuple:
