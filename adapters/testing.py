@@ -138,8 +138,11 @@ def check_optimizer(optimizer, problem_factory=None, budget: int | None = None, 
     s0, s1 = seeds
 
     def one(b, seed, x0="none"):
+        # in this process (the sandbox's debugging mode): the contract is about what the plugin
+        # does to its own process (prints, warnings, global generators, logging, the directory),
+        # which a worker process would hide
         problem = problem_factory()
-        return run(name, problem, b, seed, x0=x0, **options), problem
+        return run(name, problem, b, seed, x0=x0, isolated=False, **options), problem
 
     # silence, global generators, logging, cwd: around one full run
     np_state, py_state = np.random.get_state(), random.getstate()

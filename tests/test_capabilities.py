@@ -18,6 +18,8 @@ from adapters.testing import _visited, check_optimizer
 from adapters.variants import make_problem
 from femu.cli import main
 
+import sample_plugins
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -140,13 +142,6 @@ class FalselyAnytime:
             objective(bounds[0] + u * (bounds[1] - bounds[0]))
 
 
-class BadFlag:
-    name = "bad-flag"
-    anytime = "yes"
-
-    def minimize(self, objective, bounds, budget, rng, x0=None):
-        while True:
-            objective(rng.uniform(bounds[0], bounds[1], (10, len(bounds[0]))))
 
 
 @pytest.mark.parametrize("cls, message", [
@@ -161,9 +156,9 @@ def test_check_optimizer_catches_a_broken_plugin(cls, message):
 
 def test_check_optimizer_refuses_a_flag_that_is_not_a_bool():
     with pytest.raises(ValueError, match="capability 'anytime' must be True or False, got 'yes'"):
-        check_optimizer(BadFlag)
+        check_optimizer(sample_plugins.BadFlag)
     with pytest.raises(ValueError, match="capability 'anytime' must be True or False"):
-        adapters.run(f"{__name__}:BadFlag", make_problem("paper"), 10, 0)
+        adapters.run("sample_plugins:BadFlag", make_problem("paper"), 10, 0)  # its worker says so
 
 
 def test_the_plugin_page_example_keeps_the_contract():
@@ -188,7 +183,8 @@ def test_the_report_leaves_out_fixed_budget_values_below_the_budget_of_an_optimi
     assert s["one_budget"] == {"scipy-sa": 200}
     budgets = {(fb.solver, fb.budget) for fb in s["fixed_budget"]}
     assert budgets == {("random-search", 2), ("random-search", 20), ("random-search", 200), ("scipy-sa", 200)}
-    text = render_benchmark(s, {"ert": "e.png", "ecdf": "c.png", "fixed_budget": {}, "convergence": {}, "cd": "d.png"},
+    text = render_benchmark(s, {"ert": "e.png", "ecdf": "c.png", "aggregate": "a.png", "profiles": "p.png",
+                                "fixed_budget": {}, "convergence": {}, "cd": "d.png"},
                             "test")
     assert "Not anytime: `scipy-sa` (budget 200)" in text
     row = next(line for line in text.splitlines() if line.startswith("| hframe-freq/12 | scipy-sa |"))
