@@ -35,6 +35,7 @@ and what the final model's misfit implies (`goodness_of_fit`).
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -47,6 +48,9 @@ from ..modal_data import DataFileError, ModalData, load_modal_data
 from ..model import FrameModel, load_model
 from ..parameters import Parameter
 from .candidates import Candidate, Setting, all_candidates, scale_stiffness, solve
+from . import plausibility
+from .datachecks import DataCheck, check_data, spurious_modes
+from .plausibility import few_dof_note
 from .fit import Fit, chi2_batch, fit, look_along, profiled, screen
 from .record import Cause, CandidateFit, Diagnosis, Gain, Noise, PinnedParameter, Residuals, Selection
 from .verdict import profile_interval, verdict
@@ -83,6 +87,7 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
                   DEFAULT_SHAPE_NOISE if shape_noise is None else float(shape_noise),
                   "default" if freq_noise is None and shape_noise is None else "stated")
     cal = calibrate(model, data, noise.freq_noise, noise.shape_noise)
+    checks = data_checks(cal)
     found = screen_and_fit(cal, kinds, n_fit)
     sel = select(cal, found, alpha)
     warnings = list(cal.warnings)
@@ -93,21 +98,60 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
         v = verdict(cal.obs, cal.base, 1, alpha, what="the calibrated model (no candidate significant)")
         if not v.adequate:
             warnings.append(v.explanation)
+        checks = checks + spurious_modes(cal.unpaired, cal.unpaired, cal.obs_all.frequencies_hz, _explained(checks))
         return Diagnosis(cause, alternatives, residuals_of(cal), gain(cal, None), tuple(sel.rows.values()),
-                         sel.selection, None, tuple(warnings), (), v, noise)
+                         sel.selection, None, tuple(warnings + _fault_notes(checks)), (), v, noise, checks)
     cause, alternatives, _ = extend(cal, found, sel)
     from .rounds import further_causes  # it uses this module's steps
 
     rounds = further_causes(cal, found, sel, cause, kinds, n_fit, alpha, max_causes)
-    cause = _first(cause, rounds.causes[0])
+    causes = tuple(_judged(model, c) for c in rounds.causes)
+    cause = _judged(model, _first(cause, causes[0]))
     if cause.explanation:
         warnings.append(cause.explanation)
     v = verdict(rounds.obs, rounds.final, 1 + len(rounds.causes), alpha)
     if not v.adequate:
         warnings.append(v.explanation)
+    warnings += [f"implausible estimate: {c.label}: {c.implausible_because}" for c in causes if not c.plausible]
+    few = few_dof_note(v.dof, 1 + len(rounds.causes))
+    if few:
+        warnings.append(few)
     extended = _named(cal.setting.model, rounds.model, rounds.causes)
+    if len(cal.unpaired):
+        final_unpaired = calibrate(rounds.model, data, noise.freq_noise, noise.shape_noise, model).unpaired
+        checks = checks + spurious_modes(cal.unpaired, final_unpaired, cal.obs_all.frequencies_hz, _explained(checks))
     return Diagnosis(cause, alternatives, residuals_of(cal), rounds.gain, tuple(sel.rows.values()), sel.selection,
-                     extended, tuple(warnings), rounds.causes, v, noise)
+                     extended, tuple(warnings + _fault_notes(checks)), causes, v, noise, checks)
+
+
+def _judged(model: FrameModel, cause):
+    """A cause (`Cause` or `Found`) with its estimate checked against physical bounds."""
+    if not cause.estimate:
+        return cause
+    why = plausibility.check(model, cause.kind, cause.location, cause.estimate)
+    return cause if why is None else dataclasses.replace(cause, plausible=False, implausible_because=why)
+
+
+def data_checks(cal: "Calibration") -> tuple[DataCheck, ...]:
+    """The checks of the data against the calibrated nominal model (datachecks.py)."""
+    obs = cal.obs_all
+    return check_data(obs.frequencies_hz, obs.shapes, obs.has_shape, cal.hz0, cal.sh0, cal.base_all.s,
+                      cal.setting.coords, obs.shape_noise)
+
+
+def _explained(checks) -> set:
+    """1-based modes another check already accounts for: those of a duplicate or exchanged pair,
+    and every mode when a channel is faulty (a reversed or swapped channel can drop a mode's MAC
+    with every model mode below pairing)."""
+    if any(c.kind in ("channel_polarity", "channel_swap") for c in checks):
+        return set(range(1, 10**6))
+    return {m for c in checks if c.kind in ("duplicate_mode", "mode_order") for m in c.where.get("modes", [])}
+
+
+def _fault_notes(checks) -> list[str]:
+    """One sentence per fault of the data: the diagnosis ran on the data as given."""
+    return [f"data check: {c.text}. The diagnosis ran on the data as given; this fault of the data may explain "
+            "the misfit and the causes named" for c in checks]
 
 
 def _first(cause: Cause, first) -> Cause:
