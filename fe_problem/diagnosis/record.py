@@ -59,7 +59,7 @@ class Cause:
             out["indistinguishable"] = list(self.indistinguishable)
         if self.explanation is not None:
             out["explanation"] = self.explanation
-        if not self.is_none:
+        if self.estimate:  # judged only where there is an estimate
             out["plausible"] = self.plausible
             if not self.plausible:
                 out["implausible_because"] = self.implausible_because
@@ -90,9 +90,10 @@ class Found:
                "label": self.label, "p_adjusted": self.p_adjusted, "identifiable": self.identifiable}
         if not self.identifiable:
             out["indistinguishable"] = list(self.indistinguishable)
-        out["plausible"] = self.plausible
-        if not self.plausible:
-            out["implausible_because"] = self.implausible_because
+        if self.estimate:
+            out["plausible"] = self.plausible
+            if not self.plausible:
+                out["implausible_because"] = self.implausible_because
         return out
 
 
@@ -293,7 +294,8 @@ class Diagnosis:
     cause's effect (None when the cause is none); warnings: sentences for the user; causes:
     every cause found, in order of evidence (`cause` is the first); verdict: the final model's
     goodness of fit; noise: the noise model used; data_checks: faults found in the data before
-    the diagnosis (`datachecks.DataCheck`), which ran on the data as given.
+    the diagnosis (`datachecks.DataCheck`), which ran on the data as given; evidence: every model
+    class (none, local, distributed, several) ranked by its Laplace evidence (`evidence.Evidence`).
     """
 
     cause: Cause
@@ -308,6 +310,7 @@ class Diagnosis:
     verdict: Verdict | None = None
     noise: Noise | None = None
     data_checks: tuple = ()
+    evidence: object = None
 
     @property
     def adequate(self) -> bool | None:
@@ -329,4 +332,5 @@ class Diagnosis:
                          else model_to_dict(self.extended_model),
                          "causes": list(self.causes), "adequate": self.adequate,
                          "goodness_of_fit": self.verdict, "noise": self.noise,
-                         "data_checks": [c.to_dict() for c in self.data_checks]})
+                         "data_checks": [c.to_dict() for c in self.data_checks],
+                         "evidence": None if self.evidence is None else self.evidence.to_dict()})

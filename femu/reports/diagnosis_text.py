@@ -80,6 +80,28 @@ def implausible_text(cause) -> str:
     return "" if getattr(cause, "plausible", True) else f" [IMPLAUSIBLE: {cause.implausible_because}]"
 
 
+#: How many model classes the evidence table shows.
+N_CLASSES = 6
+
+
+def evidence_lines(diag: Diagnosis) -> list[str]:
+    """The model classes ranked by evidence, the best few, and the factor-of-10 note."""
+    ev = diag.evidence
+    if ev is None or not ev.classes:
+        return []
+    rows = ev.classes[:N_CLASSES]
+    width = max(len(c.label) for c in rows)
+    lines = [f"Model classes by evidence ({ev.method}; log evidence against the calibrated model, dispersion "
+             f"{fmt(ev.dispersion, 3)}; held-out %: the held-out modes' mean error, refitted without them):",
+             f"  {'class':<{width}}  {'family':<11} params  {'chi^2':>8}  {'log ev.':>8}  held-out %"]
+    for c in rows:
+        lines.append(f"  {c.label:<{width}}  {c.family:<11} {c.n_parameters:>6}  {fmt(c.chi2):>8}  "
+                     f"{fmt(c.log_evidence):>8}  {fmt(c.held_out_error_pct, 3)}")
+    if ev.note:
+        lines.append(f"  {ev.note}")
+    return lines + [""]
+
+
 def data_check_lines(diag: Diagnosis) -> list[str]:
     """The faults found in the data, one line each, and what that means for the diagnosis."""
     if not diag.data_checks:
@@ -171,6 +193,8 @@ def render_markdown(diag: Diagnosis, figures: dict, data_source: str, model_name
     md += _cause_section(diag, extended_file)
     md += [line.replace("VERDICT:", "**Verdict:**", 1) for line in verdict_lines(diag)] + [""]
     md += causes_lines(diag) + [""]
+    md += ["## Model classes by evidence", "", "```"] + evidence_lines(diag)[:-1] + ["```", ""] \
+        if diag.evidence is not None else []
     md += _residuals_section(diag, figures)
     md += _gain_section(diag)
     md += ["## Candidates", "",
