@@ -455,9 +455,9 @@ def classify_real(case: Case, record: dict) -> str:
     - a storey pattern: right when the best class by evidence is a distributed one that includes the
       softest storey's columns; honest when the answer is not adequate, or the record says the change
       may be spread over members; else wrong;
-    - a model-form error (a moved node, a thinner member) has no candidate of its kind: honest when
-      the answer is none, not adequate, not identifiable or flagged implausible; a confident local
-      cause is wrong;
+    - a model-form error (a moved node, a thinner member): honest when the answer is none, not
+      adequate, not identifiable, flagged implausible, or the record says a model-form class explains
+      the data as well ("model form: ..."); a confident local cause without that is wrong;
     - two springs: as `classify`."""
     confident = record["adequate"] and record["cause"]["kind"] not in ("none", "undetermined") and all(
         c["identifiable"] and c.get("plausible", True) for c in record["causes"])
@@ -476,7 +476,8 @@ def classify_real(case: Case, record: dict) -> str:
         spread = any("spread over several members" in w for w in record["warnings"])
         return "honest" if not confident or spread else "wrong"
     if case.kind == "model_form":
-        return "wrong" if confident and record["causes"] else "honest"
+        flagged = any(w.startswith("model form:") for w in record["warnings"])
+        return "wrong" if confident and record["causes"] and not flagged else "honest"
     return classify(case, record)
 
 

@@ -52,6 +52,7 @@ from . import plausibility
 from .datachecks import DataCheck, check_data, spurious_modes
 from .evidence import FACTOR_10, Evidence, ScoredClass, occam_log_factor, ranked
 from .groups import distributed_candidates
+from .modelform import model_form_candidates
 from .plausibility import few_dof_note
 from .fit import Fit, chi2_batch, fit, look_along, profiled, screen
 from .record import Cause, CandidateFit, Diagnosis, Gain, Noise, PinnedParameter, Residuals, Selection
@@ -145,6 +146,9 @@ def score_classes(cal: "Calibration", found: "Screening", rounds) -> Evidence:
     top = sorted(range(len(distributed)), key=lambda i: -promise[i][0])[:N_DISTRIBUTED_FIT]
     fits = [(found.candidates[i], f, "local") for i, f in found.fitted.items()]
     fits += [(distributed[i], fit(obs, distributed[i], promise[i][1]), "distributed") for i in top]
+    if rounds is not None:  # the model-form alternatives at the places named
+        fits += [(c, coarse_fit(obs, c), "model_form")
+                 for c in model_form_candidates(cal.setting, [c.location for c, _ in rounds.sized])]
     several = rounds is not None and len(rounds.sized) > 1
     reduced = [base.chi2 / obs.dof(1)] + [f.chi2 / obs.dof(2) for _, f, _ in fits]
     if several:
@@ -171,6 +175,26 @@ def score_classes(cal: "Calibration", found: "Screening", rounds) -> Evidence:
             c = dataclasses.replace(c, held_out_error_pct=_held_out_error(cal, by_label.get(c.label)))
         out.append(c)
     return dataclasses.replace(ev, classes=tuple(out))
+
+
+def coarse_fit(obs: Observations, cand: Candidate) -> Fit:
+    """The best of the candidate's grid, refined once at the vertex of the parabola through it and
+    its neighbours: a model-form class builds a model per size, so no scalar search."""
+    grid = np.asarray(cand.grid, dtype=float)
+    fits = chi2_batch(obs, cand, grid)
+    k = int(np.argmin([f.chi2 for f in fits]))
+    best = fits[k]
+    if 0 < k < len(grid) - 1:
+        x, y = grid[k - 1:k + 2], np.array([f.chi2 for f in fits[k - 1:k + 2]])
+        den = (x[0] - x[1]) * (x[0] - x[2]) * (x[1] - x[2])
+        a2 = (x[2] * (y[1] - y[0]) + x[1] * (y[0] - y[2]) + x[0] * (y[2] - y[1])) / den
+        a1 = (x[2] ** 2 * (y[0] - y[1]) + x[1] ** 2 * (y[2] - y[0]) + x[0] ** 2 * (y[1] - y[2])) / den
+        if a2 > 0:
+            vertex = float(np.clip(-a1 / (2 * a2), x[0], x[2]))
+            trial = chi2_batch(obs, cand, np.array([vertex]))[0]
+            if trial.chi2 < best.chi2:
+                best = trial
+    return best
 
 
 def _one_per_answer(classes: list[ScoredClass]) -> list[ScoredClass]:
@@ -220,6 +244,12 @@ def _evidence_notes(ev: Evidence, rounds) -> list[str]:
         notes.append(f"evidence: the distributed class {best.label} explains the data better than {answer} (log "
                      f"evidence {best.log_evidence:.3g} against {chosen[0].log_evidence:.3g}): the change may be "
                      "spread over several members")
+    form = [c for c in ev.classes if c.family == "model_form"]
+    if rounds is not None and form and chosen and form[0].log_evidence > chosen[0].log_evidence - FACTOR_10:
+        notes.append(f"model form: {form[0].label} ({', '.join(f'{k} {v:.4g}' if isinstance(v, float) else f'{k} {v}' for k, v in (form[0].estimate or {}).items())}) "
+                     f"explains the data {'better than' if form[0].log_evidence > chosen[0].log_evidence else 'about as well as'} "
+                     f"{answer} (log evidence {form[0].log_evidence:.3g} against {chosen[0].log_evidence:.3g}): the "
+                     "named cause may be an error of the model's geometry or section, not that physics")
     if ev.note:
         notes.append("evidence: " + ev.note)
     return notes
