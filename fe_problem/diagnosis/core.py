@@ -134,6 +134,8 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
 # == evidence between model classes (evidence.py, groups.py) ====================================
 #: Distributed classes fitted (the best screened), and classes whose held-out error is given.
 N_DISTRIBUTED_FIT, N_HELD_OUT = 8, 6
+#: Model-form classes fitted (the best screened).
+N_FORM_FIT = 6
 
 
 def score_classes(cal: "Calibration", found: "Screening", rounds) -> Evidence:
@@ -146,9 +148,11 @@ def score_classes(cal: "Calibration", found: "Screening", rounds) -> Evidence:
     top = sorted(range(len(distributed)), key=lambda i: -promise[i][0])[:N_DISTRIBUTED_FIT]
     fits = [(found.candidates[i], f, "local") for i, f in found.fitted.items()]
     fits += [(distributed[i], fit(obs, distributed[i], promise[i][1]), "distributed") for i in top]
-    if rounds is not None:  # the model-form alternatives at the places named
-        fits += [(c, coarse_fit(obs, c), "model_form")
-                 for c in model_form_candidates(cal.setting, [c.location for c, _ in rounds.sized])]
+    if rounds is not None:  # the model-form alternatives: every node and element screened, the best fitted
+        forms = model_form_candidates(cal.setting)
+        drops = [screen(obs, c, base)[0] for c in forms]
+        fits += [(forms[i], coarse_fit(obs, forms[i]), "model_form")
+                 for i in sorted(range(len(forms)), key=lambda i: -drops[i])[:N_FORM_FIT]]
     several = rounds is not None and len(rounds.sized) > 1
     reduced = [base.chi2 / obs.dof(1)] + [f.chi2 / obs.dof(2) for _, f, _ in fits]
     if several:

@@ -2,9 +2,9 @@
 
 A node a centimetre off its true place, or a member drawn a few per cent too deep, moves the
 modes as a crack, a mass or a spring would; fitted by those candidates it becomes confident
-local physics. These classes are the model-form alternatives at the places the diagnosis named
-(each cause's element, its end nodes, and the node of a node's cause), scored by their evidence
-beside the answer (core.score_classes): when one explains the data about as well (within a
+local physics. These classes are the model-form alternatives at every element and node, screened by one
+step each, the best few fitted (core.score_classes), and scored by their evidence beside the
+answer: when one explains the data about as well (within a
 factor of 10 of the answer's evidence) or better, the record says the named cause may be a
 model-form error.
 
@@ -14,8 +14,8 @@ model-form error.
 - ``node_position`` of a node: moved by a metres in +x, -x, +y or -y, a up to `MAX_MOVE` of the
   shortest member at the node.
 
-Each size is a model of its own (the geometry enters the element matrices nonlinearly), so
-these are few: only at the places already named.
+Each size is a model of its own (the geometry enters the element matrices nonlinearly), so each
+is screened by one step and only the most promising are fitted, coarsely.
 """
 
 from __future__ import annotations
@@ -58,11 +58,14 @@ def moved_node(model: FrameModel, node: int, dx: float, dy: float) -> FrameModel
                                      for n in model.nodes))
 
 
-def model_form_candidates(st: Setting, places: list[dict]) -> list[Candidate]:
-    """The model-form candidates at the elements and nodes of `places` (the causes' locations)."""
+def model_form_candidates(st: Setting, places: list[dict] | None = None) -> list[Candidate]:
+    """The model-form candidates at the elements and nodes of `places` (the causes' locations);
+    None: at every element and node."""
     model = st.model
     elements, nodes = [], []
-    for loc in places:
+    if places is None:
+        elements, nodes = list(model.element_ids), list(model.node_ids)
+    for loc in places or ():
         if loc and loc.get("node") in model.node_ids:  # a joint's element is its node's
             nodes.append(loc["node"])
         elif loc and loc.get("element") in model.element_ids:
