@@ -20,6 +20,7 @@ import numpy as np
 import scipy.linalg
 import scipy.sparse as sp
 
+from .limits import MAX_SPARSE_DOFS  # noqa: F401  (fe_problem.assembly.MAX_SPARSE_DOFS, as before)
 from .model import FrameModel, ModelFileError
 from .parameters import Parameter
 from .solver import ModalSolver, take_rows
@@ -74,10 +75,6 @@ def check_dense_size(model: FrameModel, n_params: int) -> None:
                          "use a coarser model or fewer parameters")
 
 
-#: The most free DOFs the sparse path takes: a model larger than this is refused up front
-#: (its factorisations could exhaust memory, and each point would take minutes). A 90,000-DOF
-#: beam solves in about 7 s and 360 MB on this project's 2-core machine.
-MAX_SPARSE_DOFS = 250_000
 
 
 def check_sparse_size(model: FrameModel, n_free: int) -> None:
@@ -235,10 +232,11 @@ class AffineModel:
         """The rigid-body motions the supports allow (n_free, r): combinations c of the free
         structure's rigid motions with K r c = 0 (K dense or sparse)."""
         m = self.model
-        rigid = np.zeros((self.dofmap.n_total, 3))
-        rigid[: self.dofmap.n_nodal] = m.layout.rigid_motions(np.array([(n.x, n.y) for n in m.nodes]))
-        for (_, node), dof in self.dofmap.hinges.items():  # a released end turns with the body
-            rigid[dof, 2] = 1.0
+        rigid = np.zeros((self.dofmap.n_total, m.layout.n_rigid_motions))
+        rigid[: self.dofmap.n_nodal] = m.layout.rigid_motions(m.coordinates)
+        for (_, node), dofs in self.dofmap.hinges.items():  # a released end turns with the body
+            for rot, dof in dofs.items():
+                rigid[dof] = rigid[self.dofmap.dof(node, rot, m)]
         r = rigid[self.dofmap.free]
         _, sv, vt = np.linalg.svd(k @ r / max(abs(k).max(), 1e-300), full_matrices=False)  # not an n x n U
         return r @ vt[np.sum(sv > 1e-9):].T if sv.size else r
@@ -248,8 +246,10 @@ class AffineModel:
         m = self.model
         names = [f"node {node} {d}" for node, d in m.dofs]
         names += [""] * (self.dofmap.n_total - self.dofmap.n_nodal)
-        for (eid, node), dof in self.dofmap.hinges.items():
-            names[dof] = f"the released end of element {eid} at node {node}"
+        for (eid, node), dofs in self.dofmap.hinges.items():
+            for rot, dof in dofs.items():
+                names[dof] = f"the released end of element {eid} at node {node}" + (
+                    f" ({rot})" if len(m.layout.hinges) > 1 else "")
         return [names[i] for i in self.dofmap.free]
 
     # -- parameter vectors ------------------------------------------------------------

@@ -2,8 +2,10 @@
 
 A `DofLayout` is the one place that knows how many DOFs a node has and what they are called.
 Everything else (assembly, element formulations, data files, drawings) asks the layout:
-``model.layout.index(node, "y")``, ``layout.translations``, ``layout.rotation``. A space frame
-is a new layout (x, y, z, rx, ry, rz) and new element formulations, not edits elsewhere.
+``model.layout.index(node, "y")``, ``layout.translations``, ``layout.hinges``,
+``layout.rigid_motions(model.coordinates)``. The planar frame (x, y, rz; nodes in the x-y
+plane) and the space frame (x, y, z, rx, ry, rz) are two layouts; no code outside the layout
+and the element formulations assumes a node has x, y and rz.
 
 Global nodal DOFs are node-major: (node 1: every name in order), (node 2: ...), ...
 Translations are in metres, rotations in radians.
@@ -20,28 +22,52 @@ import numpy as np
 SPATIAL = ("x", "y", "z", "rx", "ry", "rz")
 
 
+#: The axis each rotation turns about (a unit vector), and each translation moves along.
+AXIS = {"x": 0, "y": 1, "z": 2, "rx": 0, "ry": 1, "rz": 2}
+
+
 @dataclass(frozen=True)
 class DofLayout:
     """The DOFs of every node of a model, in this order.
 
     names: the DOF names of one node (a subset of `SPATIAL`), in their order within the node;
     translations: the names that are displacements (m), the rest are rotations (rad);
-    rotation: the rotation an element end may be released from its node in (a hinge).
+    hinges: the rotations an element end may be released in from its node (its own end
+    rotation tied to the node's by a rotational spring): the planar frame's ("rz",), the space
+    frame's ("rx", "ry", "rz") (torsion and both bending rotations);
+    dimension: 2 (nodes in the x-y plane, coordinates (x, y)) or 3 (coordinates (x, y, z)).
     """
 
     names: tuple[str, ...]
     translations: tuple[str, ...]
-    rotation: str
+    hinges: tuple[str, ...]
+    dimension: int = 2
 
     def __post_init__(self) -> None:
         unknown = [n for n in self.names if n not in SPATIAL]
-        if unknown or not set(self.translations) <= set(self.names) or self.rotation not in self.names:
+        if (unknown or not set(self.translations) <= set(self.names) or not self.hinges
+                or not set(self.hinges) <= set(self.rotations) or self.dimension not in (2, 3)
+                or any(AXIS[t] >= self.dimension for t in self.translations)):
             raise ValueError(f"inconsistent DOF layout {self}")
 
     @property
     def per_node(self) -> int:
         """How many DOFs one node has."""
         return len(self.names)
+
+    @property
+    def rotations(self) -> tuple[str, ...]:
+        """The names that are rotations (rad), in their order within the node."""
+        return tuple(n for n in self.names if n not in self.translations)
+
+    @property
+    def rotation(self) -> str:
+        """The one hinge rotation of a layout that has one (the planar frame's "rz");
+        ValueError for a layout with several (use `hinges`)."""
+        if len(self.hinges) != 1:
+            raise ValueError(f"the layout {self.names} has {len(self.hinges)} hinge rotations {self.hinges}: "
+                             "use layout.hinges")
+        return self.hinges[0]
 
     def n_dof(self, n_nodes: int) -> int:
         """How many nodal DOFs `n_nodes` nodes have."""
@@ -69,23 +95,38 @@ class DofLayout:
 
     @property
     def rotation_position(self) -> int:
-        """Position of the hinge rotation within a node."""
+        """Position of the one hinge rotation within a node (`rotation`)."""
         return self.names.index(self.rotation)
 
-    def rigid_motions(self, xy: np.ndarray) -> np.ndarray:
-        """The rigid-body motions of nodes at coordinates `xy` (n_nodes, 2) in metres:
-        (n_nodes * per_node, n_motions), node-major: for a planar frame the translations along
-        x and y and the rotation about z through the origin (u_x = -y, u_y = x, rz = 1)."""
-        if set(self.names) != {"x", "y", "rz"}:
-            raise NotImplementedError(f"rigid motions of the layout {self.names}")
-        xy = np.asarray(xy, dtype=float)
-        n = len(xy)
-        out = np.zeros((n, self.per_node, 3))
-        ix, iy, ir = (self.position(d) for d in ("x", "y", "rz"))
-        out[:, ix, 0] = 1.0
-        out[:, iy, 1] = 1.0
-        out[:, ix, 2], out[:, iy, 2], out[:, ir, 2] = -xy[:, 1], xy[:, 0], 1.0
-        return out.reshape(n * self.per_node, 3)
+    @property
+    def n_rigid_motions(self) -> int:
+        """How many rigid-body motions a free body of this layout has (planar 3, space 6)."""
+        return len(self.translations) + len(self.rotations)
+
+    def rigid_motions(self, coords: np.ndarray) -> np.ndarray:
+        """The rigid-body motions of nodes at coordinates `coords` (n_nodes, dimension) in
+        metres: (n_nodes * per_node, n_rigid_motions), node-major. One column per translation
+        (1 along its axis), then one per rotation about its axis through the origin (the
+        rotation 1, each translation the component of omega x r: about z, u_x = -y, u_y = x;
+        about x, u_y = -z, u_z = y; about y, u_z = -x, u_x = z)."""
+        coords = np.asarray(coords, dtype=float)
+        if coords.ndim != 2 or coords.shape[1] != self.dimension:
+            raise ValueError(f"coordinates must be (n_nodes, {self.dimension}), got {coords.shape}")
+        n = len(coords)
+        r = np.zeros((n, 3))
+        r[:, : self.dimension] = coords
+        out = np.zeros((n, self.per_node, self.n_rigid_motions))
+        for col, t in enumerate(self.translations):
+            out[:, self.position(t), col] = 1.0
+        for col, rot in enumerate(self.rotations, start=len(self.translations)):
+            a = AXIS[rot]
+            b, c = (a + 1) % 3, (a + 2) % 3      # omega = e_a: (omega x r)_b = -r_c, (omega x r)_c = r_b
+            for axis, value in ((b, -r[:, c]), (c, r[:, b])):
+                name = SPATIAL[axis]
+                if name in self.translations:
+                    out[:, self.position(name), col] = value
+            out[:, self.position(rot), col] = 1.0
+        return out.reshape(n * self.per_node, self.n_rigid_motions)
 
     def spatial_column(self, name: str) -> int:
         """Column of DOF `name` among the 6 spatial values of a node (x, y, z, rx, ry, rz)."""
@@ -93,7 +134,15 @@ class DofLayout:
 
 
 #: The planar frame: translations x, y and the rotation rz about the out-of-plane axis.
-PLANAR_FRAME = DofLayout(names=("x", "y", "rz"), translations=("x", "y"), rotation="rz")
+PLANAR_FRAME = DofLayout(names=("x", "y", "rz"), translations=("x", "y"), hinges=("rz",), dimension=2)
 
-#: The layout of a model that does not name another (every model today).
+#: The space frame: six DOFs per node, x, y, z, rx, ry, rz, nodes anywhere in space. An element
+#: end may be released in any of its three rotations, named in the element's local axes (rx
+#: torsion, ry and rz bending; docs/model-format.md).
+SPACE_FRAME = DofLayout(names=SPATIAL, translations=("x", "y", "z"), hinges=("rx", "ry", "rz"), dimension=3)
+
+#: The layout of a model file without "dimension" (every planar model).
 DEFAULT_LAYOUT = PLANAR_FRAME
+
+#: The layout of each value of a model file's "dimension".
+LAYOUTS = {2: PLANAR_FRAME, 3: SPACE_FRAME}

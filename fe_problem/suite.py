@@ -190,7 +190,7 @@ def _structure(family: Family, n_var: int) -> tuple[FrameModel, tuple]:
 
 
 def _n_dof(model: FrameModel) -> int:
-    return 3 * len(model.nodes) - sum(len(s.directions) for s in model.supports)
+    return model.n_dof - sum(len(s.directions) for s in model.supports)
 
 
 @lru_cache(maxsize=32)

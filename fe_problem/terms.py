@@ -9,8 +9,9 @@ n x n arrays (solver.py), the sparse path into one fixed CSR pattern (sparse.py)
 rules of what each parameter holds live here, once, and memory is O(number of triplets).
 
 DOFs: the model's nodal DOFs (its `layout`, node-major), then one extra rotation per released
-element end (the element's own end rotation, tied to the node's hinge rotation by a
-rotational spring). Supported DOFs are removed by `Terms.free`.
+rotation of an element end (the element's own end rotation, tied to the node's rotation by a
+rotational spring; a space element's release is named in its local axes, and acts on the
+global rotation that local axis lies along). Supported DOFs are removed by `Terms.free`.
 """
 
 from __future__ import annotations
@@ -31,33 +32,56 @@ class DofMap:
     n_nodal: int
     n_total: int
     element_dofs: np.ndarray          # (n_el, k) global DOF of each local DOF
-    hinges: dict[tuple[int, int], int]  # (element id, node id) -> hinge DOF
+    hinges: dict[tuple[int, int], dict[str, int]]  # (element id, node id) -> {node rotation: hinge DOF}
     free: np.ndarray                   # indices of unsupported DOFs
     node_dofs: dict[int, np.ndarray]   # node id -> its nodal DOFs (layout order)
+    hinge_stiffness: dict[tuple[int, int], dict[str, float]]  # the same keys -> the release's N m/rad
 
     @classmethod
     def of(cls, model: FrameModel) -> "DofMap":
-        """The DOF map of `model`: nodal DOFs first, then one hinge DOF per released end."""
+        """The DOF map of `model`: nodal DOFs first, then one hinge DOF per released rotation
+        of an element end."""
         lay = model.layout
-        per, rot = lay.per_node, lay.rotation_position
+        per = lay.per_node
         node_dofs = {n.id: per * k + np.arange(per) for k, n in enumerate(model.nodes)}
         nxt = model.n_dof
-        hinges: dict[tuple[int, int], int] = {}
+        hinges: dict[tuple[int, int], dict[str, int]] = {}
+        stiffness: dict[tuple[int, int], dict[str, float]] = {}
         edofs = np.zeros((len(model.elements), 2 * per), dtype=int)
         for k, e in enumerate(model.elements):
-            for o, node, rel in ((0, e.node_i, e.release_i), (per, e.node_j, e.release_j)):
+            for o, node, rel in zip((0, per), (e.node_i, e.node_j), model.end_releases(e)):
                 edofs[k, o:o + per] = node_dofs[node]
-                if rel is not None:
-                    hinges[(e.id, node)] = edofs[k, o + rot] = nxt
-                    nxt += 1
+                if rel:
+                    hinges[(e.id, node)], stiffness[(e.id, node)] = {}, {}
+                    for local, value in rel.items():
+                        rot = release_rotation(model, e, local)
+                        hinges[(e.id, node)][rot] = edofs[k, o + lay.position(rot)] = nxt
+                        stiffness[(e.id, node)][rot] = value
+                        nxt += 1
         fixed = np.zeros(nxt, dtype=bool)
         for s in model.supports:
             fixed[[node_dofs[s.node][lay.position(d)] for d in s.directions]] = True
-        return cls(model.n_dof, nxt, edofs, hinges, np.flatnonzero(~fixed), node_dofs)
+        return cls(model.n_dof, nxt, edofs, hinges, np.flatnonzero(~fixed), node_dofs, stiffness)
 
     def dof(self, node: int, direction: str, model: FrameModel) -> int:
         """The global index of a nodal DOF."""
         return int(self.node_dofs[node][model.layout.position(direction)])
+
+
+def release_rotation(model: FrameModel, e, local: str) -> str:
+    """The node rotation an element end's release in local rotation `local` acts on: the
+    global rotation about the axis that local axis lies along (a planar element's rz is the
+    global rz). A space element's local axis must lie along a global axis: a release about a
+    skew axis would couple the node's rotations (ValueError naming the element)."""
+    if model.layout.dimension == 2:
+        return local
+    axis = model.local_axes(e.id)[("rx", "ry", "rz").index(local)]
+    g = int(np.argmax(np.abs(axis)))
+    if abs(abs(axis[g]) - 1.0) > 1e-9:
+        raise ValueError(f"{model.source}: element {e.id}: its release in local {local!r} turns about "
+                         f"{np.round(axis, 6).tolist()}, not along a global axis; releases are supported on "
+                         "members whose local axes lie along global axes")
+    return ("rx", "ry", "rz")[g]
 
 
 class Triplets:
@@ -125,9 +149,8 @@ class Terms:
     def _spring(self, term: int, s, value: float) -> None:
         self.k.two_dof(term, self._dof(*s.dof_a), self._dof(*s.dof_b) if s.dof_b else None, value)
 
-    def _hinge(self, term: int, element_id: int, node: int, value: float) -> None:
-        self.k.two_dof(term, self._dof(node, self.model.layout.rotation), self.dofmap.hinges[(element_id, node)],
-                       value)
+    def _hinge(self, term: int, element_id: int, node: int, rotation: str, value: float) -> None:
+        self.k.two_dof(term, self._dof(node, rotation), self.dofmap.hinges[(element_id, node)][rotation], value)
 
     def _translations(self, node: int) -> list[int]:
         return [self._dof(node, d) for d in self.model.layout.translations]
@@ -166,7 +189,8 @@ class Terms:
             key = tuple(par.targets)
             if key not in self.dofmap.hinges:
                 raise ValueError(f"parameter {par.label}: element end {key} is not released in the model")
-            self._hinge(p, key[0], key[1], 1.0)
+            for rot in self.dofmap.hinges[key]:  # every released rotation of that end
+                self._hinge(p, key[0], key[1], rot, 1.0)
             self.taken["release"].add(key)
 
     def _constant(self) -> None:
@@ -178,15 +202,16 @@ class Terms:
             if lm.node not in self.taken["mass"]:
                 t = self._translations(lm.node)
                 self.m.add(-1, t, t, lm.mass_kg)
-            r = self._dof(lm.node, model.layout.rotation)
-            self.m.add(-1, [r], [r], [lm.inertia_kg_m2])
+            for rot in model.layout.rotations:
+                r = self._dof(lm.node, rot)
+                self.m.add(-1, [r], [r], [lm.inertia_kg_m2])
         for s in model.springs:
             if s.id not in self.taken["spring"]:
                 self._spring(-1, s, s.stiffness)
-        for e in model.elements:
-            for node, rel in ((e.node_i, e.release_i), (e.node_j, e.release_j)):
-                if rel is not None and (e.id, node) not in self.taken["release"]:
-                    self._hinge(-1, e.id, node, rel)
+        for key, released in self.dofmap.hinge_stiffness.items():
+            if key not in self.taken["release"]:
+                for rot, value in released.items():
+                    self._hinge(-1, key[0], key[1], rot, value)
 
     def free_arrays(self):
         """The K and M triplets on the free DOFs: ((rows, cols, vals, term), (...))."""
@@ -202,4 +227,4 @@ def dense_terms(trip, n: int, p: int) -> tuple[np.ndarray, np.ndarray]:
     return out[0], out[1:]
 
 
-__all__ = ["DofMap", "Terms", "Triplets", "dense_terms"]
+__all__ = ["DofMap", "Terms", "Triplets", "dense_terms", "release_rotation"]

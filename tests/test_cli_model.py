@@ -74,7 +74,7 @@ def test_unknown_model_name(capsys):
     assert main(["model", "hframes"]) == 2
     err = capsys.readouterr().err
     assert err.startswith("femu model: error:")
-    assert "'hframes'" in err and "shipped: hframe" in err
+    assert "'hframes'" in err and "shipped: frame3d, hframe" in err
 
 
 def test_bad_model_file(tmp_path, capsys):
@@ -93,7 +93,7 @@ def test_femu_command_end_to_end():
     np.testing.assert_allclose(json.loads(ok.stdout)["frequencies_hz"], HFRAME_MD_HZ, rtol=SHIPPED_RTOL, atol=MD_ATOL)
     bad = subprocess.run([str(FEMU), "model", "no-such-frame"], capture_output=True, text=True, timeout=120)
     assert bad.returncode == 2 and bad.stdout == ""
-    assert "no-such-frame" in bad.stderr and "shipped: hframe" in bad.stderr
+    assert "no-such-frame" in bad.stderr and "shipped: frame3d, hframe" in bad.stderr
 
 
 def _propped_cantilever(tmp_path):

@@ -99,7 +99,7 @@ def test_data_naming_a_model_that_does_not_exist(tmp_path):
 def test_unknown_data_and_model_names():
     with pytest.raises(FileNotFoundError, match=r"'papers'.*shipped: paper"):
         fp.UpdatingProblem(data="papers")
-    with pytest.raises(FileNotFoundError, match=r"'h-frame'.*shipped: hframe"):
+    with pytest.raises(FileNotFoundError, match=r"'h-frame'.*shipped: frame3d, hframe"):
         fp.UpdatingProblem(model="h-frame")
 
 

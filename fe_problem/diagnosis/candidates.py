@@ -39,8 +39,11 @@ import numpy as np
 
 from ..modal import frequencies_hz
 from ..model import FrameModel, Spring, add_mass, release_element_end, with_formulation
+from ..model.edits import bending_hinges
 from ..assembly import AffineModel
+from ..elements import formulation, formulations
 from ..parameters import Parameter
+from ..terms import release_rotation
 from . import zones
 from .local import LocalMatrices, Term
 
@@ -110,15 +113,19 @@ def scale_stiffness(model: FrameModel, s: float) -> FrameModel:
     elements = tuple(dataclasses.replace(
         e, youngs_modulus_pa=s * model.element_modulus_pa(e.id),
         release_i=None if e.release_i is None else s * e.release_i,
-        release_j=None if e.release_j is None else s * e.release_j) for e in model.elements)
+        release_j=None if e.release_j is None else s * e.release_j,
+        releases_i=tuple((r, s * k) for r, k in e.releases_i),
+        releases_j=tuple((r, s * k) for r, k in e.releases_j)) for e in model.elements)
     springs = tuple(dataclasses.replace(sp, stiffness=s * sp.stiffness) for sp in model.springs)
     return model.replace(elements=elements, springs=springs)
 
 
-def _bending_compliance_ref(model: FrameModel, element_id: int) -> float:
-    """(E I / L) of an element, N m/rad: the scale of a joint spring at its end."""
+def _bending_compliance_ref(model: FrameModel, element_id: int, rotation: str = "rz") -> float:
+    """(E I / L) of an element for bending about its local axis `rotation`, N m/rad: the scale
+    of a joint spring at its end."""
     e = model.element(element_id)
-    return model.element_modulus_pa(element_id) * model.sections[e.section].inertia_m4 / model.element_length_m(element_id)
+    return (model.element_modulus_pa(element_id) * model.sections[e.section].inertia_about(rotation)
+            / model.element_length_m(element_id))
 
 
 def stiffness_loss(st: Setting) -> Iterator[Candidate]:
@@ -144,7 +151,9 @@ def stiffness_loss(st: Setting) -> Iterator[Candidate]:
                         forward, estimate, lambda a, e=e, e0=e0: st.model.with_element_moduli({e.id: e0 * (1.0 - a)}),
                         step=0.01, meta={"profile": "uniform"},
                         term=lambda e=e, e0=e0: st.local.stiffness(e.id, -e0, "uniform"))
-        if e.formulation != "euler-bernoulli" or e.crack_position is not None or e.weak_zone is not None:
+        # a weak zone is built by the planar beam's flexibility formulation (zones.py)
+        if (st.model.layout.dimension != 2 or not formulation(e.formulation, st.model.layout).supports_crack
+                or e.crack_position is not None or e.weak_zone is not None):
             continue
         yield from _zone_candidates(st, e, e0, shared)
 
@@ -171,7 +180,7 @@ def _zone_candidates(st: Setting, e, e0: float, shared: dict, places=None) -> It
         centre = round(0.5 * (start + end), 6)
 
         def estimate(a, s, start=start, end=end, centre=centre):
-            ei = s * e0 * st.model.sections[e.section].inertia_m4
+            ei = s * e0 * st.model.sections[e.section].inertia_about("rz")
             width = (end - start) * st.model.element_length_m(e.id)
             return {"stiffness_loss_pct": 100.0 * a, "modulus_ratio": 1.0 - a, "profile": "zone",
                     "zone_position": centre, "zone_start": start, "zone_end": end,
@@ -214,40 +223,51 @@ def joint_nodes(model: FrameModel) -> tuple[int, ...]:
     """Nodes where members join: three or more element ends, or two ends not in line (cosine
     of the angle between the members, seen from the node, above -0.999: a corner)."""
     ends: dict[int, list[np.ndarray]] = {}
-    xy = {n.id: np.array([n.x, n.y], dtype=float) for n in model.nodes}
+    at, pos = model.coordinates, model._node_pos
     for e in model.elements:
         for a, b in ((e.node_i, e.node_j), (e.node_j, e.node_i)):
-            d = xy[b] - xy[a]
+            d = at[pos[b]] - at[pos[a]]
             ends.setdefault(a, []).append(d / np.linalg.norm(d))
     return tuple(n for n, ds in ends.items()
                  if len(ds) > 2 or (len(ds) == 2 and float(ds[0] @ ds[1]) > -0.999))
 
 
-def _last_rigid_end(model: FrameModel, node: int) -> bool:
-    """Whether one element end at most is still rigidly tied to the node's rotation (the others
-    released by a joint already found): releasing it would leave the rotation with no mass (an
-    invalid model; at a corner, releasing either end is one and the same joint)."""
-    rigid = sum(1 for e in model.elements
-                if (e.node_i == node and e.release_i is None) or (e.node_j == node and e.release_j is None))
+def _released(model: FrameModel, e, node: int, rotation: str) -> bool:
+    """Whether the end of element `e` at `node` is released in the node's rotation `rotation`."""
+    releases = model.end_releases(e)[0 if node == e.node_i else 1]
+    return any(release_rotation(model, e, r) == rotation for r in releases)
+
+
+def _last_rigid_end(model: FrameModel, node: int, rotation: str) -> bool:
+    """Whether one element end at most is still rigidly tied to the node's rotation `rotation`
+    (the others released by a joint already found): releasing it would leave the rotation with
+    no mass (an invalid model; at a corner, releasing either end is one and the same joint)."""
+    rigid = sum(1 for e in model.elements if node in (e.node_i, e.node_j) and not _released(model, e, node, rotation))
     held = any(m.node == node and m.inertia_kg_m2 > 0 for m in model.masses) or \
-        any(s.node == node and "rz" in s.directions for s in model.supports)
+        any(s.node == node and rotation in s.directions for s in model.supports)
     return rigid <= 1 and not held
 
 
 def joint_flexibility(st: Setting) -> Iterator[Candidate]:
     """A rotational spring between an element end and its joint node, at every element end of
-    every joint; at a corner (two ends) one candidate: releasing either end is the same model."""
+    every joint, in each bending rotation (a space frame's two bending planes, local ry and rz,
+    each its own candidate; the planar frame's rz); at a corner (two ends) one candidate per
+    rotation: releasing either end is the same model."""
     baseline = lazy_system(lambda: AffineModel(st.model))
+    planar = len(st.model.layout.hinges) == 1
     for node in joint_nodes(st.model):
         ends = [e for e in st.model.elements if node in (e.node_i, e.node_j)]
-        for e in ends[:1] if len(ends) == 2 else ends:
-            if (node == e.node_i and e.release_i is not None) or (node == e.node_j and e.release_j is not None):
+        for e, local in ((e, r) for e in (ends[:1] if len(ends) == 2 else ends) for r in bending_hinges(st.model)):
+            try:
+                rot = release_rotation(st.model, e, local)
+            except ValueError:  # a skew member's end: a release there is not modelled (terms.py)
                 continue
-            if _last_rigid_end(st.model, node):
+            if _released(st.model, e, node, rot) or _last_rigid_end(st.model, node, rot):
                 continue
-            ref = _bending_compliance_ref(st.model, e.id)
-            system = lazy_system(lambda e=e, node=node, ref=ref: AffineModel(
-                release_element_end(st.model, e.id, node, ref), (Parameter("release", (e.id, node), 0.0, 1e12 * ref, ref),)))
+            ref = _bending_compliance_ref(st.model, e.id, local)
+            system = lazy_system(lambda e=e, node=node, ref=ref, local=local: AffineModel(
+                release_element_end(st.model, e.id, node, ref, None if planar else (local,)),
+                (Parameter("release", (e.id, node), 0.0, 1e12 * ref, ref),)))
 
             def forward(a, system=system, ref=ref):
                 a = np.asarray(a, dtype=float)
@@ -262,17 +282,21 @@ def joint_flexibility(st: Setting) -> Iterator[Candidate]:
                 k = s * ref / a if a > 0 else float("inf")
                 return {"rotational_stiffness_nm_per_rad": k, "compliance_ratio": a}
 
-            def extend(a, e=e, node=node, ref=ref):
-                return release_element_end(st.model, e.id, node, ref / a) if a > 0 else st.model
+            def extend(a, e=e, node=node, ref=ref, local=local):
+                return (release_element_end(st.model, e.id, node, ref / a, None if planar else (local,)) if a > 0
+                        else st.model)
 
-            yield Candidate("joint_flexibility", {"node": node, "element": e.id}, 50.0,
+            place = {"node": node, "element": e.id} if planar else {"node": node, "element": e.id, "rotation": local}
+            yield Candidate("joint_flexibility", place, 50.0,
                             np.concatenate([[0.0], np.geomspace(1e-3, 50.0, 18)]),
                             forward, estimate, extend, step=0.01,
-                            term=lambda e=e, node=node, ref=ref: st.local.joint(e.id, node, ref))
+                            term=lambda e=e, node=node, ref=ref, rot=rot: st.local.joint(e.id, node, ref, rot))
 
 
 def shear_deformation(st: Setting) -> Iterator[Candidate]:
     if all(e.formulation == "timoshenko" for e in st.model.elements):
+        return
+    if "timoshenko" not in formulations(st.model.layout):  # no shear-deformable element of this layout
         return
     baseline = lazy_system(lambda: AffineModel(st.model))
 
@@ -321,13 +345,14 @@ def _reference_stiffness(st: Setting) -> float:
 
 
 def boundary_stiffness(st: Setting) -> Iterator[Candidate]:
-    """A spring to ground at a node, in x or in y: soft supports, suspensions, bases."""
+    """A spring to ground at a node, in each translation (the planar frame's x and y; a space
+    frame's x, y and z): soft supports, suspensions, bases."""
     k_ref = _reference_stiffness(st)
     baseline = lazy_system(lambda: AffineModel(st.model))
     sid = max((sp.id for sp in st.model.springs), default=0) + 1
     fixed = {(sup.node, d) for sup in st.model.supports for d in sup.directions}
     for node in st.model.node_ids:
-        for direction in ("x", "y"):
+        for direction in st.model.layout.translations:
             if (node, direction) in fixed:
                 continue
             # the zero-frequency modes are counted with the spring in place (initial k_ref): a

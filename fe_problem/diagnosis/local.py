@@ -88,12 +88,13 @@ class LocalMatrices:
         dofs = np.array([self.dofmap.dof(node, direction, self.model)])
         return Term(dofs, np.array([[per_unit_a]]), np.zeros((1, 1)))
 
-    def joint(self, element_id: int, node: int, ref: float) -> Term:
-        """The end of `element_id` at `node` tied by a spring of compliance a / ref (rad/N m)."""
+    def joint(self, element_id: int, node: int, ref: float, rotation: str | None = None) -> Term:
+        """The end of `element_id` at `node` tied by a spring of compliance a / ref (rad/N m) in
+        the node's rotation `rotation` (default: the layout's one hinge rotation)."""
         k = self.row[element_id]
         e = self.model.elements[k]
         lay = self.model.layout
-        r = (0 if node == e.node_i else lay.per_node) + lay.rotation_position
+        r = (0 if node == e.node_i else lay.per_node) + lay.position(lay.rotation if rotation is None else rotation)
         kr = self.modulus[k] * self.k_el[k][:, r]
         mr = self.density[k] * self.m_el[k][:, r]
         return Term(self.dofmap.element_dofs[k], -np.outer(kr, kr) / ref,

@@ -52,7 +52,8 @@ def zone_width(model: FrameModel, element_id: int) -> float:
     sqrt(12 I / A) over the length, at most `MAX_WIDTH`."""
     e = model.element(element_id)
     sec = model.sections[e.section]
-    return min(float(np.sqrt(12.0 * sec.inertia_m4 / sec.area_m2)) / model.element_length_m(element_id), MAX_WIDTH)
+    return min(float(np.sqrt(12.0 * sec.inertia_about("rz") / sec.area_m2)) / model.element_length_m(element_id),
+               MAX_WIDTH)
 
 
 def zone_place(model: FrameModel, element_id: int, centre: float) -> tuple[float, float]:

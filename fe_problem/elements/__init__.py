@@ -13,12 +13,14 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from . import frame2d  # noqa: F401  (registers the planar formulations)
+from . import frame3d  # noqa: F401  (registers the space frame formulations)
 from .base import ElementFormulation, formulation, formulations, register
 
 if TYPE_CHECKING:
     from ..model import Element, FrameModel
 
-#: Names of the registered formulations (the values of an element's ``formulation``).
+#: Names of the formulations registered for planar models (the values of an element's
+#: ``formulation``; `formulations(layout)` lists those of another layout).
 FORMULATIONS = formulations()
 
 #: Modulus profiles along an element: w(xi) piecewise linear through these values at xi = 0, 1/2, 1.
@@ -30,7 +32,7 @@ def _groups(model: FrameModel):
     """(formulation, positions in model.elements, elements) for each formulation used."""
     for name in dict.fromkeys(e.formulation for e in model.elements):
         rows = [k for k, e in enumerate(model.elements) if e.formulation == name]
-        yield formulation(name), rows, [model.elements[k] for k in rows]
+        yield formulation(name, model.layout), rows, [model.elements[k] for k in rows]
 
 
 def element_matrices(model: FrameModel) -> tuple[np.ndarray, np.ndarray]:
@@ -48,14 +50,15 @@ def element_matrices(model: FrameModel) -> tuple[np.ndarray, np.ndarray]:
 def profile_stiffness(model: FrameModel, element: Element, profile: str) -> np.ndarray:
     """Global-axis stiffness (1, k, k) per unit modulus of `element` with a modulus profile
     (a name in `PROFILES`); ValueError if its formulation has none."""
-    form = formulation(element.formulation)
+    form = formulation(element.formulation, model.layout)
     if not form.supports_profile:
         raise ValueError(f"element {element.id}: formulation {form.name!r} has no modulus profiles")
     return form.profile_stiffness(model, element, PROFILES[profile])
 
 
 def deformed_frame(model: FrameModel, u: np.ndarray, scale: float, n_points: int = 25) -> np.ndarray:
-    """Element curves (n_elements, n_points, 2) in metres of the frame displaced by scale * u.
+    """Element curves (n_elements, n_points, layout.dimension) in metres of the frame displaced
+    by scale * u (a drawing of a space model projects them: femu/reports).
 
     u: one value per nodal DOF in `model.dofs` order. Along an element the displacement is the
     formulation's own interpolation of its end values (for the planar beams: axial linear,
@@ -65,9 +68,9 @@ def deformed_frame(model: FrameModel, u: np.ndarray, scale: float, n_points: int
     per = model.layout.per_node
     U = np.asarray(u, dtype=float).reshape(len(model.nodes), per)
     index = {n.id: k for k, n in enumerate(model.nodes)}
-    xy = np.array([[n.x, n.y] for n in model.nodes])
+    xy = np.asarray(model.coordinates)
     xi = np.linspace(0.0, 1.0, n_points)
-    out = np.empty((len(model.elements), n_points, 2))
+    out = np.empty((len(model.elements), n_points, model.layout.dimension))
     for form, rows, els in _groups(model):
         i = np.array([index[e.node_i] for e in els])
         j = np.array([index[e.node_j] for e in els])

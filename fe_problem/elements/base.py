@@ -4,7 +4,9 @@ A formulation computes, for a group of elements of one model (vectorised over th
 the global-axis stiffness per unit modulus (E = 1), the mass per unit density (rho = 1), and
 the displaced shape between the ends for drawing. Its matrices act on the element's end DOFs:
 the model layout's DOFs of node_i, then of node_j (`layout.names` order, see dofs.py).
-A new element type is a subclass registered with `register`; nothing else changes.
+A new element type is a subclass registered with `register`; nothing else changes. The
+registry is keyed by (name, layout): "euler-bernoulli" of the planar frame and of the space
+frame are two formulations, and a model's elements are looked up in its own layout.
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 
-from ..dofs import DofLayout
+from ..dofs import PLANAR_FRAME, DofLayout
 
 if TYPE_CHECKING:
     from ..model import Element, FrameModel
@@ -43,8 +45,8 @@ class ElementFormulation(ABC):
     @abstractmethod
     def displaced(self, model: FrameModel, elements: Sequence[Element], ends: np.ndarray,
                   xi: np.ndarray) -> np.ndarray:
-        """Displacement (n, n_points, 2) in metres along each element at length fractions
-        `xi` (n_points,), from its end DOF values `ends` (n, k) (for drawing)."""
+        """Displacement (n, n_points, layout.dimension) in metres along each element at length
+        fractions `xi` (n_points,), from its end DOF values `ends` (n, k) (for drawing)."""
 
     def profile_stiffness(self, model: FrameModel, element: Element, weights: tuple) -> np.ndarray:
         """Global-axis stiffness (1, k, k) per unit modulus of one element whose modulus varies
@@ -52,22 +54,24 @@ class ElementFormulation(ABC):
         raise ValueError(f"formulation {self.name!r} has no modulus profiles")
 
 
-_REGISTRY: dict[str, ElementFormulation] = {}
+_REGISTRY: dict[tuple[str, DofLayout], ElementFormulation] = {}
 
 
 def register(formulation: ElementFormulation) -> ElementFormulation:
-    """Add a formulation to the registry under its `name`; returns it."""
-    _REGISTRY[formulation.name] = formulation
+    """Add a formulation to the registry under its `name` and its own `layout`; returns it."""
+    _REGISTRY[(formulation.name, formulation.layout)] = formulation
     return formulation
 
 
-def formulation(name: str) -> ElementFormulation:
-    """The registered formulation called `name` (KeyError naming the known ones)."""
-    if name not in _REGISTRY:
-        raise KeyError(f"unknown element formulation {name!r}; known: {sorted(_REGISTRY)}")
-    return _REGISTRY[name]
+def formulation(name: str, layout: DofLayout = PLANAR_FRAME) -> ElementFormulation:
+    """The registered formulation called `name` for models of `layout` (KeyError naming the
+    known ones of that layout)."""
+    if (name, layout) not in _REGISTRY:
+        raise KeyError(f"unknown element formulation {name!r} for a {layout.dimension}-D model; "
+                       f"known: {sorted(formulations(layout))}")
+    return _REGISTRY[(name, layout)]
 
 
-def formulations() -> tuple[str, ...]:
-    """Names of the registered formulations, in registration order."""
-    return tuple(_REGISTRY)
+def formulations(layout: DofLayout = PLANAR_FRAME) -> tuple[str, ...]:
+    """Names of the formulations registered for models of `layout`, in registration order."""
+    return tuple(n for n, lay in _REGISTRY if lay == layout)

@@ -2,8 +2,9 @@
 an axial bar, on the nodal DOFs x, y, rz of `PLANAR_FRAME`.
 
 Per element end the local DOFs are (u, v, theta); the matrices come from beam2d.py.
-Timoshenko's shear ratio phi = 24 (1 + nu) I / (kappa A L^2) does not depend on E
-(G = E / 2(1 + nu)), so its stiffness stays linear in E.
+Timoshenko's shear ratio phi = 12 (E / G) I / (kappa A L^2) does not depend on E
+(E / G = 2(1 + nu), or the material's E / shear_modulus_pa: G scales with an updated E), so
+its stiffness stays linear in E.
 """
 
 from __future__ import annotations
@@ -31,25 +32,32 @@ class Geometry:
     area: np.ndarray
     inertia: np.ndarray
     kappa: np.ndarray
-    nu: np.ndarray
+    e_over_g: np.ndarray
 
     @classmethod
     def of(cls, model: FrameModel, elements: Sequence[Element]) -> "Geometry":
         """The geometry of `elements` of `model`."""
-        at = {n.id: (n.x, n.y) for n in model.nodes}  # not model.node(): O(n) per lookup
-        xi = np.array([at[e.node_i] for e in elements])
-        xj = np.array([at[e.node_j] for e in elements])
+        at, pos = model.coordinates, model._node_pos  # not model.node(): O(n) per lookup
+        xi = at[[pos[e.node_i] for e in elements]]
+        xj = at[[pos[e.node_j] for e in elements]]
         d = xj - xi
         length = np.hypot(d[:, 0], d[:, 1])
         sec = [model.sections[e.section] for e in elements]
         return cls(length, d[:, 0] / length, d[:, 1] / length,
                    np.array([s.area_m2 for s in sec]), np.array([s.inertia_m4 for s in sec]),
                    np.array([s.shear_coefficient for s in sec]),
-                   np.array([model.materials[e.material].poisson_ratio for e in elements]))
+                   np.array([_e_over_g(model.materials[e.material]) for e in elements]))
 
     def to_global(self, local: np.ndarray) -> np.ndarray:
         """Local-axis element matrices (n, 6, 6) to global axes."""
         return beam2d.to_global(local, beam2d.rotation(self.cos, self.sin))
+
+
+def _e_over_g(material) -> float:
+    """E / G of a material: 2 (1 + nu), or E / shear_modulus_pa when that is given."""
+    if material.shear_modulus_pa is None:
+        return 2.0 * (1.0 + material.poisson_ratio)
+    return material.youngs_modulus_pa / material.shear_modulus_pa
 
 
 class _PlanarBeam(ElementFormulation):
@@ -122,7 +130,8 @@ class Timoshenko(_PlanarBeam):
     name = "timoshenko"
 
     def _phi(self, g: Geometry) -> np.ndarray:
-        return 24.0 * (1.0 + g.nu) * g.inertia / (g.kappa * g.area * g.length**2)
+        # 12 (2 (1 + nu)) rounds as 24 (1 + nu) did: 2 x is exact
+        return 12.0 * g.e_over_g * g.inertia / (g.kappa * g.area * g.length**2)
 
     def _rotary(self, g: Geometry) -> np.ndarray:
         return g.inertia

@@ -19,6 +19,17 @@ class DataFileError(ValueError):
     """A measured-data file that breaks its format; the message names the file and field."""
 
 
+def model_named(model: str, source: str) -> FrameModel:
+    """The model a data file names: a shipped model, or a model file path relative to the data
+    file `source` (FileNotFoundError / ModelFileError as `load_model`)."""
+    if model in shipped_models():
+        return load_model(model)
+    path = Path(model)
+    if not path.is_absolute() and source not in ("<memory>", ""):
+        path = Path(source).parent / path
+    return load_model(path)
+
+
 @dataclass(frozen=True, eq=False)
 class ModalData:
     """Measured modes of one structure.
@@ -58,12 +69,7 @@ class ModalData:
 
     def load_model(self) -> FrameModel:
         """The model this data belongs to (name, or path relative to the data file)."""
-        if self.model in shipped_models():
-            return load_model(self.model)
-        path = Path(self.model)
-        if not path.is_absolute() and self.source not in ("<memory>", ""):
-            path = Path(self.source).parent / path
-        return load_model(path)
+        return model_named(self.model, self.source)
 
     def is_for(self, model: FrameModel) -> bool:
         """Whether this data names `model`: by its name, or as the model file `model` was read

@@ -8,9 +8,10 @@ What a file holds, as written here and as read:
   a model file path relative to the data file; a bare ID line 1 is read as the name, as the
   UFF dataloader convention puts the model identification there). ID line 2 holds
   ``meta["source"]`` (80 characters at most). Other ``meta`` entries are not stored.
-- A node moves only in its model's DOFs (the `DofLayout`, dofs.py; the planar frame: x, y,
-  rz): the other values are written as 0, and on reading a file with a non-zero value there
-  is refused. Data characteristic 2 (3 translations) is read too.
+- A node moves only in its model's DOFs (the `DofLayout` of the model ID line 1 names,
+  dofs.py; the planar frame: x, y, rz; a space frame: all six): the other values are written
+  as 0, and on reading a file with a non-zero value there is refused. Data characteristic 2
+  (3 translations) is read too.
 
 Limits of the format, and the choices made:
 - Values are written with 6 significant figures (format 6E13.5, fixed by the standard), so
@@ -35,7 +36,7 @@ import pyuff
 
 from ..dofs import DEFAULT_LAYOUT, SPATIAL, DofLayout
 from .json_format import modal_data_from_dict
-from .types import DATA_FORMAT, DataFileError, ModalData
+from .types import DATA_FORMAT, DataFileError, ModalData, model_named
 
 _MODEL_TAG = "model:"
 _ID_WIDTH = 80
@@ -141,11 +142,12 @@ def uff_dataset_lines(path: Path, kind: int, error=DataFileError) -> list[int]:
     return opened_at
 
 
-def read_uff55(path: str | Path, model: str | None = None, layout: DofLayout = DEFAULT_LAYOUT) -> ModalData:
+def read_uff55(path: str | Path, model: str | None = None, layout: DofLayout | None = None) -> ModalData:
     """Read the normal modes of the datasets 55 in a UFF file (other dataset types are ignored).
 
     `model`: the model the data belongs to, if ID line 1 does not name it; `layout`: the DOFs
-    its nodes have (values in other directions are refused). The result obeys
+    its nodes have (values in other directions are refused; default: the layout of the model
+    the data name, the planar frame's if that model cannot be read here). The result obeys
     the rules of the JSON format (docs/modal-data-format.md); every error is a
     DataFileError that names the file, the dataset and what is wrong.
     """
@@ -179,6 +181,12 @@ def read_uff55(path: str | Path, model: str | None = None, layout: DofLayout = D
             ds = uff.read_sets(block)
         except Exception as exc:
             raise DataFileError(f"{where}: cannot be read ({exc})") from None
+        if k == 1:
+            model_id, source = str(ds.get("id1", "")).strip(), str(ds.get("id2", "")).strip()
+            if model is None:
+                model = model_id[len(_MODEL_TAG):].strip() if model_id.lower().startswith(_MODEL_TAG) else model_id
+            if layout is None:
+                layout = _layout_of(model, path)
         node_nums, v, f = _normal_mode(ds, where, layout)
         if nodes is None:
             nodes = node_nums
@@ -187,19 +195,26 @@ def read_uff55(path: str | Path, model: str | None = None, layout: DofLayout = D
                                 f"this one {node_nums}")
         freqs.append(f)
         shapes.append(v)
-        if k == 1:
-            model_id, source = str(ds.get("id1", "")).strip(), str(ds.get("id2", "")).strip()
 
     dofs, rows = _measured(nodes, np.stack(shapes), layout)
-    if model is None:
-        model = model_id[len(_MODEL_TAG):].strip() if model_id.lower().startswith(_MODEL_TAG) else model_id
-        if not model or model.upper() == "NONE":
-            raise DataFileError(f"{path}: ID line 1 of dataset 55 #1 does not name the model the data belongs to "
-                                f"(write '{_MODEL_TAG} <shipped model name or model file path>' there)")
+    if not model or model.upper() == "NONE":
+        raise DataFileError(f"{path}: ID line 1 of dataset 55 #1 does not name the model the data belongs to "
+                            f"(write '{_MODEL_TAG} <shipped model name or model file path>' there)")
     meta = {} if source.upper() in ("", "NONE") else {"source": source}
     raw = {"format": DATA_FORMAT, "model": model, "dofs": [list(d) for d in dofs],
            "modes": [{"frequency_hz": f, "shape": rows[m].tolist()} for m, f in enumerate(freqs)], "meta": meta}
     return modal_data_from_dict(raw, source=str(path))
+
+
+def _layout_of(model: str, path: Path) -> DofLayout:
+    """The DOF layout of the model a UFF file names (the planar frame's if it cannot be read:
+    the file is then read as before, and the model's own error comes when it is loaded)."""
+    if not model or model.upper() == "NONE":
+        return DEFAULT_LAYOUT
+    try:
+        return model_named(model, str(path)).layout
+    except (OSError, ValueError):
+        return DEFAULT_LAYOUT
 
 
 def _measured(nodes: list[int], values: np.ndarray, layout: DofLayout) -> tuple[list, np.ndarray]:

@@ -14,13 +14,37 @@ def add_mass(model: FrameModel, node: int, mass_kg: float, inertia_kg_m2: float 
     return model.replace(masses=model.masses + (LumpedMass(node, float(mass_kg), float(inertia_kg_m2)),))
 
 
-def release_element_end(model: FrameModel, element_id: int, node: int, stiffness: float) -> FrameModel:
-    """A copy where the end of `element_id` at `node` is tied to it by a rotational spring."""
+def bending_hinges(model: FrameModel) -> tuple[str, ...]:
+    """The rotations a joint's flexibility releases by default: the planar frame's one hinge
+    rotation; a space frame's two bending rotations (local ry, rz; torsion stays rigid)."""
+    hinges = model.layout.hinges
+    return hinges if len(hinges) == 1 else tuple(h for h in hinges if h != "rx")
+
+
+def _released(model: FrameModel, e: Element, end: str, stiffness: float | None, rotations=None) -> dict:
+    """The `dataclasses.replace` fields that release end `end` ("i" or "j") of `e` in
+    `rotations` (default `bending_hinges`) with `stiffness` (None: rigid again)."""
+    if len(model.layout.hinges) == 1:
+        if rotations is not None and tuple(rotations) != model.layout.hinges:
+            raise ValueError(f"a planar element end is released in {model.layout.hinges[0]!r} only, got {rotations}")
+        return {f"release_{end}": None if stiffness is None else float(stiffness)}
+    if stiffness is None:
+        return {f"releases_{end}": ()}
+    released = dict(getattr(e, f"releases_{end}"))  # the end's other released rotations stay
+    released.update((r, float(stiffness)) for r in (bending_hinges(model) if rotations is None else rotations))
+    return {f"releases_{end}": tuple(released.items())}
+
+
+def release_element_end(model: FrameModel, element_id: int, node: int, stiffness: float,
+                        rotations=None) -> FrameModel:
+    """A copy where the end of `element_id` at `node` is tied to it by a rotational spring of
+    `stiffness` (N m/rad) in `rotations` (default: the planar frame's rz; a space frame's
+    bending rotations, local ry and rz: `bending_hinges`)."""
     e = model.element(element_id)
     if node == e.node_i:
-        new = dataclasses.replace(e, release_i=float(stiffness))
+        new = dataclasses.replace(e, **_released(model, e, "i", stiffness, rotations))
     elif node == e.node_j:
-        new = dataclasses.replace(e, release_j=float(stiffness))
+        new = dataclasses.replace(e, **_released(model, e, "j", stiffness, rotations))
     else:
         raise KeyError(f"element {element_id} does not end at node {node}")
     return model.replace(elements=tuple(new if x.id == element_id else x for x in model.elements))
@@ -53,16 +77,19 @@ def split_element(model: FrameModel, element_id: int, fraction: float,
 
     The first part keeps the element id, the second gets a new id (max + 1), the new node
     gets id max + 1. With `rotational_stiffness` the two parts are joined through a
-    rotational spring (N m/rad): the model of a crack at that point.
+    rotational spring (N m/rad; a space frame's in both bending rotations): the model of a
+    crack at that point.
     """
     if not 0.0 < fraction < 1.0:
         raise ValueError(f"fraction must be inside (0, 1), got {fraction}")
     e = model.element(element_id)
-    a, b = model.node(e.node_i), model.node(e.node_j)
-    new_node = Node(max(model.node_ids) + 1, a.x + fraction * (b.x - a.x), a.y + fraction * (b.y - a.y))
-    first = dataclasses.replace(e, node_j=new_node.id, release_j=None, **part_fields(e, 0.0, fraction))
+    c = model.coordinates
+    a, b = c[model.node_position(e.node_i)], c[model.node_position(e.node_j)]
+    new_node = Node(max(model.node_ids) + 1, *(float(v) for v in a + fraction * (b - a)))
+    first = dataclasses.replace(e, node_j=new_node.id, **_released(model, e, "j", None),
+                                **part_fields(e, 0.0, fraction))
     second = dataclasses.replace(e, id=max(model.element_ids) + 1, node_i=new_node.id,
-                                 release_i=rotational_stiffness, release_j=e.release_j,
+                                 **_released(model, e, "i", rotational_stiffness),
                                  **part_fields(e, fraction, 1.0))
     elements = []
     for x in model.elements:

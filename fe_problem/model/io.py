@@ -7,13 +7,31 @@ import dataclasses
 from pathlib import Path
 from typing import Any
 
-from ..jsonutil import dumps, read_json_file
+from ..dofs import LAYOUTS
+from ..jsonutil import check_keys, dumps, read_json_file
+from ..safe_files import write_text
 from ..shipped import resolve, shipped_names
 from .types import Element, FrameModel, LumpedMass, Material, Node, Section, Spring, Support
 from .validate import ModelFileError, is_number, shown
 
 MODEL_FORMAT = "femu.model/1"
 MODEL_SUFFIX = ".model.json"
+
+#: The keys a model file's objects may have (docs/model-format.md); any other key is refused with
+#: the file, the path to it and the closest known key, never ignored (a 'suports' list would
+#: otherwise leave a free-free structure without a word)
+KEYS = {
+    "model": ("format", "name", "dimension", "description", "materials", "sections", "nodes", "elements", "masses",
+              "springs", "supports", "measured_dofs", "excitation"),
+    "node": ("id", "x", "y", "z"),
+    "element": ("id", "nodes", "section", "material", "formulation", "release_i", "release_j", "youngs_modulus_pa",
+                "crack_position", "crack_stiffness", "weak_zone", "orientation", "releases_i", "releases_j"),
+    "mass": tuple(f.name for f in dataclasses.fields(LumpedMass)),
+    "spring": ("id", "dofs", "stiffness"),
+    "support": ("node", "directions"),
+    "materials": tuple(f.name for f in dataclasses.fields(Material)),
+    "sections": tuple(f.name for f in dataclasses.fields(Section)),
+}
 
 
 def _dof(value: Any, where: str) -> tuple[int, str]:
@@ -45,6 +63,7 @@ def _objects(d: dict, key: str, source: str, kind: type) -> dict:
     for name, v in table.items():
         if not isinstance(v, dict):
             raise ModelFileError(f"{source}: field '{key}' entry {name!r} must be an object")
+        check_keys(v, KEYS[key], f"{source}: {key}[{name!r}]", ModelFileError)
         try:
             out[name] = kind(**v)
         except TypeError as exc:
@@ -70,9 +89,18 @@ def _name(value: Any, where: str) -> str:
 
 
 def model_from_dict(d: dict, source: str = "<memory>") -> FrameModel:
-    """Build a model from the parsed JSON of a model file; errors name `source` and the field."""
+    """Build a model from the parsed JSON of a model file; errors name `source` and the field.
+
+    ``"dimension"``: absent or 2, a planar model (`PLANAR_FRAME`); 3, a space model
+    (`SPACE_FRAME`: nodes with z, sections with iy/iz/j, elements with an orientation)."""
     if _get(d, "format", source) != MODEL_FORMAT:
         raise ModelFileError(f"{source}: field 'format' must be {MODEL_FORMAT!r}, got {d.get('format')!r}")
+    dimension = d.get("dimension", 2)
+    if isinstance(dimension, bool) or dimension not in LAYOUTS:
+        raise ModelFileError(f"{source}: field 'dimension' must be 2 (a planar frame) or 3 (a space frame), "
+                             f"got {shown(dimension)}")
+    layout = LAYOUTS[dimension]
+    check_keys(d, KEYS["model"], source, ModelFileError)
     materials = _objects(d, "materials", source, Material)
     sections = _objects(d, "sections", source, Section)
     for key in ("nodes", "elements"):
@@ -81,16 +109,19 @@ def model_from_dict(d: dict, source: str = "<memory>") -> FrameModel:
     for key in ("masses", "springs", "supports", "measured_dofs"):
         if not isinstance(d.get(key, []), list):
             raise ModelFileError(f"{source}: field '{key}' must be a list, got {shown(d[key])}")
-    for key in ("nodes", "elements", "masses", "springs", "supports"):
+    for key, kind in (("nodes", "node"), ("elements", "element"), ("masses", "mass"), ("springs", "spring"),
+                      ("supports", "support")):
         for i, item in enumerate(d.get(key, [])):
             if not isinstance(item, dict):
                 raise ModelFileError(f"{source}: {key}[{i}] must be an object, got {shown(item)}")
+            check_keys(item, KEYS[kind], f"{source}: {key}[{i}]", ModelFileError)
     nodes = []
     for i, n in enumerate(d["nodes"]):
         where = f"{source}: nodes[{i}]"
         nodes.append(Node(_int(_get(n, "id", where), f"{where} field 'id'"),
                           _number(_get(n, "x", where), f"{where} field 'x'"),
-                          _number(_get(n, "y", where), f"{where} field 'y'")))
+                          _number(_get(n, "y", where), f"{where} field 'y'"),
+                          _number(_get(n, "z", where) if dimension == 3 else n.get("z", 0.0), f"{where} field 'z'")))
     elements = []
     for i, e in enumerate(_get(d, "elements", source)):
         where = f"{source}: elements[{i}]"
@@ -107,7 +138,10 @@ def model_from_dict(d: dict, source: str = "<memory>") -> FrameModel:
             youngs_modulus_pa=_get(e, "youngs_modulus_pa", where, None),
             crack_position=_get(e, "crack_position", where, None),
             crack_stiffness=_get(e, "crack_stiffness", where, None),
-            weak_zone=_weak_zone(_get(e, "weak_zone", where, None), where)))
+            weak_zone=_weak_zone(_get(e, "weak_zone", where, None), where),
+            orientation=_vector(_get(e, "orientation", where, None), f"{where} field 'orientation'"),
+            releases_i=_releases(_get(e, "releases_i", where, None), f"{where} field 'releases_i'"),
+            releases_j=_releases(_get(e, "releases_j", where, None), f"{where} field 'releases_j'")))
     masses = []
     for i, m in enumerate(d.get("masses", [])):
         where = f"{source}: masses[{i}]"
@@ -138,7 +172,26 @@ def model_from_dict(d: dict, source: str = "<memory>") -> FrameModel:
         name=name, nodes=tuple(nodes), materials=materials, sections=sections,
         elements=tuple(elements), masses=tuple(masses), springs=tuple(springs), supports=tuple(supports),
         measured_dofs=measured, excitation=_dof(exc, f"{source}: excitation") if exc is not None else None,
-        description=str(d.get("description", "")), source=source)
+        description=str(d.get("description", "")), source=source, layout=layout)
+
+
+def _vector(v, where: str):
+    """(x, y, z) from a list of 3 numbers, or None."""
+    if v is None:
+        return None
+    if not (isinstance(v, list) and len(v) == 3):
+        raise ModelFileError(f"{where}: must be a vector of 3 numbers [x, y, z], got {shown(v)}")
+    return tuple(_number(c, where) for c in v)
+
+
+def _releases(r, where: str) -> tuple:
+    """((rotation, stiffness), ...) from {"ry": 0.0, "rz": 1e5}, or ()."""
+    if r is None:
+        return ()
+    if not isinstance(r, dict):
+        raise ModelFileError(f"{where}: must be an object {{rotation: stiffness N m/rad}} such as "
+                             f"{{\"ry\": 0, \"rz\": 0}}, got {shown(r)}")
+    return tuple((str(k), v) for k, v in r.items())
 
 
 def _weak_zone(z, where: str):
@@ -162,15 +215,28 @@ def model_to_dict(model: FrameModel) -> dict:
                 out[k] = getattr(e, k)
         if e.weak_zone is not None:
             out["weak_zone"] = dict(zip(("start", "end", "modulus_ratio"), e.weak_zone))
+        if e.orientation is not None:
+            out["orientation"] = list(e.orientation)
+        for k in ("releases_i", "releases_j"):
+            if getattr(e, k):
+                out[k] = dict(getattr(e, k))
         return out
 
+    def table(v) -> dict:
+        # the optional fields of the other dimension (None) are left out: a planar file as before
+        return {k: x for k, x in dataclasses.asdict(v).items() if x is not None}
+
+    space = model.layout.dimension == 3
+    head: dict[str, Any] = {"format": MODEL_FORMAT, "name": model.name}
+    if space:
+        head["dimension"] = 3
     return {
-        "format": MODEL_FORMAT,
-        "name": model.name,
+        **head,
         "description": model.description,
-        "materials": {k: dataclasses.asdict(v) for k, v in model.materials.items()},
-        "sections": {k: dataclasses.asdict(v) for k, v in model.sections.items()},
-        "nodes": [{"id": n.id, "x": n.x, "y": n.y} for n in model.nodes],
+        "materials": {k: table(v) for k, v in model.materials.items()},
+        "sections": {k: table(v) for k, v in model.sections.items()},
+        "nodes": [{"id": n.id, "x": n.x, "y": n.y, "z": n.z} if space else {"id": n.id, "x": n.x, "y": n.y}
+                  for n in model.nodes],
         "elements": [element(e) for e in model.elements],
         "masses": [dataclasses.asdict(m) for m in model.masses],
         "springs": [{"id": s.id, "dofs": [list(s.dof_a)] + ([list(s.dof_b)] if s.dof_b else []),
@@ -197,5 +263,5 @@ def load_model(name_or_path: str | Path) -> FrameModel:
 def save_model(model: FrameModel, path: str | Path) -> Path:
     """Write `model` as a model file; returns the path."""
     path = Path(path)
-    path.write_text(dumps(model_to_dict(model)) + "\n")
+    write_text(path, dumps(model_to_dict(model)) + "\n")
     return path

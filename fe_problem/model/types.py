@@ -16,6 +16,8 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
+
 from ..dofs import DEFAULT_LAYOUT, DofLayout
 from .validate import validate
 
@@ -24,39 +26,74 @@ DIRECTIONS = DEFAULT_LAYOUT.names
 
 @dataclass(frozen=True)
 class Node:
-    """A node of the planar frame, coordinates in metres."""
+    """A node, coordinates in metres (a planar model's nodes lie in the x-y plane: z = 0)."""
 
     id: int
     x: float
     y: float
+    z: float = 0.0
 
 
 @dataclass(frozen=True)
 class Material:
-    """Isotropic linear elastic material: modulus (Pa), density (kg/m^3), Poisson's ratio."""
+    """Isotropic linear elastic material: modulus (Pa), density (kg/m^3), Poisson's ratio, and
+    the shear modulus (Pa; None: E / 2(1 + nu), see `shear_modulus`)."""
 
     youngs_modulus_pa: float
     density_kg_m3: float
     poisson_ratio: float = 0.3
+    shear_modulus_pa: float | None = None
+
+    @property
+    def shear_modulus(self) -> float:
+        """The shear modulus G (Pa): `shear_modulus_pa`, or E / 2(1 + nu) when that is None."""
+        if self.shear_modulus_pa is None:
+            return self.youngs_modulus_pa / (2.0 * (1.0 + self.poisson_ratio))
+        return self.shear_modulus_pa
 
 
 @dataclass(frozen=True)
 class Section:
-    """Beam cross-section: area (m^2), second moment of area in the frame plane (m^4),
-    and the shear coefficient kappa (shear area = kappa * area, Timoshenko elements only)."""
+    """Beam cross-section: area (m^2), the shear coefficient kappa (shear area = kappa * area,
+    Timoshenko elements only) and second moments of area (m^4).
+
+    A planar model's section has `inertia_m4` (bending in the frame plane). A space model's
+    has `iy_m4` (bending in the element's local x-z plane, about local y), `iz_m4` (local x-y
+    plane, about local z) and `j_m4` (the torsion constant), and no `inertia_m4`; the local
+    axes come from the element's `orientation` (docs/model-format.md)."""
 
     area_m2: float
-    inertia_m4: float
+    inertia_m4: float | None = None
     shear_coefficient: float = 5.0 / 6.0
+    iy_m4: float | None = None
+    iz_m4: float | None = None
+    j_m4: float | None = None
+
+    def inertia_about(self, rotation: str) -> float:
+        """The second moment (m^4) resisting a rotation of the element about its local axis
+        `rotation`: "rz" bending (a planar section's `inertia_m4`, a space section's `iz_m4`),
+        "ry" bending (`iy_m4`), "rx" torsion (`j_m4`, the torsion constant)."""
+        if self.inertia_m4 is not None:
+            if rotation != "rz":
+                raise ValueError(f"a planar section bends about rz only, not {rotation!r}")
+            return self.inertia_m4
+        return {"rz": self.iz_m4, "ry": self.iy_m4, "rx": self.j_m4}[rotation]
 
 
 @dataclass(frozen=True)
 class Element:
     """A 2-node frame element from node_i to node_j.
 
-    ``release_i`` / ``release_j``: None for a rigid connection of the element end's rotation
-    to its node; otherwise the element end gets a rotation of its own, tied to the node's
-    rotation by a rotational spring of that stiffness (N m/rad; 0 is a pin).
+    ``release_i`` / ``release_j`` (planar models): None for a rigid connection of the element
+    end's rotation to its node; otherwise the element end gets a rotation of its own, tied to
+    the node's rotation by a rotational spring of that stiffness (N m/rad; 0 is a pin).
+    ``releases_i`` / ``releases_j`` (space models): the same per rotation, as pairs
+    (rotation, stiffness) with the rotation named in the element's local axes ("rx" torsion,
+    "ry", "rz" bending; `DofLayout.hinges`), each rotation at most once; () is rigid.
+    `FrameModel.end_releases` reads either form.
+    ``orientation`` (space models): a vector in the element's local x-z plane (OpenSees'
+    vecxz); local x runs from node_i to node_j, local y = orientation x local x, local z =
+    local x x local y (`FrameModel.local_axes`).
     ``youngs_modulus_pa`` overrides the material's modulus for this element (an updated model).
     ``crack_position`` / ``crack_stiffness``: a crack as a rotational spring (N m/rad) at that
     fraction of the length from node_i, inside the element (flexibility formulation, no new
@@ -80,12 +117,15 @@ class Element:
     crack_position: float | None = None
     crack_stiffness: float | None = None
     weak_zone: tuple[float, float, float] | None = None
+    orientation: tuple[float, float, float] | None = None
+    releases_i: tuple[tuple[str, float], ...] = ()
+    releases_j: tuple[tuple[str, float], ...] = ()
 
 
 @dataclass(frozen=True)
 class LumpedMass:
-    """A lumped mass (kg, acting in every translation) and rotary inertia (kg m^2, on the
-    node's hinge rotation) at a node."""
+    """A lumped mass (kg, acting in every translation) and rotary inertia (kg m^2, on every
+    rotation of the node: the planar frame's rz; a space frame's rx, ry, rz alike) at a node."""
 
     node: int
     mass_kg: float
@@ -116,7 +156,8 @@ class Support:
 @dataclass(frozen=True)
 class FrameModel:
     """A frame model. Nodal DOFs are node-major, each node with the DOFs of `layout`
-    (the planar frame: x, y, rz)."""
+    (`PLANAR_FRAME`: x, y, rz; `SPACE_FRAME`: x, y, z, rx, ry, rz). Nothing outside the layout
+    and the element formulations assumes which: ask `layout` and `coordinates`."""
 
     name: str
     nodes: tuple[Node, ...]
@@ -194,11 +235,50 @@ class FrameModel:
         pos = self.node_position(node_id)
         return tuple(self.layout.index(pos, d) for d in (self.layout.names if names is None else names))
 
+    @functools.cached_property
+    def coordinates(self) -> np.ndarray:
+        """Node coordinates (n_nodes, layout.dimension) in metres, model order: (x, y) of a
+        planar model, (x, y, z) of a space model. Read-only."""
+        axes = ("x", "y", "z")[: self.layout.dimension]
+        out = np.array([[getattr(n, a) for a in axes] for n in self.nodes], dtype=float).reshape(-1, len(axes))
+        out.flags.writeable = False
+        return out
+
+    def element_vector_m(self, element_id: int) -> np.ndarray:
+        """From node_i to node_j of an element (layout.dimension,), metres."""
+        e = self.element(element_id)
+        c = self.coordinates
+        return c[self.node_position(e.node_j)] - c[self.node_position(e.node_i)]
+
     def element_length_m(self, element_id: int) -> float:
         """Length of an element (m)."""
-        e = self.element(element_id)
-        a, b = self.node(e.node_i), self.node(e.node_j)
-        return math.hypot(b.x - a.x, b.y - a.y)
+        return math.hypot(*self.element_vector_m(element_id))
+
+    def local_axes(self, element_id: int) -> np.ndarray:
+        """The element's local axes as rows (3, 3) of unit vectors in global (x, y, z): local
+        x from node_i to node_j; a space element's local y = orientation x local x and
+        local z = local x x local y (OpenSees' vecxz convention); a planar element's local z
+        is the global z (its bending axis) and local y = local z x local x."""
+        d = np.zeros(3)
+        d[: self.layout.dimension] = self.element_vector_m(element_id)
+        ex = d / np.linalg.norm(d)
+        v = self.element(element_id).orientation
+        if self.layout.dimension == 2 or v is None:
+            ez = np.array([0.0, 0.0, 1.0])
+            ey = np.cross(ez, ex)
+            return np.array([ex, ey, ez])
+        ey = np.cross(np.asarray(v, dtype=float), ex)
+        ey /= np.linalg.norm(ey)
+        return np.array([ex, ey, np.cross(ex, ey)])
+
+    def end_releases(self, e: Element) -> tuple[dict[str, float], dict[str, float]]:
+        """The released rotations of element `e`'s two ends, {rotation: stiffness N m/rad}
+        each (empty: rigid): a planar element's ``release_i`` / ``release_j`` in the layout's
+        one hinge rotation, a space element's ``releases_i`` / ``releases_j``."""
+        if len(self.layout.hinges) == 1 and not (e.releases_i or e.releases_j):
+            h = self.layout.hinges[0]
+            return ({} if e.release_i is None else {h: e.release_i}), ({} if e.release_j is None else {h: e.release_j})
+        return dict(e.releases_i), dict(e.releases_j)
 
     def element_modulus_pa(self, element_id: int) -> float:
         """Young's modulus of an element (Pa): its own if updated, else its material's."""

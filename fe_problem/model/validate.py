@@ -40,10 +40,11 @@ def _duplicates(ids: list) -> list:
 #: The physical ranges a model's values must lie in (SI units): a value outside is a typo or a
 #: unit error, and would leave the matrices too ill-conditioned to solve in double precision.
 RANGES = {
-    "coordinate": 1e6,                      # |x|, |y| in m
+    "coordinate": 1e6,                      # |x|, |y|, |z| in m
     "length": 1e-6,                         # the shortest element, m
     "youngs_modulus_pa": (1e3, 1e13), "density_kg_m3": (1e-3, 1e6),
-    "area_m2": (1e-12, 1e3), "inertia_m4": (1e-24, 1e6),
+    "area_m2": (1e-12, 1e3), "inertia_m4": (1e-24, 1e6), "iy_m4": (1e-24, 1e6), "iz_m4": (1e-24, 1e6),
+    "j_m4": (1e-24, 1e6), "shear_modulus_pa": (1e3, 1e13),
     "mass_kg": 1e9, "inertia_kg_m2": 1e9, "stiffness": 1e15, "release": 1e15,
 }
 
@@ -68,15 +69,19 @@ def validate(m: FrameModel) -> None:
     src = m.source
     _check_ids(src, "nodes", [n.id for n in m.nodes])
     for n in m.nodes:
-        for v, name in ((n.x, "x"), (n.y, "y")):
+        for v, name in ((n.x, "x"), (n.y, "y"), (n.z, "z")):
             if not (is_number(v) and abs(v) <= RANGES["coordinate"]):
                 raise ModelFileError(f"{src}: node {n.id} field '{name}' must be a finite number of metres within "
                                      f"+-{RANGES['coordinate']:g}, got {shown(v)}")
+        if m.layout.dimension == 2 and n.z != 0.0:
+            raise ModelFileError(f"{src}: node {n.id} field 'z': a planar model's nodes lie in the x-y plane "
+                                 f"(z = 0), got {shown(n.z)}; a space frame's file says \"dimension\": 3")
     _validate_tables(m)
     _check_ids(src, "elements", [e.id for e in m.elements])
     nodes = {n.id: n for n in m.nodes}
+    known = formulations(m.layout)
     for e in m.elements:
-        _validate_element(m, e, nodes)
+        _validate_element(m, e, nodes, known)
     _validate_nodal(m)
     _check_connected(m)
 
@@ -109,13 +114,30 @@ def _validate_tables(m: FrameModel) -> None:
         if not (is_number(mat.poisson_ratio) and -1.0 < mat.poisson_ratio < 0.5):
             raise ModelFileError(f"{src}: material {name!r} 'poisson_ratio' must be a number in (-1, 0.5), "
                                  f"got {mat.poisson_ratio!r}")
+        if mat.shear_modulus_pa is not None:
+            _positive(mat.shear_modulus_pa, f"{src}: material {name!r} 'shear_modulus_pa'", field="shear_modulus_pa")
+    # a planar section bends in one plane (inertia_m4); a space section in two, and twists
+    need, other = (("inertia_m4",), ("iy_m4", "iz_m4", "j_m4")) if m.layout.dimension == 2 else \
+        (("iy_m4", "iz_m4", "j_m4"), ("inertia_m4",))
     for name, sec in m.sections.items():
         _positive(sec.area_m2, f"{src}: section {name!r} 'area_m2'", field="area_m2")
-        _positive(sec.inertia_m4, f"{src}: section {name!r} 'inertia_m4'", field="inertia_m4")
+        for key in need:
+            if getattr(sec, key) is None:
+                raise ModelFileError(f"{src}: section {name!r}: missing field '{key}' (a {_kind(m)} model's section "
+                                     f"has {', '.join(repr(k) for k in need)})")
+            _positive(getattr(sec, key), f"{src}: section {name!r} '{key}'", field=key)
+        for key in other:
+            if getattr(sec, key) is not None:
+                raise ModelFileError(f"{src}: section {name!r}: field '{key}' is not used in a {_kind(m)} model "
+                                     f"(its section has {', '.join(repr(k) for k in need)})")
         _positive(sec.shear_coefficient, f"{src}: section {name!r} 'shear_coefficient'")
 
 
-def _validate_element(m: FrameModel, e, nodes: dict) -> None:
+def _kind(m: FrameModel) -> str:
+    return "planar" if m.layout.dimension == 2 else "space (\"dimension\": 3)"
+
+
+def _validate_element(m: FrameModel, e, nodes: dict, known: tuple[str, ...]) -> None:
     where = f"{m.source}: element {e.id}"
     for n in (e.node_i, e.node_j):
         if n not in nodes:
@@ -128,11 +150,29 @@ def _validate_element(m: FrameModel, e, nodes: dict) -> None:
     if e.material not in m.materials:
         raise ModelFileError(f"{where}: field 'material': unknown material {e.material!r} "
                              f"(materials: {sorted(m.materials)})")
-    if e.formulation not in formulations():
-        raise ModelFileError(f"{where}: 'formulation' must be one of {formulations()}, got {e.formulation!r}")
+    if not known:
+        raise ModelFileError(f"{where}: no element formulation is registered for {_kind(m)} models")
+    if e.formulation not in known:
+        raise ModelFileError(f"{where}: 'formulation' must be one of {known}, got {e.formulation!r}")
     for r, name in ((e.release_i, "release_i"), (e.release_j, "release_j")):
         if r is not None:
+            if len(m.layout.hinges) != 1:
+                raise ModelFileError(f"{where}: field '{name}' is a planar model's; a space model's element names "
+                                     f"the released rotations: 'releases_{name[-1]}' {{rotation: stiffness}} with "
+                                     f"rotations among {list(m.layout.hinges)}")
             _positive(r, f"{where} '{name}'", allow_zero=True, field="release")
+    for rs, name in ((e.releases_i, "releases_i"), (e.releases_j, "releases_j")):
+        if rs and len(m.layout.hinges) == 1:
+            raise ModelFileError(f"{where}: field '{name}' is a space model's; a planar element's end is released "
+                                 f"by 'release_{name[-1]}' (a stiffness)")
+        names = [r for r, _ in rs]
+        for r, k in rs:
+            if r not in m.layout.hinges:
+                raise ModelFileError(f"{where} '{name}': unknown rotation {shown(r)}; use one of "
+                                     f"{list(m.layout.hinges)} (the element's local axes)")
+            _positive(k, f"{where} '{name}' '{r}'", allow_zero=True, field="release")
+        if len(set(names)) != len(names):
+            raise ModelFileError(f"{where} '{name}': a rotation is released twice")
     if e.youngs_modulus_pa is not None:
         _positive(e.youngs_modulus_pa, f"{where} 'youngs_modulus_pa'", field="youngs_modulus_pa")
     if (e.crack_position is None) != (e.crack_stiffness is None):
@@ -141,8 +181,8 @@ def _validate_element(m: FrameModel, e, nodes: dict) -> None:
         if not (isinstance(e.crack_position, (int, float)) and 0.0 < e.crack_position < 1.0):
             raise ModelFileError(f"{where} 'crack_position': must be inside (0, 1), got {e.crack_position!r}")
         _positive(e.crack_stiffness, f"{where} 'crack_stiffness'", field="release")
-        if not formulation(e.formulation).supports_crack:
-            cracked = [f for f in formulations() if formulation(f).supports_crack]
+        if not formulation(e.formulation, m.layout).supports_crack:
+            cracked = [f for f in formulations(m.layout) if formulation(f, m.layout).supports_crack]
             raise ModelFileError(f"{where}: a crack needs formulation {' or '.join(map(repr, cracked))}")
     if e.weak_zone is not None:
         start, end, ratio = e.weak_zone
@@ -150,16 +190,41 @@ def _validate_element(m: FrameModel, e, nodes: dict) -> None:
             raise ModelFileError(f"{where} 'weak_zone': need 0 <= start < end <= 1, got start {start!r}, end {end!r}")
         if not 0.0 < ratio <= 1.0:
             raise ModelFileError(f"{where} 'weak_zone' 'modulus_ratio': must be in (0, 1], got {ratio!r}")
-        if not formulation(e.formulation).supports_crack:
-            cracked = [f for f in formulations() if formulation(f).supports_crack]
+        if not formulation(e.formulation, m.layout).supports_crack:
+            cracked = [f for f in formulations(m.layout) if formulation(f, m.layout).supports_crack]
             raise ModelFileError(f"{where}: a weak zone needs formulation {' or '.join(map(repr, cracked))}")
-    a, b = nodes[e.node_i], nodes[e.node_j]
-    length = math.hypot(b.x - a.x, b.y - a.y)
+    d = m.coordinates[m.node_position(e.node_j)] - m.coordinates[m.node_position(e.node_i)]
+    length = math.hypot(*d)
     if length <= 0:
         raise ModelFileError(f"{where}: zero length (nodes {e.node_i} and {e.node_j} coincide)")
     if length < RANGES["length"]:
         raise ModelFileError(f"{where}: length {length:.3g} m (nodes {e.node_i} and {e.node_j}) is below the "
                              f"{RANGES['length']:g} m an element may have (coordinates are in metres)")
+    _validate_orientation(m, e, where, d / length)
+
+
+def _validate_orientation(m: FrameModel, e, where: str, axis) -> None:
+    """A space element needs an orientation vector not parallel to its axis (`axis`, unit);
+    a planar element has none (its local z is the global z)."""
+    v = e.orientation
+    if m.layout.dimension == 2:
+        if v is not None:
+            raise ModelFileError(f"{where}: field 'orientation' is a space model's (\"dimension\": 3); a planar "
+                                 "element bends in the x-y plane")
+        return
+    if v is None:
+        raise ModelFileError(f"{where}: missing field 'orientation' (a vector in the element's local x-z plane, "
+                             "OpenSees' vecxz, e.g. [0, 0, 1] for a beam, [1, 0, 0] for a column)")
+    if not (isinstance(v, tuple) and len(v) == 3 and all(is_number(c) for c in v)):
+        raise ModelFileError(f"{where}: field 'orientation' must be 3 finite numbers [x, y, z], got {shown(v)}")
+    norm = math.sqrt(sum(c * c for c in v))
+    if norm == 0.0:
+        raise ModelFileError(f"{where}: field 'orientation' is the zero vector")
+    cross = [axis[1] * v[2] - axis[2] * v[1], axis[2] * v[0] - axis[0] * v[2], axis[0] * v[1] - axis[1] * v[0]]
+    if math.sqrt(sum(c * c for c in cross)) <= 1e-6 * norm:
+        raise ModelFileError(f"{where}: field 'orientation' {list(v)} is parallel to the element (nodes "
+                             f"{e.node_i} -> {e.node_j}), so it fixes no local y axis: choose a vector "
+                             "across the member")
 
 
 def _check_dof(m: FrameModel, dof: Any, where: str) -> None:
@@ -187,13 +252,17 @@ def _validate_nodal(m: FrameModel) -> None:
         _check_dof(m, s.dof_a, f"{src}: spring {s.id}")
         if s.dof_b is not None:
             _check_dof(m, s.dof_b, f"{src}: spring {s.id}")
+            if tuple(s.dof_b) == tuple(s.dof_a):
+                raise ModelFileError(f"{src}: spring {s.id} joins DOF {list(s.dof_a)} to itself: it does nothing; "
+                                     "a spring to ground lists one DOF")
         _positive(s.stiffness, f"{src}: spring {s.id} 'stiffness'", allow_zero=True, field="stiffness")
     for sup in m.supports:
         if sup.node not in idset:
             raise ModelFileError(f"{src}: support at unknown node {sup.node}")
         for d in sup.directions:
             if d not in m.layout.names:
-                raise ModelFileError(f"{src}: support at node {sup.node}: unknown direction {d!r}")
+                raise ModelFileError(f"{src}: support at node {sup.node}: unknown direction {d!r}; use one of "
+                                     f"{m.layout.names}")
     for i, dof in enumerate(m.measured_dofs):
         _check_dof(m, dof, f"{src}: measured_dofs[{i}]")
     if len(set(m.measured_dofs)) != len(m.measured_dofs):

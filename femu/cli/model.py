@@ -1,12 +1,13 @@
 """summary and first frequencies of a model: its size, the solver path and the time taken
 
-A model is a shipped name (hframe), a model file, or a regular frame generated with
---frame BAYSxSTOREYS; --split N splits every element of it into N equal parts, and --save
-writes the result as a model file. Examples:
+A model is a shipped name (hframe, frame3d), a model file, or a regular frame generated with
+--frame BAYSxSTOREYS (planar) or --frame BAYSxBAYSxSTOREYS (a space frame); --split N splits
+every element of it into N equal parts, and --save writes the result as a model file. Examples:
 
   femu model hframe
   femu model hframe --split 64
   femu model --frame 10x50 --split 3 --save big.model.json
+  femu model --frame 2x2x4 --floor-mass 5000
 """
 
 from __future__ import annotations
@@ -19,12 +20,15 @@ from fe_problem.assembly import SOLVERS
 
 from ._args import positive_int, print_json
 
-def frame_size(text: str) -> tuple[int, int]:
-    """An argparse type: BAYSxSTOREYS, two whole numbers >= 1 (``10x50``)."""
-    match = re.fullmatch(r"\s*(\d+)\s*[xX]\s*(\d+)\s*", text)
-    if not match or min(int(match[1]), int(match[2])) < 1:
-        raise argparse.ArgumentTypeError(f"expected BAYSxSTOREYS, two whole numbers >= 1 such as 3x10, got {text!r}")
-    return int(match[1]), int(match[2])
+def frame_size(text: str) -> tuple[int, ...]:
+    """An argparse type: BAYSxSTOREYS (a planar frame, ``10x50``) or BAYSxBAYSxSTOREYS (a space
+    frame: bays in x, bays in y, storeys, ``2x2x4``), whole numbers >= 1."""
+    match = re.fullmatch(r"\s*(\d+)\s*[xX]\s*(\d+)\s*(?:[xX]\s*(\d+)\s*)?", text)
+    numbers = tuple(int(g) for g in match.groups() if g is not None) if match else ()
+    if not numbers or min(numbers) < 1:
+        raise argparse.ArgumentTypeError("expected BAYSxSTOREYS (planar, such as 3x10) or BAYSxBAYSxSTOREYS "
+                                         f"(a space frame, such as 2x2x4), whole numbers >= 1, got {text!r}")
+    return numbers
 
 
 def _number(text: str, ok, what: str) -> float:
@@ -52,8 +56,10 @@ def add_arguments(p) -> None:
     p.add_argument("model", nargs="?", help="a shipped model name (hframe) or a model file (or give --frame)")
     g = p.add_argument_group("generated frames")
     g.add_argument("--frame", type=frame_size, metavar="BAYSxSTOREYS",
-                   help="a regular planar steel frame instead of MODEL (fe_problem.regular_frame), e.g. 3x10")
-    g.add_argument("--bay-width", type=positive_float, metavar="M", help="bay width of --frame, m (default 6)")
+                   help="a regular steel frame instead of MODEL: planar BAYSxSTOREYS (fe_problem.regular_frame, "
+                        "e.g. 3x10) or a space frame BAYSxBAYSxSTOREYS (fe_problem.regular_frame_3d, e.g. 2x2x4)")
+    g.add_argument("--bay-width", type=positive_float, metavar="M",
+                   help="bay width of --frame, m (default 6; a space frame's bays in x and y alike)")
     g.add_argument("--storey-height", type=positive_float, metavar="M",
                    help="storey height of --frame, m (default 3)")
     g.add_argument("--base", choices=("fixed", "pinned"), help="the base nodes of --frame (default fixed)")
@@ -78,10 +84,13 @@ def build_model(args):
     frame_options = {"--bay-width": args.bay_width, "--storey-height": args.storey_height, "--base": args.base,
                      "--floor-mass": args.floor_mass}
     if args.frame is not None:
-        bays, storeys = args.frame
-        model = fp.regular_frame(bays, storeys, 6.0 if args.bay_width is None else args.bay_width,
-                                 3.0 if args.storey_height is None else args.storey_height,
-                                 base=args.base or "fixed", floor_mass_kg=args.floor_mass or 0.0)
+        width = 6.0 if args.bay_width is None else args.bay_width
+        height = 3.0 if args.storey_height is None else args.storey_height
+        common = {"base": args.base or "fixed", "floor_mass_kg": args.floor_mass or 0.0}
+        if len(args.frame) == 3:
+            model = fp.regular_frame_3d(*args.frame, width, width, height, **common)
+        else:
+            model = fp.regular_frame(*args.frame, width, height, **common)
     elif any(v is not None for v in frame_options.values()):
         given = next(k for k, v in frame_options.items() if v is not None)
         raise ValueError(f"{given} describes a generated frame: give --frame BAYSxSTOREYS with it, or leave it out")
@@ -107,11 +116,15 @@ def run(args) -> int:
     if system.n_elastic == 0:
         raise ValueError(f"{model.source or model.name}: the model has no elastic mode: every motion strains "
                          "nothing (check its stiffness values and connections)")
-    lam, _ = system.eigen(system.x0[None, :], min(args.modes, system.n_elastic))
+    # with the shapes, as modal_analysis solves: LAPACK's values-only driver differs from it in
+    # the last digits (1e-11 of the first frequency of a Timoshenko H-frame), and the frequencies
+    # `femu model` prints are the ones the library gives
+    lam, _ = system.eigen(system.x0[None, :], min(args.modes, system.n_elastic), vectors=True)
     t3 = time.perf_counter()
     saved = str(save_model(model, args.save)) if args.save else None
     summary = {
         "name": model.name, "source": model.source, "description": model.description,
+        "dimension": model.layout.dimension, "node_dofs": list(model.layout.names),
         "n_nodes": len(model.nodes), "n_elements": len(model.elements), "n_dofs": model.n_dof,
         "n_free_dofs": system.n_free, "solver_path": system.path,
         "build_s": t1 - t0, "assemble_s": t2 - t1, "solve_s": t3 - t2,
@@ -134,6 +147,8 @@ def _print(s: dict, model, asked: int) -> None:
     print(f"model {s['name']}  ({s['source']})")
     if s["description"]:
         print(f"  {s['description']}")
+    kind = "planar frame" if s["dimension"] == 2 else "space frame"
+    print(f"  {kind} ({s['dimension']}-D): {len(s['node_dofs'])} DOFs per node ({', '.join(s['node_dofs'])})")
     print(f"  {s['n_nodes']} nodes, {s['n_elements']} elements ({', '.join(s['formulations'])}), "
           f"{s['n_dofs']} DOFs, mass {s['total_mass_kg']:.4f} kg")
     print(f"  {s['supports']} supports, {s['masses']} lumped masses, {s['springs']} springs, "

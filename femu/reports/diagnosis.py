@@ -19,6 +19,7 @@ import numpy as np
 from fe_problem import AffineModel, FrameModel, ModalData, elements, mac, modal_analysis
 from fe_problem.diagnosis import Diagnosis
 from fe_problem.jsonutil import dumps
+from fe_problem.safe_files import write_text
 
 from .diagnosis_text import (best_label, coordinate_labels, fmt, location_text, mode_ranges, render_markdown,
                              threshold_chi2_drop)
@@ -38,10 +39,23 @@ CAUSE_COLOR = "#ffd21f"
 
 
 # == figures ===================================================================================
+#: The drawing of a space model: an isometric view with z up, u = (x - y) cos 30 deg,
+#: v = z + (x + y) sin 30 deg (rows: the screen u and v of a unit step along x, y, z).
+ISOMETRIC = np.array([[math.cos(math.pi / 6), -math.cos(math.pi / 6), 0.0], [0.5, 0.5, 1.0]])
+
+
+def projected(model: FrameModel, points: np.ndarray) -> np.ndarray:
+    """Points (..., layout.dimension) in metres on the drawing plane (..., 2): a planar model's
+    (x, y) as they are, a space model's in the `ISOMETRIC` view."""
+    points = np.asarray(points, dtype=float)
+    return points if model.layout.dimension == 2 else points @ ISOMETRIC.T
+
+
 def deformed_frame(model: FrameModel, u: np.ndarray, scale: float, n_points: int = 25) -> np.ndarray:
-    """Element curves (n_elements, n_points, 2) in metres of the frame displaced by scale * u
-    (u: one value per nodal DOF in `model.dofs` order); see `fe_problem.elements.deformed_frame`."""
-    return elements.deformed_frame(model, u, scale, n_points)
+    """Element curves (n_elements, n_points, 2) on the drawing plane (`projected`), metres, of
+    the frame displaced by scale * u (u: one value per nodal DOF in `model.dofs` order); see
+    `fe_problem.elements.deformed_frame`."""
+    return projected(model, elements.deformed_frame(model, u, scale, n_points))
 
 
 def _translation_dofs(model: FrameModel) -> list[tuple[int, str]]:
@@ -69,7 +83,8 @@ def draw_numbered_frame(ax, model: FrameModel, cause_location: dict | None = Non
     `MAX_NUMBERED_ELEMENTS` elements has only the cause's element and node numbered."""
     where = cause_location or {}
     every = len(model.elements) <= MAX_NUMBERED_ELEMENTS
-    xy = {n.id: (n.x, n.y) for n in model.nodes}
+    at = projected(model, model.coordinates)
+    xy = {n.id: at[k] for k, n in enumerate(model.nodes)}
     segs = np.array([[xy[e.node_i], xy[e.node_j]] for e in model.elements])
     ax.plot(*_joined(segs), color="0.75", lw=1.0, zorder=1)
     for e, seg in zip(model.elements, segs):
@@ -78,21 +93,20 @@ def draw_numbered_frame(ax, model: FrameModel, cause_location: dict | None = Non
         if every or where.get("element") == e.id:
             ax.text(*seg.mean(axis=0), str(e.id), fontsize=6.5, color="0.3", ha="center", va="center", zorder=6,
                     bbox={"boxstyle": "square,pad=0.15", "fc": "white", "ec": "0.6", "lw": 0.5, "alpha": 0.85})
-    ax.plot([n.x for n in model.nodes], [n.y for n in model.nodes], "o", ms=2.5, color="0.55", zorder=1.5, ls="none")
+    ax.plot(at[:, 0], at[:, 1], "o", ms=2.5, color="0.55", zorder=1.5, ls="none")
     for node in model.nodes:
         marked = where.get("node") == node.id
         if marked:
-            ax.plot(node.x, node.y, "o", ms=9, color=CAUSE_COLOR, zorder=1.5)
+            ax.plot(*xy[node.id], "o", ms=9, color=CAUSE_COLOR, zorder=1.5)
         if every or marked:
-            ax.annotate(str(node.id), (node.x, node.y), xytext=(3, 3), textcoords="offset points", fontsize=6.5,
+            ax.annotate(str(node.id), tuple(xy[node.id]), xytext=(3, 3), textcoords="offset points", fontsize=6.5,
                         color="0.15", zorder=6)
 
 
 def _shape_layout(model: FrameModel, n_panels: int):
     """A figure with one panel per mode (a tall frame in up to MAX_SHAPE_COLUMNS columns, a
     wide one in two) and the frame's size in metres."""
-    xy = np.array([[n.x, n.y] for n in model.nodes])
-    extent = np.ptp(xy, axis=0)
+    extent = np.ptp(projected(model, model.coordinates), axis=0)
     size = float(np.max(extent))
     aspect = float((extent[0] + 0.3 * size) / (extent[1] + 0.3 * size))
     most = MAX_SHAPE_COLUMNS if aspect < 0.8 else 2
@@ -110,15 +124,17 @@ def _draw_measured(ax, model: FrameModel, data: ModalData, i: int, at_dofs: np.n
     """Measured mode i as arrows from rest, scaled onto the model's shape at the measured
     coordinates by least squares (`at_dofs`), or, for a mode that pairs with no model mode, so
     that its largest entry is drawn at the figure's amplitude."""
-    pos = {nd.id: (nd.x, nd.y) for nd in model.nodes}
-    first, second = model.layout.translations[:2]  # the drawing plane
-    drawn = [c for c, (_, d) in enumerate(data.dofs) if d in (first, second)]
+    at = projected(model, model.coordinates)
+    pos = {nd.id: at[k] for k, nd in enumerate(model.nodes)}
+    trans = model.layout.translations
+    # each measured translation is an arrow along its axis, as drawn (`projected`)
+    axis = projected(model, np.eye(model.layout.dimension))
+    drawn = [c for c, (_, d) in enumerate(data.dofs) if d in trans]
     m = data.shapes[:, i]
     a = 1.0 / np.max(np.abs(m[drawn])) if at_dofs is None else float(m @ at_dofs / (m @ m))
     base = np.array([pos[data.dofs[c][0]] for c in drawn])
-    along_x = np.array([data.dofs[c][1] == first for c in drawn])
     v = scale * a * m[drawn]
-    dxy = np.stack([np.where(along_x, v, 0.0), np.where(along_x, 0.0, v)], axis=1)
+    dxy = v[:, None] * axis[[("x", "y", "z").index(data.dofs[c][1]) for c in drawn]]
     ax.quiver(base[:, 0], base[:, 1], dxy[:, 0], dxy[:, 1], angles="xy", scale_units="xy", scale=1,
               color=MEASURED_COLOR, width=0.007, headwidth=4.5, headlength=5, headaxislength=4.5,
               minlength=0, zorder=4)
@@ -140,7 +156,8 @@ def _draw_mode(ax, diag: Diagnosis, model: FrameModel, extended: FrameModel | No
             _draw_measured(ax, model, data, i, None, SHAPE_AMPLITUDE * size)
         return _finish_panel(ax, title)
     t = calibrated.at(_translation_dofs(model))[:, p]
-    scale = SHAPE_AMPLITUDE * size / np.max(np.hypot(t[0::2], t[1::2]))
+    k = len(model.layout.translations)
+    scale = SHAPE_AMPLITUDE * size / np.max(np.linalg.norm(t.reshape(-1, k), axis=1))
     ax.plot(*_joined(deformed_frame(model, calibrated.shapes[:, p], scale)), color=CALIBRATED_COLOR, lw=2.0,
             zorder=2, label="calibrated model")
     title.append(f"calibrated{'' if p == i else f' (mode {p + 1})'} {c.model_hz[i]:.2f} Hz"
@@ -185,7 +202,7 @@ def plot_shapes(diag: Diagnosis, model: FrameModel, extended: FrameModel | None,
     for ax, i in zip(axes.ravel(), chosen):
         _draw_mode(ax, diag, model, extended, data, i, calibrated, ext, size)
     for ax in axes[:, 0]:
-        ax.set_ylabel("y (m)", fontsize=8)
+        ax.set_ylabel("y (m)" if model.layout.dimension == 2 else "isometric view, z up (m)", fontsize=8)
     handles = {}
     for ax in axes.ravel():  # every kind of line once, whichever panel drew it first
         for h, label in zip(*ax.get_legend_handles_labels()):
@@ -364,11 +381,11 @@ def write_report(diag: Diagnosis, model: FrameModel, data: ModalData, out_dir: P
             figures[role] = path.name
             written.append(path)
     report = out_dir / "report.md"
-    report.write_text(render_markdown(diag, figures, data.source, model.name, extended_file))
+    write_text(report, render_markdown(diag, figures, data.source, model.name, extended_file))
     return written + [report]
 
 
 def write_json(diag: Diagnosis, path: Path) -> Path:
     """The record (`Diagnosis.to_dict()`) as strict JSON, as `femu diagnose --json` prints it."""
-    Path(path).write_text(dumps(diag) + "\n")
+    write_text(path, dumps(diag) + "\n")
     return Path(path)
