@@ -98,8 +98,11 @@ def trends(model: FrameModel) -> dict[str, np.ndarray]:
 
 
 def distributed_candidates(st: Setting) -> list[Candidate]:
-    """Every group (loss and gain) and trend class as a one-parameter candidate."""
+    """Every group (loss and gain) and trend class as a one-parameter candidate (planar models:
+    the groups are read from x and y)."""
     model = st.model
+    if model.layout.dimension != 2:
+        return []
     ids = list(model.element_ids)
     e0 = np.array([model.element_modulus_pa(e) for e in ids])
     system = lazy_system(lambda: AffineModel(model, tuple(

@@ -60,8 +60,11 @@ def moved_node(model: FrameModel, node: int, dx: float, dy: float) -> FrameModel
 
 def model_form_candidates(st: Setting, places: list[dict] | None = None) -> list[Candidate]:
     """The model-form candidates at the elements and nodes of `places` (the causes' locations);
-    None: at every element and node."""
+    None: at every element and node. Planar models only (moves in x and y, a rectangular depth in
+    the frame's plane)."""
     model = st.model
+    if model.layout.dimension != 2:
+        return []
     elements, nodes = [], []
     if places is None:
         elements, nodes = list(model.element_ids), list(model.node_ids)
