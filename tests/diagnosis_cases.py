@@ -90,6 +90,8 @@ class Case:
     cls: str = ""
     nominal: FrameModel | None = None
     dofs: tuple | None = None
+    #: a fault of the data: ("reverse", channel) or ("swap", channel, channel), channels as (node, dir)
+    fault: tuple = ()
 
     @property
     def truths(self) -> tuple:
@@ -98,9 +100,18 @@ class Case:
 
     def data(self, model_name: str = "hframe") -> fp.ModalData:
         """8 modes with 0.2 % frequency noise and shape noise of 2 % of each mode's largest entry."""
-        return fp.synthetic_measurement(self.truth, N_MODES, dofs=self.dofs or (self.nominal or HFRAME).measured_dofs,
+        data = fp.synthetic_measurement(self.truth, N_MODES, dofs=self.dofs or (self.nominal or HFRAME).measured_dofs,
                                         freq_noise=FREQ_NOISE, shape_noise=SHAPE_NOISE, seed=self.seed,
                                         model_name=model_name)
+        if not self.fault:
+            return data
+        shapes = data.shapes.copy()  # the fault made as a test makes it: on the data's columns
+        rows = [data.dofs.index(tuple(c)) for c in self.fault[1:]]
+        if self.fault[0] == "reverse":
+            shapes[rows[0]] *= -1.0
+        else:
+            shapes[rows] = shapes[rows[::-1]]
+        return dataclasses.replace(data, shapes=shapes)
 
 
 def max_shift_pct(model: fp.FrameModel, nominal: FrameModel | None = None) -> float:
@@ -352,6 +363,124 @@ def make_more(cls: str, rng: np.random.Generator, seed: int) -> Case:
     raise ValueError(cls)
 
 
+# == the classes of real structures (issue 19): patterns, model-form errors, data faults ========
+def storey_gradient_truth(model: FrameModel, drop: float) -> FrameModel:
+    """The columns of storey k (0 at the base, of n) with their moduli times 1 - drop (n - 1 - k) / (n - 1),
+    written as element moduli in the model file: the bottom storey softest, the top one nominal."""
+    floors = sorted({round(model.node(e.node_i).y, 9) for e in model.elements
+                     if model.node(e.node_i).y == model.node(e.node_j).y})
+    n = len(floors)
+    moduli = {}
+    for e in model.elements:
+        a, b = model.node(e.node_i), model.node(e.node_j)
+        if a.x != b.x:
+            continue
+        k = sum(f < 0.5 * (a.y + b.y) for f in floors)  # storeys below: 0 for the bottom storey
+        moduli[e.id] = model.element_modulus_pa(e.id) * (1.0 - drop * (n - 1 - k) / max(n - 1, 1))
+    return model.with_element_moduli(moduli)
+
+
+def moved_node_truth(model: FrameModel, node: int, dx: float, dy: float) -> FrameModel:
+    """A node `dx`, `dy` metres from where the model has it (the coordinates edited)."""
+    return model.replace(nodes=tuple(dataclasses.replace(n, x=n.x + dx, y=n.y + dy) if n.id == node else n
+                                     for n in model.nodes))
+
+
+def thinner_truth(model: FrameModel, element: int, depth_factor: float) -> FrameModel:
+    """One member's rectangular section `depth_factor` as deep: area (so mass) times f, inertia f^3."""
+    e = model.element(element)
+    sec = model.sections[e.section]
+    thin = dataclasses.replace(sec, area_m2=depth_factor * sec.area_m2, inertia_m4=depth_factor**3 * sec.inertia_m4)
+    return model.replace(sections={**model.sections, f"thin{element}": thin},
+                         elements=tuple(dataclasses.replace(x, section=f"thin{element}") if x.id == element else x
+                                        for x in model.elements))
+
+
+def springs_truth(model: FrameModel, places, stiffness) -> FrameModel:
+    """Springs to ground at (node, direction) `places`, each of its stiffness (N/m), as model springs
+    to a new grounded node each."""
+    out = model
+    for (node, d), k in zip(places, stiffness):
+        ground = Node(max(out.node_ids) + 1, out.node(node).x, out.node(node).y)
+        sid = max((sp.id for sp in out.springs), default=0) + 1
+        out = out.replace(nodes=out.nodes + (ground,), springs=out.springs + (Spring(sid, (node, d), (ground.id, d), k),),
+                          supports=out.supports + (Support(ground.id, ("x", "y", "rz")),))
+    return out
+
+
+def make_real(cls: str, rng: np.random.Generator, seed: int) -> Case:
+    """One case of a class of `REAL` (the truth built by editing the model file or the data)."""
+    target = float(rng.uniform(1.5, 6.0))
+    if cls == "storey_gradient":
+        truth = _sized(lambda g: storey_gradient_truth(BUILDING, g), target, 1e-3, 0.6, BUILDING)
+        return Case("distributed", {"group": "storeys"}, target, truth, seed, cls=cls, nominal=BUILDING)
+    if cls == "moved_node":
+        node = int(rng.choice([n for n in HFRAME.joints()]))
+        dist = float(rng.uniform(0.005, 0.02))
+        d = ("x", "y")[int(rng.integers(2))]
+        truth = moved_node_truth(HFRAME, node, dist if d == "x" else 0.0, dist if d == "y" else 0.0)
+        return Case("model_form", {"node": node}, max_shift_pct(truth), truth, seed, cls=cls)
+    if cls == "thinner_member":
+        element = int(rng.choice(HFRAME.element_ids))
+        truth = thinner_truth(HFRAME, element, 1.0 - float(rng.uniform(0.02, 0.06)))
+        return Case("model_form", {"element": element}, max_shift_pct(truth), truth, seed, cls=cls)
+    if cls == "two_springs":
+        while True:
+            nodes = [int(n) for n in rng.choice(HFRAME.node_ids, 2, replace=False)]
+            dirs = [str(rng.choice(["x", "y"])) for _ in nodes]
+            if all(max_shift_pct(springs_truth(HFRAME, [(n, d)], [1e6])) >= 3.0 for n, d in zip(nodes, dirs)):
+                break
+        first = _sized(lambda k: springs_truth(HFRAME, [(nodes[0], dirs[0])], [k]), target, 1.0, 1e6)
+        k0 = first.springs[-1].stiffness
+        second = _sized(lambda k: springs_truth(HFRAME, list(zip(nodes, dirs)), [k0, k]), float(rng.uniform(1.5, 6.0)),
+                        1.0, 1e6, first)
+        return Case("boundary_stiffness", {"node": nodes[0]}, target, second, seed,
+                    (("boundary_stiffness", {"node": nodes[0]}), ("boundary_stiffness", {"node": nodes[1]})), cls)
+    if cls in ("reversed_channel", "swapped_channels"):
+        channels = [tuple(HFRAME.measured_dofs[i]) for i in rng.choice(len(HFRAME.measured_dofs), 2, replace=False)]
+        fault = ("reverse", channels[0]) if cls == "reversed_channel" else ("swap", *channels)
+        return Case("data_fault", {"channels": [list(c) for c in fault[1:]]}, 0.0, HFRAME, seed, cls=cls, fault=fault)
+    raise ValueError(cls)
+
+
+#: The classes of real structures and how many cases of each the tables use.
+REAL = {"storey_gradient": 4, "moved_node": 4, "thinner_member": 4, "two_springs": 4, "reversed_channel": 4,
+        "swapped_channels": 4}
+
+
+def classify_real(case: Case, record: dict) -> str:
+    """'right', 'honest', 'missed' or 'wrong' for a class of `REAL`:
+    - a data fault: right when `data_checks` names it with its channels; otherwise wrong when a
+      confident (adequate, identifiable) cause is named, else missed;
+    - a storey pattern: right when the best class by evidence is a distributed one that includes the
+      softest storey's columns; honest when the answer is not adequate, or the record says the change
+      may be spread over members; else wrong;
+    - a model-form error (a moved node, a thinner member): honest when the answer is none, not
+      adequate, not identifiable, flagged implausible, or the record says a model-form class explains
+      the data as well ("model form: ..."); a confident local cause without that is wrong;
+    - two springs: as `classify`."""
+    confident = record["adequate"] and record["cause"]["kind"] not in ("none", "undetermined") and all(
+        c["identifiable"] and c.get("plausible", True) for c in record["causes"])
+    if case.kind == "data_fault":
+        kind = "channel_polarity" if case.fault[0] == "reverse" else "channel_swap"
+        hit = any(c["kind"] == kind and sorted(map(tuple, c["where"]["channels"])) == sorted(case.fault[1:])
+                  for c in record["data_checks"])
+        return "right" if hit else ("wrong" if confident else "missed")
+    if case.kind == "distributed":
+        best = record["evidence"]["classes"][0]
+        if best["family"] == "distributed" and "storey1" in best["label"] + str(best["estimate"].get("members")) \
+                and "loss" in best["label"]:
+            return "right"
+        if best["family"] == "distributed" and best["label"].startswith("stiffness_trend@trend=linear_height+"):
+            return "right"
+        spread = any("spread over several members" in w for w in record["warnings"])
+        return "honest" if not confident or spread else "wrong"
+    if case.kind == "model_form":
+        flagged = any(w.startswith("model form:") for w in record["warnings"])
+        return "wrong" if confident and record["causes"] and not flagged else "honest"
+    return classify(case, record)
+
+
 #: How many cases of each kind the suite runs (40 with an effect, 20 without).
 PLAN = {"stiffness_loss": 12, "added_mass": 10, "joint_flexibility": 10, "shear_deformation": 8,
         "none": 10, "global": 10}
@@ -368,7 +497,8 @@ def cases(seed: int = 2026, plan: dict | None = None) -> list[Case]:
     for kind, n in (plan or PLAN).items():
         for _ in range(n):
             sub = int(rng.integers(2**31))
-            out.append(make_more(kind, rng, sub) if kind in MORE else make_case(kind, rng, seed=sub))
+            out.append(make_real(kind, rng, sub) if kind in REAL else
+                       make_more(kind, rng, sub) if kind in MORE else make_case(kind, rng, seed=sub))
     return out
 
 
@@ -502,7 +632,8 @@ def run_cases(seed: int, plan: dict | None = None) -> list[tuple[Case, dict]]:
             done.append((c, record))
             progress.advance(task)
             if not console.is_terminal:
-                console.print(f"{k}/{len(all_cases)}: {c.cls or c.kind} {c.truths} -> {classify(c, record)} "
+                console.print(f"{k}/{len(all_cases)}: {c.cls or c.kind} {c.truths} -> "
+                              f"{classify_real(c, record) if c.cls in REAL else classify(c, record)} "
                               f"{[(x['kind'], x['location']) for x in record['causes']] or record['cause']['kind']} "
                               f"adequate={record['adequate']}", highlight=False)
     return done
@@ -519,20 +650,30 @@ def main(argv=None) -> int:
     parser.add_argument("seed", nargs="?", type=int, default=2026, help="the cases' seed (default: %(default)s)")
     parser.add_argument("--markdown", action="store_true",
                         help="print only the Markdown tables on stdout, exactly as in the README (the rest on stderr)")
-    parser.add_argument("--only", choices=["standard", "more"], default=None, help="run one group of classes")
+    parser.add_argument("--only", choices=["standard", "more", "real"], default=None, help="run one group of classes")
+    parser.add_argument("--per-class", type=int, default=None, metavar="N",
+                        help="at most N cases of each class (a reduced run; default: the full plan)")
     args = parser.parse_args(argv)
+
+    def plan(full: dict) -> dict:
+        return full if args.per_class is None else {k: min(v, args.per_class) for k, v in full.items()}
+
     t0 = time.perf_counter()
     tables = []
-    if args.only != "more":
-        done = run_cases(args.seed, PLAN)
+    if args.only in (None, "standard"):
+        done = run_cases(args.seed, plan(PLAN))
         pairs = [(c.kind, r["cause"]["kind"]) for c, r in done]
         wrong_place = sum(r["cause"]["kind"] == c.kind and not named_correctly(c, r["cause"]) for c, r in done)
         rows = [row("standard: " + c.kind, c, r) for c, r in done]
         tables += [confusion(pairs), outcome_table(rows)]
         print(f"standard: right kind but wrong place: {wrong_place}", file=sys.stderr)
-    if args.only != "standard":
-        done = run_cases(args.seed, MORE)
+    if args.only in (None, "more"):
+        done = run_cases(args.seed, plan(MORE))
         tables.append(outcome_table([row(c.cls, c, r) for c, r in done]))
+    if args.only in (None, "real"):
+        done = run_cases(args.seed, plan(REAL))
+        tables.append(outcome_table([(c.cls, classify_real(c, r), r["adequate"],
+                                      len(r["causes"]) > 1 and not r["causes"][-1]["identifiable"]) for c, r in done]))
     tail = f"seed {args.seed}; {time.perf_counter() - t0:.0f} s"
     print("\n\n".join(tables))
     print(tail if args.markdown else "\n" + tail, file=sys.stderr if args.markdown else sys.stdout)

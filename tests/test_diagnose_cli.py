@@ -53,12 +53,12 @@ CORRELATION_KEYS = ["measured_hz", "model_hz", "error_pct", "mean_abs_error_pct"
                     "mean_comac", "paired_model_mode"]
 RECORD_KEYS = {
     "record": ["cause", "alternatives", "residuals", "gain", "selection", "candidates", "warnings", "extended_model",
-               "causes", "adequate", "goodness_of_fit", "noise"],
-    "found": ["kind", "location", "estimate", "interval", "label", "p_adjusted", "identifiable"],
+               "causes", "adequate", "goodness_of_fit", "noise", "data_checks", "evidence"],
+    "found": ["kind", "location", "estimate", "interval", "label", "p_adjusted", "identifiable", "plausible"],
     "goodness_of_fit": ["adequate", "chi2", "dof", "reduced_chi2", "p_value", "alpha", "implied_freq_noise",
                         "implied_shape_noise", "explanation"],
     "noise": ["freq_noise", "shape_noise", "source", "shape_convention"],
-    "cause": {"identified": ["kind", "location", "estimate", "identifiable", "p_adjusted", "label"],
+    "cause": {"identified": ["kind", "location", "estimate", "identifiable", "p_adjusted", "label", "plausible"],
               "none": ["kind", "location", "estimate", "identifiable", "p_adjusted", "explanation"],
               "undetermined": ["kind", "location", "estimate", "identifiable", "p_adjusted", "label",
                                "indistinguishable", "explanation"]},
@@ -94,7 +94,8 @@ def assert_record_keys(record: dict, cause: str, gain: str) -> None:
     assert {c["fitted"] for c in record["candidates"]} == {True, False}
     assert all(list(c) == RECORD_KEYS["candidate"][c["fitted"]] for c in record["candidates"])
     assert isinstance(record["warnings"], list)
-    assert all(list(c)[:7] == RECORD_KEYS["found"] for c in record["causes"])
+    assert all(list(c)[:7] == RECORD_KEYS["found"][:7] for c in record["causes"])
+    assert all(("plausible" in c) == bool(c["estimate"]) for c in record["causes"])
     assert isinstance(record["adequate"], bool) and record["adequate"] == record["goodness_of_fit"]["adequate"]
     assert list(record["goodness_of_fit"]) == RECORD_KEYS["goodness_of_fit"]
     assert list(record["noise"]) == RECORD_KEYS["noise"]

@@ -35,6 +35,7 @@ and what the final model's misfit implies (`goodness_of_fit`).
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -47,6 +48,12 @@ from ..modal_data import DataFileError, ModalData, load_modal_data
 from ..model import FrameModel, load_model
 from ..parameters import Parameter
 from .candidates import Candidate, Setting, all_candidates, scale_stiffness, solve
+from . import plausibility
+from .datachecks import DataCheck, check_data, spurious_modes
+from .evidence import FACTOR_10, Evidence, ScoredClass, occam_log_factor, ranked
+from .groups import distributed_candidates
+from .modelform import model_form_candidates
+from .plausibility import few_dof_note
 from .fit import Fit, chi2_batch, fit, look_along, profiled, screen
 from .record import Cause, CandidateFit, Diagnosis, Gain, Noise, PinnedParameter, Residuals, Selection
 from .verdict import profile_interval, verdict
@@ -83,6 +90,7 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
                   DEFAULT_SHAPE_NOISE if shape_noise is None else float(shape_noise),
                   "default" if freq_noise is None and shape_noise is None else "stated")
     cal = calibrate(model, data, noise.freq_noise, noise.shape_noise)
+    checks = data_checks(cal)
     found = screen_and_fit(cal, kinds, n_fit)
     sel = select(cal, found, alpha)
     warnings = list(cal.warnings)
@@ -93,21 +101,192 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
         v = verdict(cal.obs, cal.base, 1, alpha, what="the calibrated model (no candidate significant)")
         if not v.adequate:
             warnings.append(v.explanation)
+        checks = checks + spurious_modes(cal.unpaired, cal.unpaired, cal.obs_all.frequencies_hz, _explained(checks))
+        ev = score_classes(cal, found, None)
         return Diagnosis(cause, alternatives, residuals_of(cal), gain(cal, None), tuple(sel.rows.values()),
-                         sel.selection, None, tuple(warnings), (), v, noise)
+                         sel.selection, None, tuple(warnings + _fault_notes(checks) + _evidence_notes(ev, None)), (),
+                         v, noise, checks, ev)
     cause, alternatives, _ = extend(cal, found, sel)
     from .rounds import further_causes  # it uses this module's steps
 
     rounds = further_causes(cal, found, sel, cause, kinds, n_fit, alpha, max_causes)
-    cause = _first(cause, rounds.causes[0])
+    causes = tuple(_judged(model, c) for c in rounds.causes)
+    cause = _judged(model, _first(cause, causes[0]))
     if cause.explanation:
         warnings.append(cause.explanation)
     v = verdict(rounds.obs, rounds.final, 1 + len(rounds.causes), alpha)
     if not v.adequate:
         warnings.append(v.explanation)
+    warnings += [f"implausible estimate: {c.label}: {c.implausible_because}" for c in causes if not c.plausible]
+    few = few_dof_note(v.dof, 1 + len(rounds.causes))
+    if few:
+        warnings.append(few)
     extended = _named(cal.setting.model, rounds.model, rounds.causes)
+    if len(cal.unpaired):
+        final_unpaired = calibrate(rounds.model, data, noise.freq_noise, noise.shape_noise, model).unpaired
+        checks = checks + spurious_modes(cal.unpaired, final_unpaired, cal.obs_all.frequencies_hz, _explained(checks))
+    ev = score_classes(cal, found, rounds)
     return Diagnosis(cause, alternatives, residuals_of(cal), rounds.gain, tuple(sel.rows.values()), sel.selection,
-                     extended, tuple(warnings), rounds.causes, v, noise)
+                     extended, tuple(warnings + _fault_notes(checks) + _evidence_notes(ev, rounds)), causes, v, noise,
+                     checks, ev)
+
+
+# == evidence between model classes (evidence.py, groups.py) ====================================
+#: Distributed classes fitted (the best screened), and classes whose held-out error is given.
+N_DISTRIBUTED_FIT, N_HELD_OUT = 8, 6
+#: Model-form classes fitted (the best screened).
+N_FORM_FIT = 6
+
+
+def score_classes(cal: "Calibration", found: "Screening", rounds) -> Evidence:
+    """Every class scored by its Laplace evidence against the calibrated model: no effect, each
+    fitted local candidate, the best-screened distributed classes (groups.py) and, with several
+    causes, the model with all of them; the best few with their held-out prediction error."""
+    obs, base = cal.obs, cal.base
+    distributed = distributed_candidates(cal.setting)
+    promise = [max(screen(obs, c, base), look_along(obs, c, base), key=lambda x: x[0]) for c in distributed]
+    top = sorted(range(len(distributed)), key=lambda i: -promise[i][0])[:N_DISTRIBUTED_FIT]
+    fits = [(found.candidates[i], f, "local") for i, f in found.fitted.items()]
+    fits += [(distributed[i], fit(obs, distributed[i], promise[i][1]), "distributed") for i in top]
+    if rounds is not None:  # the model-form alternatives: every node and element screened, the best fitted
+        forms = model_form_candidates(cal.setting)
+        drops = [screen(obs, c, base)[0] for c in forms]
+        fits += [(forms[i], coarse_fit(obs, forms[i]), "model_form")
+                 for i in sorted(range(len(forms)), key=lambda i: -drops[i])[:N_FORM_FIT]]
+    several = rounds is not None and len(rounds.sized) > 1
+    reduced = [base.chi2 / obs.dof(1)] + [f.chi2 / obs.dof(2) for _, f, _ in fits]
+    if several:
+        reduced.append(rounds.final.chi2 / rounds.obs.dof(1 + len(rounds.sized)))
+    d = max(1.0, min(reduced))
+    classes = [ScoredClass("calibrated model (no effect)", "none", 0, base.chi2, 0.0)]
+    for cand, f, family in fits:
+        occam = occam_log_factor(lambda a, c=cand: [x.chi2 for x in chi2_batch(obs, c, np.asarray(a))], f.a,
+                                 cand.upper, d)
+        classes.append(ScoredClass(cand.label, family, 1, f.chi2, -(f.chi2 - base.chi2) / (2 * d) + occam,
+                                   cand.estimate(f.a, f.s)))
+    if several:
+        # judged on the modes that pair with the final model; the calibrated model on the same modes
+        base_r = profiled(rounds.obs, cal.hz0, cal.sh0)
+        occam = sum(occam_log_factor(lambda a, c=c: [x.chi2 for x in chi2_batch(rounds.obs, c, np.asarray(a))], a_j,
+                                     c.upper, d) for c, a_j in rounds.sized)
+        classes.append(ScoredClass(" + ".join(c.label for c, _ in rounds.sized), "several", len(rounds.sized),
+                                   rounds.final.chi2, -(rounds.final.chi2 - base_r.chi2) / (2 * d) + occam))
+    ev = ranked(_one_per_answer(classes), "laplace", d)
+    by_label = {c.label: c for c, _, _ in fits}
+    out = []
+    for k, c in enumerate(ev.classes):
+        if k < N_HELD_OUT and (c.label in by_label or c.family == "none"):
+            c = dataclasses.replace(c, held_out_error_pct=_held_out_error(cal, by_label.get(c.label)))
+        out.append(c)
+    return dataclasses.replace(ev, classes=tuple(out))
+
+
+def coarse_fit(obs: Observations, cand: Candidate) -> Fit:
+    """The best of the candidate's grid, refined once at the vertex of the parabola through it and
+    its neighbours: a model-form class builds a model per size, so no scalar search."""
+    grid = np.asarray(cand.grid, dtype=float)
+    fits = chi2_batch(obs, cand, grid)
+    k = int(np.argmin([f.chi2 for f in fits]))
+    best = fits[k]
+    if 0 < k < len(grid) - 1:
+        x, y = grid[k - 1:k + 2], np.array([f.chi2 for f in fits[k - 1:k + 2]])
+        den = (x[0] - x[1]) * (x[0] - x[2]) * (x[1] - x[2])
+        a2 = (x[2] * (y[1] - y[0]) + x[1] * (y[0] - y[2]) + x[0] * (y[2] - y[1])) / den
+        a1 = (x[2] ** 2 * (y[0] - y[1]) + x[1] ** 2 * (y[2] - y[0]) + x[0] ** 2 * (y[1] - y[2])) / den
+        if a2 > 0:
+            vertex = float(np.clip(-a1 / (2 * a2), x[0], x[2]))
+            trial = chi2_batch(obs, cand, np.array([vertex]))[0]
+            if trial.chi2 < best.chi2:
+                best = trial
+    return best
+
+
+def _one_per_answer(classes: list[ScoredClass]) -> list[ScoredClass]:
+    """The best class of each answer: the profiles of one element's loss (a weak zone at several
+    places along it, or uniform) are one answer; a class fitted at size 0 is the calibrated model."""
+    best: dict = {}
+    for c in classes:
+        if c.family != "none" and c.estimate is not None and c.chi2 >= classes[0].chi2 - 1e-9:
+            continue  # no better than no effect: the calibrated model itself
+        key = c.label.split("(")[0]
+        if key not in best or c.log_evidence > best[key].log_evidence:
+            best[key] = c
+    return list(best.values())
+
+
+def _held_out_error(cal: "Calibration", cand: Candidate | None) -> float | None:
+    """Mean |frequency error| (%) on the held-out modes (as `gain` splits them) of the class refitted
+    on the other modes; None when too few modes to hold any out."""
+    used = cal.used
+    n_hold = max(1, int(round(len(used) / 4)))
+    if len(used) - n_hold < 2:
+        return None
+    noise = {"freq_noise": cal.obs.freq_noise, "shape_noise": cal.obs.shape_noise}
+    obs_fit = Observations.of(cal.data, modes=used[:-n_hold], **noise)
+    obs_hold = Observations.of(cal.data, modes=used[-n_hold:], **noise)
+    if cand is None:
+        hz, sh, s = cal.hz0, cal.sh0, profiled(obs_fit, cal.hz0, cal.sh0).s
+    else:
+        f = fit(obs_fit, cand)
+        hz, sh = (x[0] for x in cand.forward(np.array([f.a])))
+        s = f.s
+    return correlate(hz * np.sqrt(s), sh, obs_hold).mean_abs_error_pct
+
+
+def _evidence_notes(ev: Evidence, rounds) -> list[str]:
+    """A sentence when a distributed class has clearly more evidence than the answer given, and the
+    factor-of-10 note."""
+    notes = []
+    best = ev.best
+    answer = "no effect" if rounds is None else ("the causes found" if len(rounds.sized) > 1 else "the cause found")
+    chosen = [c for c in ev.classes if c.family == ("none" if rounds is None else
+                                                     ("several" if len(rounds.sized) > 1 else "local"))]
+    if rounds is not None and len(rounds.sized) == 1:
+        chosen = [c for c in ev.classes if c.label == rounds.sized[0][0].label] or chosen
+    if best is not None and best.family == "distributed" and chosen and \
+            best.log_evidence - chosen[0].log_evidence >= FACTOR_10:
+        notes.append(f"evidence: the distributed class {best.label} explains the data better than {answer} (log "
+                     f"evidence {best.log_evidence:.3g} against {chosen[0].log_evidence:.3g}): the change may be "
+                     "spread over several members")
+    form = [c for c in ev.classes if c.family == "model_form"]
+    if rounds is not None and form and chosen and form[0].log_evidence > chosen[0].log_evidence - FACTOR_10:
+        notes.append(f"model form: {form[0].label} ({', '.join(f'{k} {v:.4g}' if isinstance(v, float) else f'{k} {v}' for k, v in (form[0].estimate or {}).items())}) "
+                     f"explains the data {'better than' if form[0].log_evidence > chosen[0].log_evidence else 'about as well as'} "
+                     f"{answer} (log evidence {form[0].log_evidence:.3g} against {chosen[0].log_evidence:.3g}): the "
+                     "named cause may be an error of the model's geometry or section, not that physics")
+    if ev.note:
+        notes.append("evidence: " + ev.note)
+    return notes
+
+
+def _judged(model: FrameModel, cause):
+    """A cause (`Cause` or `Found`) with its estimate checked against physical bounds."""
+    if not cause.estimate:
+        return cause
+    why = plausibility.check(model, cause.kind, cause.location, cause.estimate)
+    return cause if why is None else dataclasses.replace(cause, plausible=False, implausible_because=why)
+
+
+def data_checks(cal: "Calibration") -> tuple[DataCheck, ...]:
+    """The checks of the data against the calibrated nominal model (datachecks.py)."""
+    obs = cal.obs_all
+    return check_data(obs.frequencies_hz, obs.shapes, obs.has_shape, cal.hz0, cal.sh0, cal.base_all.s,
+                      cal.setting.coords, obs.shape_noise)
+
+
+def _explained(checks) -> set:
+    """1-based modes another check already accounts for: those of a duplicate or exchanged pair,
+    and every mode when a channel is faulty (a reversed or swapped channel can drop a mode's MAC
+    with every model mode below pairing)."""
+    if any(c.kind in ("channel_polarity", "channel_swap") for c in checks):
+        return set(range(1, 10**6))
+    return {m for c in checks if c.kind in ("duplicate_mode", "mode_order") for m in c.where.get("modes", [])}
+
+
+def _fault_notes(checks) -> list[str]:
+    """One sentence per fault of the data: the diagnosis ran on the data as given."""
+    return [f"data check: {c.text}. The diagnosis ran on the data as given; this fault of the data may explain "
+            "the misfit and the causes named" for c in checks]
 
 
 def _first(cause: Cause, first) -> Cause:

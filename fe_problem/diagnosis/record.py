@@ -30,7 +30,8 @@ class Cause:
     identifiable: False when several candidates explain the data equally well; p_adjusted: the
     Bonferroni-adjusted p-value of the best candidate; label: the best candidate's label (None
     when not identifiable; absent from the JSON when kind is none); indistinguishable: the tied
-    candidates' labels; explanation: why the answer is none or not identifiable.
+    candidates' labels; explanation: why the answer is none or not identifiable; plausible: False
+    when the estimate lies beyond a physical bound (plausibility.py), `implausible_because` says which.
     """
 
     kind: str
@@ -41,6 +42,8 @@ class Cause:
     label: str | None = None
     indistinguishable: tuple[str, ...] = ()
     explanation: str | None = None
+    plausible: bool = True
+    implausible_because: str | None = None
 
     @property
     def is_none(self) -> bool:
@@ -56,6 +59,10 @@ class Cause:
             out["indistinguishable"] = list(self.indistinguishable)
         if self.explanation is not None:
             out["explanation"] = self.explanation
+        if self.estimate:  # judged only where there is an estimate
+            out["plausible"] = self.plausible
+            if not self.plausible:
+                out["implausible_because"] = self.implausible_because
         return out
 
 
@@ -65,7 +72,7 @@ class Found:
     interval: for each numeric estimate a [low, high] pair at `level` (profile likelihood of the
     effect size, the other causes and the global scale at their best values; `None` where the
     bound was not reached inside the candidate's range). p_adjusted: the Bonferroni-adjusted
-    p-value of its round; identifiable, indistinguishable: as in `Cause`."""
+    p-value of its round; identifiable, indistinguishable, plausible, implausible_because: as in `Cause`."""
 
     kind: str
     location: dict | None
@@ -75,12 +82,18 @@ class Found:
     p_adjusted: float
     identifiable: bool = True
     indistinguishable: tuple[str, ...] = ()
+    plausible: bool = True
+    implausible_because: str | None = None
 
     def to_dict(self) -> dict:
         out = {"kind": self.kind, "location": self.location, "estimate": self.estimate, "interval": self.interval,
                "label": self.label, "p_adjusted": self.p_adjusted, "identifiable": self.identifiable}
         if not self.identifiable:
             out["indistinguishable"] = list(self.indistinguishable)
+        if self.estimate:
+            out["plausible"] = self.plausible
+            if not self.plausible:
+                out["implausible_because"] = self.implausible_because
         return out
 
 
@@ -280,7 +293,9 @@ class Diagnosis:
     fitted candidates shown beside the cause; extended_model: the calibrated model with every
     cause's effect (None when the cause is none); warnings: sentences for the user; causes:
     every cause found, in order of evidence (`cause` is the first); verdict: the final model's
-    goodness of fit; noise: the noise model used.
+    goodness of fit; noise: the noise model used; data_checks: faults found in the data before
+    the diagnosis (`datachecks.DataCheck`), which ran on the data as given; evidence: every model
+    class (none, local, distributed, several) ranked by its Laplace evidence (`evidence.Evidence`).
     """
 
     cause: Cause
@@ -294,6 +309,8 @@ class Diagnosis:
     causes: tuple[Found, ...] = ()
     verdict: Verdict | None = None
     noise: Noise | None = None
+    data_checks: tuple = ()
+    evidence: object = None
 
     @property
     def adequate(self) -> bool | None:
@@ -314,4 +331,6 @@ class Diagnosis:
                          "extended_model": None if self.extended_model is None
                          else model_to_dict(self.extended_model),
                          "causes": list(self.causes), "adequate": self.adequate,
-                         "goodness_of_fit": self.verdict, "noise": self.noise})
+                         "goodness_of_fit": self.verdict, "noise": self.noise,
+                         "data_checks": [c.to_dict() for c in self.data_checks],
+                         "evidence": None if self.evidence is None else self.evidence.to_dict()})

@@ -40,6 +40,9 @@ class Rounds:
     model: FrameModel
     gain: Gain
     obs: object = None
+    #: each cause's candidate built on the model with the others at their sizes, and its size
+    #: (the evidence's curvature of each size, evidence.py)
+    sized: tuple = ()
 
 
 @dataclass
@@ -348,7 +351,9 @@ def _finish(cal, st, picks, sizes, ps, ties, gain) -> Rounds:
         out.append(Found(kind, cand.location, cand.estimate(f.a, f.s), interval_of(cand, low, high, f.s), label,
                          ps[j]))
     final_model = scale_stiffness(best.extend(final.a), final.s)
-    return Rounds(tuple(out), final, final_model, gain(cal, cand), obs)
+    sized = tuple((_candidate_on(_with(st.model, st, picks, sizes, skip=j), st, kind, label), sizes[j])
+                  for j, (kind, label) in enumerate(picks))
+    return Rounds(tuple(out), final, final_model, gain(cal, cand), obs, sized)
 
 
 def _location(label: str) -> dict | None:

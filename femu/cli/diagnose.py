@@ -25,8 +25,9 @@ from typing import TYPE_CHECKING
 # the diagnosis and its reports load when the command runs, not for `femu --help` (issue 25)
 if TYPE_CHECKING:
     from fe_problem.diagnosis import Diagnosis
-from femu.reports.diagnosis_text import (cause_text, causes_lines, coordinate_labels, estimate_text, fmt, hz,
-                                         mode_ranges, noise_text, pct, threshold_chi2_drop, verdict_lines)
+from femu.reports.diagnosis_text import (cause_text, causes_lines, coordinate_labels, data_check_lines, estimate_text,
+                                         evidence_lines, fmt, hz, mode_ranges, noise_text, pct, threshold_chi2_drop,
+                                         verdict_lines)
 
 #: How many alternatives and COMAC coordinates the terminal summary lists.
 N_ALTERNATIVES = 5
@@ -128,7 +129,8 @@ def summary_text(diag: Diagnosis, data_source: str, model_name: str) -> str:
              f"  {len(res.correlation.measured_hz)} measured modes at {len(res.measured_dofs)} coordinates; noise: "
              + noise_text(diag), ""]
     found = causes_lines(diag)
-    lines += _cause_lines(diag) + verdict_lines(diag) + [""] + (found + [""] if found else []) + _residual_lines(diag) + _alternative_lines(diag) + _gain_lines(diag)
+    lines += (data_check_lines(diag) + _cause_lines(diag) + verdict_lines(diag) + [""] + (found + [""] if found else [])
+              + evidence_lines(diag) + _residual_lines(diag) + _alternative_lines(diag) + _gain_lines(diag))
     if diag.warnings:
         lines += ["", "Warnings:"] + [f"  - {w}" for w in diag.warnings]
     return "\n".join(lines)

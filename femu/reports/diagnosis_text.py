@@ -75,7 +75,44 @@ def cause_text(cause: Cause) -> str:
             agreed.append(f"all at {location_text(cause.location)}")
         tail = f" ({'; '.join(agreed)})" if agreed else ""
         return "cannot tell apart: " + ", ".join(cause.indistinguishable) + tail
-    return f"{cause.kind} at {location_text(cause.location)}: {estimate_text(cause.estimate)}"
+    return f"{cause.kind} at {location_text(cause.location)}: {estimate_text(cause.estimate)}" + implausible_text(cause)
+
+
+def implausible_text(cause) -> str:
+    """' [IMPLAUSIBLE: why]' for an estimate beyond a physical bound, else ''."""
+    return "" if getattr(cause, "plausible", True) else f" [IMPLAUSIBLE: {cause.implausible_because}]"
+
+
+#: How many model classes the evidence table shows.
+N_CLASSES = 6
+
+
+def evidence_lines(diag: Diagnosis) -> list[str]:
+    """The model classes ranked by evidence, the best few, and the factor-of-10 note."""
+    ev = diag.evidence
+    if ev is None or not ev.classes:
+        return []
+    rows = ev.classes[:N_CLASSES]
+    width = max(len(c.label) for c in rows)
+    lines = [f"Model classes by evidence ({ev.method}; log evidence against the calibrated model, dispersion "
+             f"{fmt(ev.dispersion, 3)}; held-out %: the held-out modes' mean error, refitted without them):",
+             f"  {'class':<{width}}  {'family':<11} params  {'chi^2':>8}  {'log ev.':>8}  held-out %"]
+    for c in rows:
+        lines.append(f"  {c.label:<{width}}  {c.family:<11} {c.n_parameters:>6}  {fmt(c.chi2):>8}  "
+                     f"{fmt(c.log_evidence):>8}  {fmt(c.held_out_error_pct, 3)}")
+    if ev.note:
+        lines.append(f"  {ev.note}")
+    return lines + [""]
+
+
+def data_check_lines(diag: Diagnosis) -> list[str]:
+    """The faults found in the data, one line each, and what that means for the diagnosis."""
+    if not diag.data_checks:
+        return []
+    lines = [f"DATA CHECKS: {len(diag.data_checks)} fault(s) of the data found"]
+    lines += [f"  - {c.kind}: {c.text}" for c in diag.data_checks]
+    lines.append("  the diagnosis below ran on the data as given; the fault(s) may explain its misfit and causes")
+    return lines + [""]
 
 
 def noise_text(diag: Diagnosis) -> str:
@@ -112,7 +149,8 @@ def causes_lines(diag: Diagnosis) -> list[str]:
         ranges = [f"{key} {fmt(v[0], 4)} to {fmt(v[1], 4)}" for key, v in c.interval.items()
                   if key != "level" and isinstance(v, list) and None not in v]
         level = f" ({fmt(100 * c.interval.get('level', 0.95), 2)} % interval: {'; '.join(ranges[:2])})" if ranges else ""
-        lines.append(f"  {k}. {c.kind} at {location_text(c.location)}: {estimate_text(c.estimate)}{level}")
+        lines.append(f"  {k}. {c.kind} at {location_text(c.location)}: {estimate_text(c.estimate)}{level}"
+                     + implausible_text(c))
     return lines
 
 
@@ -154,9 +192,12 @@ def render_markdown(diag: Diagnosis, figures: dict, data_source: str, model_name
     md = [f"# Diagnosis of model `{model_name}` against `{data_source}`", "",
           f"{len(diag.residuals.correlation.measured_hz)} measured modes, {len(diag.residuals.measured_dofs)} "
           f"measured coordinates. Noise model: {noise_text(diag)}.", ""]
+    md += [line.replace("DATA CHECKS:", "**Data checks:**", 1) for line in data_check_lines(diag)]
     md += _cause_section(diag, extended_file)
     md += [line.replace("VERDICT:", "**Verdict:**", 1) for line in verdict_lines(diag)] + [""]
     md += causes_lines(diag) + [""]
+    md += ["## Model classes by evidence", "", "```"] + evidence_lines(diag)[:-1] + ["```", ""] \
+        if diag.evidence is not None else []
     md += _residuals_section(diag, figures)
     md += _gain_section(diag)
     md += ["## Candidates", "",

@@ -1,0 +1,103 @@
+"""Model-form classes: the model's geometry or sections are wrong, not its physics.
+
+A node a centimetre off its true place, or a member drawn a few per cent too deep, moves the
+modes as a crack, a mass or a spring would; fitted by those candidates it becomes confident
+local physics. These classes are the model-form alternatives at every element and node, screened by one
+step each, the best few fitted (core.score_classes), and scored by their evidence beside the
+answer: when one explains the data about as well (within a
+factor of 10 of the answer's evidence) or better, the record says the named cause may be a
+model-form error.
+
+- ``member_depth`` of an element: its rectangular section's depth times (1 - a) (thinner) or
+  (1 + a) (deeper), so its area and mass per length times the same factor and its inertia by
+  its cube; a in [0, 0.5].
+- ``node_position`` of a node: moved by a metres in +x, -x, +y or -y, a up to `MAX_MOVE` of the
+  shortest member at the node.
+
+Each size is a model of its own (the geometry enters the element matrices nonlinearly), so each
+is screened by one step and only the most promising are fitted, coarsely.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ..assembly import AffineModel
+from ..model import FrameModel
+from .candidates import Candidate, Setting, solve
+
+#: A node may move up to this fraction of its shortest member's length.
+MAX_MOVE = 0.2
+GRID = np.concatenate([[0.0], np.geomspace(0.005, 1.0, 9)])
+
+
+def _forward(st: Setting, build):
+    def forward(a):
+        a = np.atleast_1d(np.asarray(a, dtype=float))
+        out = [solve(AffineModel(build(float(v))), np.zeros((1, 0)), st.coords, st.n_modes) for v in a]
+        return np.concatenate([o[0] for o in out]), np.concatenate([o[1] for o in out])
+    return forward
+
+
+def member_depth(model: FrameModel, element: int, factor: float) -> FrameModel:
+    """`model` with one element's section `factor` times as deep (area x f, inertia x f^3)."""
+    e = model.element(element)
+    sec = model.sections[e.section]
+    new = dataclasses.replace(sec, area_m2=factor * sec.area_m2, inertia_m4=factor**3 * sec.inertia_m4)
+    name = f"{e.section}*depth@{element}"
+    return model.replace(sections={**model.sections, name: new},
+                         elements=tuple(dataclasses.replace(x, section=name) if x.id == element else x
+                                        for x in model.elements))
+
+
+def moved_node(model: FrameModel, node: int, dx: float, dy: float) -> FrameModel:
+    """`model` with one node moved by (dx, dy) metres."""
+    return model.replace(nodes=tuple(dataclasses.replace(n, x=n.x + dx, y=n.y + dy) if n.id == node else n
+                                     for n in model.nodes))
+
+
+def model_form_candidates(st: Setting, places: list[dict] | None = None) -> list[Candidate]:
+    """The model-form candidates at the elements and nodes of `places` (the causes' locations);
+    None: at every element and node. Planar models only (moves in x and y, a rectangular depth in
+    the frame's plane)."""
+    model = st.model
+    if model.layout.dimension != 2:
+        return []
+    elements, nodes = [], []
+    if places is None:
+        elements, nodes = list(model.element_ids), list(model.node_ids)
+    for loc in places or ():
+        if loc and loc.get("node") in model.node_ids:  # a joint's element is its node's
+            nodes.append(loc["node"])
+        elif loc and loc.get("element") in model.element_ids:
+            e = model.element(loc["element"])
+            elements.append(e.id)
+            nodes += [e.node_i, e.node_j]
+    fixed = {s.node for s in model.supports if {"x", "y"} <= set(s.directions)}
+    out = []
+    for element in dict.fromkeys(elements):
+        for sign, what in ((-1.0, "thinner"), (1.0, "deeper")):
+            def estimate(a, s, sign=sign):
+                return {"depth_factor": 1.0 + sign * a}
+
+            build = (lambda v, element=element, sign=sign: member_depth(model, element, 1.0 + sign * v))
+            out.append(Candidate("member_depth", {"element": element}, 0.5, 0.5 * GRID, _forward(st, build), estimate,
+                                 build, step=0.005, meta={"profile": what}))
+    for node in dict.fromkeys(nodes):
+        if node in fixed:
+            continue
+        lengths = [model.element_length_m(e.id) for e in model.elements if node in (e.node_i, e.node_j)]
+        if not lengths:
+            continue
+        upper = MAX_MOVE * min(lengths)
+        for d, sign in (("x", 1.0), ("x", -1.0), ("y", 1.0), ("y", -1.0)):
+            def estimate(a, s, d=d, sign=sign):
+                return {"move_m": sign * a, "direction": d}
+
+            build = (lambda v, node=node, d=d, sign=sign:
+                     moved_node(model, node, sign * v if d == "x" else 0.0, sign * v if d == "y" else 0.0))
+            out.append(Candidate("node_position", {"node": node}, upper, upper * GRID, _forward(st, build), estimate,
+                                 build, step=0.005 * upper, meta={"profile": f"{'+' if sign > 0 else '-'}{d}"}))
+    return out
