@@ -8,7 +8,7 @@ import sys
 def add_arguments(s) -> None:
     """The arguments of `femu study`."""
     from adapters.registry import available
-    from femu.studies.study import DEFAULT_TIME_LIMIT_S
+    from femu.studies import DEFAULT_TIME_LIMIT_S
 
     s.add_argument("--optimizers", required=True,
                    help="comma-separated registry names or package.module:Class paths (a path imports "

@@ -46,10 +46,8 @@ from .progress import Progress
 from .seeds import parse_names, parse_seeds
 from .store import Store
 from .tasks import Task, n_var_of, run_task
+from . import DEFAULT_TIME_LIMIT_S  # noqa: F401  (femu.studies.study.DEFAULT_TIME_LIMIT_S, as before)
 
-#: Wall-clock seconds per run when `femu study` is not given --time-limit: far beyond an
-#: honest run of the suite's budgets on one core, so that only a hanging plugin meets it.
-DEFAULT_TIME_LIMIT_S = 3600.0
 
 #: Statuses that --retry-failed runs again.
 RETRY_STATUSES = ("failed", "timeout")
