@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .correlation import Pairing, correlate, mac, pair_modes
+from .correlation import Pairing, correlate, pair_modes, pow2_scaled
 from .modal_data import ModalData, load_modal_data
 from .modal import ModalResult, frequencies_hz
 from .model import FrameModel, load_model
@@ -203,13 +203,11 @@ class UpdatingProblem:
         fm = self.data.frequencies_hz
         j = np.sum(self.weights * ((fm - f) / fm) ** 2, axis=1)
         if self.shape_weight:
-            sel = np.flatnonzero(self.has_shape)
-            model = phi[:, :, self.model_index[sel]]
-            measured = self.data.shapes[:, sel]
-            with one_blas_thread():  # MAC's products go through BLAS: one thread, one summation order
-                macs = np.einsum("bii->bi", mac(measured[None], model))
-            # MAC rounds to slightly above 1 near a perfect fit: 1 - MAC is clamped so J >= 0
-            j = j + self.shape_weight * np.sum(np.clip(1.0 - macs, 0.0, None), axis=1)
+            # 1 - MAC as the squared norm of the shape residuals: a sum of squares, so J >= 0 by
+            # construction, and without the cancellation of 1 - a computed MAC near a perfect fit
+            # (which rounds to +-2e-16 per mode, where this is 1e-32); the J of least_squares
+            with one_blas_thread():  # one summation order on any thread count
+                j = j + np.sum(self.shape_residuals(phi) ** 2, axis=1)
         return j
 
     @property
@@ -246,8 +244,8 @@ class UpdatingProblem:
         if not self.shape_weight:
             return np.zeros((phi.shape[0], 0))
         sel = np.flatnonzero(self.has_shape)
-        model = phi[:, :, self.model_index[sel]]
-        measured = self.data.shapes[:, sel]
+        model = pow2_scaled(phi[:, :, self.model_index[sel]])  # exact scalings: no norm overflows
+        measured = pow2_scaled(self.data.shapes[:, sel])
         a = measured / np.linalg.norm(measured, axis=0)
         b = model / np.linalg.norm(model, axis=1, keepdims=True)
         ab = np.einsum("ik,bik->bk", a, b)
