@@ -100,6 +100,13 @@ class DeapGA:
     """
 
     name = "deap-ga"
+    #: capabilities (adapters.capabilities)
+    anytime = False
+    uses_gradients = False
+    batch = True
+    supports_x0 = True
+    #: the distribution it wraps (its version is listed by `femu optimizers`)
+    library = 'deap'
 
     def min_budget(self, n_var: int, **options) -> int:
         """Four evaluations: the smallest population the operators work on."""

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from deap import algorithms, base, creator, tools
 
-from .budget import population_for_budget
+from .budget import ga_population
 from .harness import seeded_global_rngs, unit_scaled
 
 # DEAP's creator registers classes globally: once per process, under names of our own
@@ -50,8 +50,8 @@ class DeapGAStock:
     changed children in one batch, and replace the population (no elitism, as eaSimple; the
     harness keeps the best point). Works in the unit cube. Settings (DEAP's documented values
     for real-coded problems, e.g. its NSGA-II example):
-        population (None): `adapters.budget.population_for_budget` (20 at 2,000 evaluations
-            on 12 parameters, 48 on 96);
+        population (None): `adapters.budget.ga_population` (20 on 12 parameters, 48 on 96),
+            whatever the budget (anytime);
         cxpb (0.9), mutpb (1.0): crossover and mutation probabilities of varAnd;
         eta_cx (20), eta_mut (20): SBX and polynomial-mutation crowding degrees;
         indpb (None = 1 / n_var): per-gene mutation probability; tournsize (3).
@@ -60,10 +60,17 @@ class DeapGAStock:
     """
 
     name = "deap-ga-stock"
+    #: capabilities (adapters.capabilities)
+    anytime = True
+    uses_gradients = False
+    batch = True
+    supports_x0 = True
+    #: the distribution it wraps (its version is listed by `femu optimizers`)
+    library = 'deap'
 
     def min_budget(self, n_var: int, population: int | None = None, **options) -> int:
-        """One initial population (default: max(10, n_var // 2))."""
-        return int(population) if population is not None else population_for_budget(n_var, 0)
+        """One initial population (default: `ga_population(n_var)`)."""
+        return int(population) if population is not None else ga_population(n_var)
 
     def minimize(self, objective, bounds, budget, rng: np.random.Generator, x0=None, population: int | None = None,
                  cxpb: float = 0.9, mutpb: float = 1.0, eta_cx: float = 20.0, eta_mut: float = 20.0,
@@ -72,7 +79,7 @@ class DeapGAStock:
         f, _ = unit_scaled(objective, bounds)
         xl, xu = (np.asarray(b, dtype=float) for b in bounds)
         n_var = len(xl)
-        pop_n = population_for_budget(n_var, budget) if population is None else int(population)
+        pop_n = ga_population(n_var) if population is None else int(population)
         toolbox = stock_toolbox(n_var, eta_cx, eta_mut, indpb, tournsize)
         U = rng.random((pop_n, n_var))
         if x0 is not None:

@@ -28,6 +28,7 @@ from typing import Any
 
 import numpy as np
 
+from .capabilities import run_description
 from .budget import check_budget, check_min_budget, check_seed, check_x0_mode, jacobian_cost
 from .provenance import library_versions
 
@@ -63,6 +64,12 @@ class RunResult:
     own process (``run(..., isolated=False)``, for debugging; and records made before the
     sandbox), whose counts a plugin could have bypassed.
     output: what the optimizer printed (stdout and stderr of its worker, the end kept).
+    distribution, distribution_version: the installed package that provides the optimizer
+    (``femu-bench`` for the built-ins, the plugin's own for a plugin; None for a class no
+    installed package provides); effective_options: minimize's keyword defaults overridden by
+    `options` (what the run ran with); capabilities: the optimizer's declared flags
+    (adapters.capabilities: anytime, uses_gradients, batch, supports_x0). Records written before
+    these fields have them empty.
     """
 
     optimizer: str
@@ -90,6 +97,10 @@ class RunResult:
     f_opt: float | None = None
     verified: bool = False
     output: str = ""
+    distribution: str | None = None
+    distribution_version: str | None = None
+    effective_options: dict = field(default_factory=dict)
+    capabilities: dict = field(default_factory=dict)
 
     @property
     def overhead_s(self) -> float:
@@ -319,6 +330,7 @@ def run(name: str, problem, budget: int, seed: int, time_limit_s: float | None =
     from .registry import get
 
     cls = get(name)
+    described = run_description(cls, options)  # a plugin's bad capability flag: ValueError before the run
     seed, budget = check_seed(seed), check_budget(budget)
     optimizer = cls()
     check_min_budget(name, optimizer, budget, problem.n_var, **options)
@@ -359,7 +371,8 @@ def run(name: str, problem, budget: int, seed: int, time_limit_s: float | None =
         best_x=[] if objective.best_x is None else objective.best_x.tolist(), trace=objective.finish_trace(),
         wall_s=wall, cpu_s=cpu, fe_s=objective.fe_s, fe_cpu_s=objective.fe_cpu_s,
         opt_cpu_s=max(cpu - objective.fe_cpu_s, 0.0), n_jacobians=objective.n_jacobians, x0=x0, status=status,
-        error=error, variant=variant, host=platform.node(), versions=library_versions())
+        error=error, variant=variant, host=platform.node(), versions=library_versions(),
+        **described)
 
 
 def _problem_count(problem) -> int | None:

@@ -147,6 +147,14 @@ class MLPSurrogate:
     """
 
     name = "mlp-surrogate"
+    #: capabilities (adapters.capabilities); not anytime: under 160 evaluations the design's
+    #: size follows the budget (15/16 of it, the paper's ratio)
+    anytime = False
+    uses_gradients = False
+    batch = False
+    supports_x0 = True
+    #: the distribution it wraps (its version is listed by `femu optimizers`)
+    library = None
 
     def min_budget(self, n_var: int, n_initial: int | None = None, **options) -> int:
         """The design and one refit: 16 evaluations by default (15 design points, budget * 15 // 16,

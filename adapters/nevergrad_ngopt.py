@@ -32,6 +32,13 @@ class NevergradNGOpt:
     """
 
     name = "nevergrad-ngopt"
+    #: capabilities (adapters.capabilities)
+    anytime = False
+    uses_gradients = False
+    batch = False
+    supports_x0 = True
+    #: the distribution it wraps (its version is listed by `femu optimizers`)
+    library = 'nevergrad'
 
     def min_budget(self, n_var: int, num_workers: int = 1, **options) -> int:
         """One batch of asks: `num_workers` evaluations."""

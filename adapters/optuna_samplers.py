@@ -54,6 +54,12 @@ class OptunaCmaEs:
     """
 
     name = "optuna-cmaes"
+    #: capabilities (adapters.capabilities)
+    anytime = True
+    uses_gradients = False
+    batch = False
+    supports_x0 = True
+    library = "optuna"
 
     def min_budget(self, n_var: int, **options) -> int:
         """One trial."""
@@ -91,6 +97,12 @@ class OptunaTPE:
     """
 
     name = "optuna-tpe"
+    #: capabilities (adapters.capabilities)
+    anytime = True
+    uses_gradients = False
+    batch = False
+    supports_x0 = True
+    library = "optuna"
 
     def min_budget(self, n_var: int, **options) -> int:
         """One trial."""

@@ -12,6 +12,13 @@ An optimizer is a class whose instances have
   budget by raising `BudgetExhausted` from ``objective``, so a method may loop until stopped;
   the return value is ignored.
 
+and may declare its capabilities as class attributes (`adapters.capabilities`): ``anytime``
+(its first k evaluations do not depend on the budget), ``uses_gradients`` (it calls
+``objective.least_squares``), ``batch`` (it evaluates whole populations per call) and
+``supports_x0`` (its minimize takes ``x0=``). They are optional, so that older plugins still
+satisfy the protocol; an undeclared flag counts as False (``supports_x0``: read from the
+signature), so a report claims nothing the plugin has not stated.
+
 `Optimizer` is the typing.Protocol (for type checkers and `isinstance`); `OptimizerBase` is an
 optional base class with a constant minimum budget.
 """
@@ -49,6 +56,11 @@ class OptimizerBase:
     name: str = ""
     #: FE evaluations the method needs to start, independent of the problem.
     MIN_BUDGET: int = 1
+    #: Capabilities (adapters.capabilities): say True only for what the method does.
+    anytime: bool = False
+    uses_gradients: bool = False
+    batch: bool = False
+    supports_x0: bool = False
 
     def min_budget(self, n_var: int, **options: Any) -> int:
         """`MIN_BUDGET` evaluations."""

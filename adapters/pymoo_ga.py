@@ -7,7 +7,7 @@ from pymoo.algorithms.soo.nonconvex.ga import GA
 from pymoo.core.problem import Problem
 from pymoo.optimize import minimize
 
-from .budget import population_for_budget
+from .budget import ga_population
 
 
 class _Batched(Problem):
@@ -28,9 +28,10 @@ class PymooGA:
     pymoo's operators scale themselves to the bounds, so the GA works on the moduli (Pa)
     directly. Options:
         pop_size (None): individuals per generation, also the offspring per generation; each
-            generation is one batch of FE evaluations. None: `adapters.budget.population_for_budget`
-            (20 for 2,000 evaluations on up to 40 parameters, 48 on 96 parameters); pymoo's own
-            100 was still improving at 2,000 evaluations on the paper problem, where 20 does better.
+            generation is one batch of FE evaluations. None: `adapters.budget.ga_population`
+            (20 on up to 41 parameters, 48 on 96), whatever the budget, so that the GA is anytime
+            (a longer run continues a shorter one); pymoo's own 100 was still improving at 2,000
+            evaluations on the paper problem, where 20 does better.
         eliminate_duplicates (True): pymoo's removal of repeated offspring.
     With x0 (study option x0=all) the initial population is x0 and pop_size - 1 points drawn
     uniformly from `rng`; otherwise pymoo's own random sampling. Seeded from `rng` through
@@ -38,16 +39,23 @@ class PymooGA:
     """
 
     name = "pymoo-ga"
+    #: capabilities (adapters.capabilities)
+    anytime = True
+    uses_gradients = False
+    batch = True
+    supports_x0 = True
+    #: the distribution it wraps (its version is listed by `femu optimizers`)
+    library = 'pymoo'
 
     def min_budget(self, n_var: int, pop_size: int | None = None, **options) -> int:
-        """One initial population: `pop_size` evaluations (default: max(10, n_var // 2))."""
-        return int(pop_size) if pop_size is not None else population_for_budget(n_var, 0)
+        """One initial population: `pop_size` evaluations (default: `ga_population(n_var)`)."""
+        return int(pop_size) if pop_size is not None else ga_population(n_var)
 
     def minimize(self, objective, bounds, budget, rng: np.random.Generator, x0=None, pop_size: int | None = None,
                  eliminate_duplicates: bool = True):
         """pymoo's minimize for `budget` evaluations (the harness ends it)."""
         xl, xu = (np.asarray(b, dtype=float) for b in bounds)
-        pop = population_for_budget(len(xl), budget) if pop_size is None else int(pop_size)
+        pop = ga_population(len(xl)) if pop_size is None else int(pop_size)
         extra = {}
         if x0 is not None:
             start = rng.uniform(xl, xu, size=(pop, len(xl)))

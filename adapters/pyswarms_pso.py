@@ -53,6 +53,13 @@ class PyswarmsPSO:
     """
 
     name = "pyswarms-pso"
+    #: capabilities (adapters.capabilities)
+    anytime = True
+    uses_gradients = False
+    batch = True
+    supports_x0 = True
+    #: the distribution it wraps (its version is listed by `femu optimizers`)
+    library = 'pyswarms'
 
     def min_budget(self, n_var: int, n_particles: int = 30, **options) -> int:
         """One swarm evaluation: `n_particles` evaluations."""

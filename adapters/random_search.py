@@ -10,6 +10,13 @@ class RandomSearch:
     stops the run; x0 first when the study gives it (x0=all)."""
 
     name = "random-search"
+    #: capabilities (adapters.capabilities)
+    anytime = True
+    uses_gradients = False
+    batch = True
+    supports_x0 = True
+    #: the distribution it wraps (its version is listed by `femu optimizers`)
+    library = None
 
     def min_budget(self, n_var: int, **options) -> int:
         """One evaluation."""

@@ -17,7 +17,9 @@ A built-in name cannot be taken over by a plugin.
 from __future__ import annotations
 
 import importlib
+import os
 import re
+import sys
 from importlib.metadata import entry_points
 
 ENTRY_POINT_GROUP = "femu.optimizers"
@@ -37,6 +39,16 @@ BUILTINS = {
     "optuna-cmaes": "adapters.optuna_samplers:OptunaCmaEs",
     "optuna-tpe": "adapters.optuna_samplers:OptunaTPE",
 }
+
+
+#: (distribution, version) of each plugin class loaded from an entry point, by class
+_FROM: dict = {}
+
+
+def loaded_from(cls) -> tuple[str, str] | None:
+    """(distribution name, version) of the package whose entry point `get` loaded `cls` from,
+    or None (a built-in, a class named by its import path, or not loaded through an entry point)."""
+    return _FROM.get(cls)
 
 
 def _plugins() -> dict:
@@ -62,7 +74,11 @@ def get(name: str) -> type:
         except Exception as exc:  # a broken third-party package: say which one
             raise ValueError(f"optimizer {name!r}: entry point {ep.value!r} in group {ENTRY_POINT_GROUP!r} "
                              f"could not be loaded: {type(exc).__name__}: {exc}") from exc
-        return _checked(cls, f"optimizer {name!r}: entry point {ep.value!r}")
+        cls = _checked(cls, f"optimizer {name!r}: entry point {ep.value!r}")
+        dist = getattr(ep, "dist", None)
+        if dist is not None:
+            _FROM[cls] = (dist.name, dist.version)
+        return cls
     if ":" in name:
         return _import_path(name)
     raise ValueError(f"unknown optimizer {name!r}; available: {', '.join(available())}")
@@ -91,13 +107,14 @@ def check_name(name) -> str:
 
 def _import_path(name: str) -> type:
     """An optimizer named by its import path ``package.module:Class`` (not registered: for
-    trying out a class, e.g. in a test, in every worker process of a study)."""
+    trying out a class, e.g. in a test, in every worker process of a study); a module that is
+    not installed is looked for in the current directory (`_import_here`)."""
     module, _, attr = name.partition(":")
     if not (_DOTTED.fullmatch(module) and attr.isidentifier()):
         raise ValueError(f"optimizer {name!r}: not a registry name or an import path package.module:Class "
                          f"(available: {', '.join(available())})")
     try:
-        cls = getattr(importlib.import_module(module), attr)
+        cls = getattr(_import_here(module), attr)
     except (ImportError, AttributeError, ValueError) as exc:  # ValueError: an empty module name
         raise ValueError(f"optimizer {name!r}: cannot import {attr!r} from module {module!r} "
                          f"({type(exc).__name__}: {exc})") from None
@@ -105,6 +122,27 @@ def _import_path(name: str) -> type:
         raise ValueError(f"optimizer {name!r}: importing module {module!r} ran its top-level code, which raised "
                          f"{type(exc).__name__}: {str(exc)[:200]}") from None
     return _checked(cls, f"optimizer {name!r}")
+
+
+def _import_here(module: str):
+    """`module` imported; if no installed package or path entry has it, looked for in the
+    current directory too (a researcher's ``my_method.py`` beside the study, without
+    ``PYTHONPATH=.``: the console script's sys.path does not hold the current directory). The
+    directory is appended, so an installed module of the same name wins."""
+    try:
+        return importlib.import_module(module)
+    except ModuleNotFoundError as exc:
+        top = module.split(".")[0]
+        here = os.getcwd()
+        if exc.name != top or here in sys.path or "" in sys.path:
+            raise
+        sys.path.append(here)
+        try:
+            return importlib.import_module(module)
+        except ModuleNotFoundError as again:
+            if again.name == top:  # not here either: leave sys.path as it was
+                sys.path.remove(here)
+            raise
 
 
 def _checked(cls, what: str) -> type:

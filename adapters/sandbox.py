@@ -249,6 +249,7 @@ def run_isolated(name: str, problem, budget: int, seed: int, time_limit_s: float
                              f"{worker.output()[-500:]}") from None
         if kind != "ready":
             raise ValueError(why)
+        described = _description(why)
         cpu0, worker_cpu0 = time.process_time(), worker.cpu_s()
         wall0 = time.perf_counter()
         # the cooperative clock (BudgetedObjective's) starts at the optimizer's first request, so
@@ -275,7 +276,23 @@ def run_isolated(name: str, problem, budget: int, seed: int, time_limit_s: float
         wall_s=wall, cpu_s=cpu, fe_s=objective.fe_s, fe_cpu_s=objective.fe_cpu_s,
         opt_cpu_s=max(cpu - objective.fe_cpu_s, 0.0), n_jacobians=objective.n_jacobians, x0=x0, status=status,
         error=error, variant=variant, host=os.uname().nodename, versions=library_versions(), verified=True,
-        output=output)
+        output=output, **described)
+
+
+def _description(answer) -> dict:
+    """The run-record fields the worker reports on what ran (capabilities.run_description),
+    kept only in their documented shape: the worker is the plugin's process, and its word is
+    information for the report, never a count or a status."""
+    if not isinstance(answer, dict):
+        return {}
+    text = lambda v: v if isinstance(v, str) and len(v) <= 200 else None  # noqa: E731
+    flags = answer.get("capabilities")
+    options = answer.get("effective_options")
+    return {"distribution": text(answer.get("distribution")),
+            "distribution_version": text(answer.get("distribution_version")),
+            "effective_options": options if isinstance(options, dict) else {},
+            "capabilities": {k: v for k, v in flags.items() if isinstance(k, str) and isinstance(v, bool)}
+            if isinstance(flags, dict) else {}}
 
 
 class _Lazy:

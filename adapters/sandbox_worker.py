@@ -189,10 +189,12 @@ def _describe(spec: dict) -> dict:
     """What the evaluating side asks before any run: the minimum budget of optimizer `name` on
     each n_var with its options, and whether it takes x0."""
     from .budget import min_budget
+    from .capabilities import check_options
     from .harness import check_takes_x0
     from .registry import get
 
     cls = get(spec["name"])
+    check_options(spec["name"], cls, spec["options"])  # a misspelt option: refused before any run
     need = {n: min_budget(cls, n, **spec["options"]) for n in spec["n_vars"]}
     try:
         check_takes_x0(spec["name"], cls)
@@ -233,6 +235,9 @@ def worker(conn) -> None:
         return
     try:
         optimizer, start = _start(conn, spec)
+        from .capabilities import run_description
+
+        described = run_description(type(optimizer), spec["options"])  # a bad capability flag: refused
     except BaseException as exc:
         message = str(exc) if isinstance(exc, ValueError) else f"{type(exc).__name__}: {exc}"
         conn.send(("refused", message))
@@ -241,7 +246,7 @@ def worker(conn) -> None:
     import numpy as np
 
     proxy = ObjectiveProxy(conn, spec)
-    conn.send(("ready", None))
+    conn.send(("ready", described))
     try:
         optimizer.minimize(proxy, proxy.bounds, proxy.budget, np.random.default_rng(spec["seed"]), **start,
                            **spec["options"])

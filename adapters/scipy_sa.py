@@ -44,6 +44,13 @@ class ScipyDualAnnealing:
     """
 
     name = "scipy-sa"
+    #: capabilities (adapters.capabilities)
+    anytime = False
+    uses_gradients = False
+    batch = False
+    supports_x0 = True
+    #: the distribution it wraps (its version is listed by `femu optimizers`)
+    library = 'scipy'
 
     def min_budget(self, n_var: int, **options) -> int:
         """The initial point and one iteration (2 n_var visits): 25 with 12 parameters."""

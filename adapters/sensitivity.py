@@ -1,13 +1,14 @@
 """sensitivity: the classical inverse eigensensitivity method, as a bounded least-squares fit.
 
-What it minimises: the weighted frequency residuals of the problem,
-r_i(theta) = sqrt(w_i) (f_i_meas - f_i(theta)) / f_i_meas, i.e. the frequency part of J
-(sum r_i^2). It linearises r with the analytic eigenvalue sensitivities of the FE model
-(d lambda = phi^T (dK - lambda dM) phi) and takes bounded trust-region Gauss-Newton steps
+What it minimises: the whole objective J as a sum of squares of the problem's residuals
+(`UpdatingProblem.least_squares`): the weighted frequency residuals
+r_i(theta) = sqrt(w_i) (f_i_meas - f_i(theta)) / f_i_meas and, when J has a shape term, the
+shape residuals sqrt(shape_weight) (a - (a.b) b) of each mode (unit measured and model shapes,
+squared norm shape_weight (1 - MAC)), with the problem's weights. It linearises r (frequency
+rows from the analytic eigenvalue sensitivities d lambda = phi^T (dK - lambda dM) phi, shape
+rows by forward differences) and takes bounded trust-region Gauss-Newton steps
 (scipy.optimize.least_squares, method 'trf', in parameters scaled to the unit cube so that
-moduli of order 1e10 Pa are well conditioned). On a problem whose objective also holds a
-shape term (1 - MAC), such as the ``synthetic`` variant, that term is not fitted: the method
-follows the frequencies only, while the harness records the full J at every point it visits.
+moduli of order 1e10 Pa are well conditioned).
 """
 
 from __future__ import annotations
@@ -20,13 +21,15 @@ from .harness import unit_scaled
 
 
 class Sensitivity:
-    """Inverse eigensensitivity updating: trust-region least squares on frequency residuals.
+    """Inverse eigensensitivity updating: trust-region least squares on the whole residual.
 
     Costs follow the harness's finite-difference rule (adapters.budget.jacobian_cost): a
     trial point where scipy asks only for the residuals costs 1 evaluation, the Jacobian at
     an accepted point n_var more (n_var + 1 in all per Jacobian). When the budget left cannot
-    pay for a Jacobian, the rest is spent on points drawn uniformly (the restart distribution),
-    so a run uses its budget exactly.
+    pay for a Jacobian, the rest is spent evaluating the current point again, so a run uses its
+    budget exactly and is anytime: a longer run would spend those evaluations on the Jacobian at
+    that point, which finds nothing better either (uniform draws there, as before, made the
+    first evaluations of a short run differ from a long one's).
 
     The first start is x0 when the harness passes it (study option x0=all), else a point drawn
     uniformly from rng. When a fit converges before the budget is spent the method starts again
@@ -38,6 +41,13 @@ class Sensitivity:
     """
 
     name = "sensitivity"
+    #: capabilities (adapters.capabilities)
+    anytime = True
+    uses_gradients = True
+    batch = False
+    supports_x0 = True
+    #: the distribution it wraps (its version is listed by `femu optimizers`)
+    library = 'scipy'
 
     def min_budget(self, n_var: int, **options) -> int:
         """A start point and one Jacobian: n_var + 1 evaluations (budget.jacobian_cost)."""
@@ -58,9 +68,11 @@ class Sensitivity:
         def at(u, jac: bool):
             key = u.tobytes()
             if last.get("key") != key or (jac and last["out"].jacobian is None):
-                if jac and objective.remaining < objective.jacobian_cost:
-                    while True:  # no Jacobian left to buy: spend the rest (BudgetExhausted ends it)
-                        f(rng.random((objective.remaining, len(xl))))
+                # a Jacobian at the point whose residuals were just bought costs one less
+                cost = objective.jacobian_cost - (last.get("key") == key)
+                if jac and objective.remaining < cost:
+                    # no Jacobian left to buy: the rest on this point (BudgetExhausted ends it)
+                    f(np.repeat(u[None], objective.remaining, axis=0))
                 last.update(key=key, out=objective.least_squares(to_x(u)[0], jacobian=jac))
             return last["out"]
 

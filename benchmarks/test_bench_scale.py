@@ -37,6 +37,7 @@ import scipy.linalg
 from scipy.sparse.linalg import LinearOperator, eigsh
 
 import fe_problem as fp
+import fe_problem._pool
 import fe_problem.sparse
 from fe_problem.modal import frequencies_hz
 from fe_problem.sparse import ARPACK_TOL
@@ -134,10 +135,8 @@ def test_opensees_rebuild_and_eigen(benchmark, record, n):
 
 def _workers_cpu_s() -> float:
     """CPU seconds used so far by the sparse solver's worker processes (Linux /proc)."""
-    if fe_problem.sparse._POOL is None:
-        return 0.0
     total = 0
-    for pid in fe_problem.sparse._POOL._processes:
+    for pid in fe_problem._pool.worker_pids():
         fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
         total += int(fields[11]) + int(fields[12])  # utime + stime, clock ticks
     return total / os.sysconf("SC_CLK_TCK")

@@ -9,6 +9,7 @@ import X` and `fe_problem.X` work as before.
 from __future__ import annotations
 
 import importlib
+import importlib.util
 
 import os as _os
 
@@ -19,6 +20,13 @@ if _os.environ.get("FEMU_OPTIMIZER_PROCESS"):
                       "stay with the evaluating process; an optimizer sees only its objective)", name="fe_problem")
 
 from . import _threads  # noqa: F401,E402  (one BLAS thread: before numpy loads)
+
+# the two libraries every module needs, looked for (not imported: `femu --help` stays fast)
+for _name in ("numpy", "scipy"):
+    if importlib.util.find_spec(_name) is None:
+        raise ImportError(f"fe_problem needs {_name!r}, which this Python does not have: install femu-bench into an "
+                          "environment (python3 -m venv .venv && .venv/bin/pip install -e .) and run its Python "
+                          "(.venv/bin/python, or activate it: . .venv/bin/activate)", name=_name)
 
 #: public name -> the submodule that defines it
 _WHERE = {

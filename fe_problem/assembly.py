@@ -27,6 +27,7 @@ from .paths import SOLVERS
 from .solver import ModalSolver, take_rows
 from .sparse import SparseModalSolver
 from .terms import DofMap, Terms, dense_terms
+from ._threads import blas_pinned, one_blas_thread
 
 #: Free DOFs above which `solver="auto"` takes the sparse path. Measured (benchmarks/
 #: crossover.py): per point, the dense batched eigvalsh and the sparse shift-invert solve
@@ -96,6 +97,7 @@ class AffineModel:
     the cores this process may use); the result does not depend on it.
     """
 
+    @blas_pinned  # K and M are built with BLAS products: the same matrices on any thread count
     def __init__(self, model: FrameModel, parameters: tuple[Parameter, ...] = (), solver: str = "auto",
                  workers: int | None = None):
         self.model = model
@@ -177,13 +179,16 @@ class AffineModel:
         in (rad/s)^2 and, with `vectors`, mass-normalised shapes (b, n_free, n_modes), each
         signed so that its largest entry is positive (else None); with `rows` (`nodal_rows`)
         the shapes at those rows only, (b, len(rows), n_modes). ValueError if `n_modes` >
-        `n_elastic`."""
-        return self._solver.eigen(theta, n_modes, vectors, rows)
+        `n_elastic`. Runs on one BLAS thread (`_threads.one_blas_thread`): the same numbers
+        whatever thread count the process has."""
+        with one_blas_thread():
+            return self._solver.eigen(theta, n_modes, vectors, rows)
 
     def eigen_sensitivities(self, theta: np.ndarray, n_modes: int, rows=None):
         """Eigenvalues (b, m), shapes (as `eigen`, all free DOFs or at `rows`) and d(omega^2)/d(theta)
-        (b, m, p), from phi^T (dK_k - lambda dM_k) phi for mass-normalised phi."""
-        return self._solver.eigen_sensitivities(theta, n_modes, rows)
+        (b, m, p), from phi^T (dK_k - lambda dM_k) phi for mass-normalised phi (one BLAS thread)."""
+        with one_blas_thread():
+            return self._solver.eigen_sensitivities(theta, n_modes, rows)
 
     def _check_mass(self, m_trip) -> None:
         """ModelFileError naming the model and the DOFs, if some free DOF carries no mass at x0."""

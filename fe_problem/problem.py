@@ -20,6 +20,7 @@ from .modal_data import ModalData, load_modal_data
 from .modal import ModalResult, frequencies_hz
 from .model import FrameModel, load_model
 from .assembly import AffineModel
+from ._threads import blas_pinned, one_blas_thread
 from .parameters import Parameter, element_moduli
 
 WEIGHTS = ("gamma", "unit")
@@ -86,6 +87,7 @@ class UpdatingProblem:
     objective values; every row counts as one FE evaluation in `n_evals`.
     """
 
+    @blas_pinned  # the pairing and initial modes: the same on any thread count
     def __init__(self, model: FrameModel | str | None = None, data: ModalData | str = "paper",
                  parameters: tuple[Parameter, ...] | None = None, weights="gamma",
                  shape_weight: float = 0.0, n_model_modes: int | None = None, name: str | None = None,
@@ -204,8 +206,10 @@ class UpdatingProblem:
             sel = np.flatnonzero(self.has_shape)
             model = phi[:, :, self.model_index[sel]]
             measured = self.data.shapes[:, sel]
-            macs = np.einsum("bii->bi", mac(measured[None], model))
-            j = j + self.shape_weight * np.sum(1.0 - macs, axis=1)
+            with one_blas_thread():  # MAC's products go through BLAS: one thread, one summation order
+                macs = np.einsum("bii->bi", mac(measured[None], model))
+            # MAC rounds to slightly above 1 near a perfect fit: 1 - MAC is clamped so J >= 0
+            j = j + self.shape_weight * np.sum(np.clip(1.0 - macs, 0.0, None), axis=1)
         return j
 
     @property
@@ -234,13 +238,33 @@ class UpdatingProblem:
         fm = self.data.frequencies_hz
         return np.sqrt(self.weights) * (fm - f) / fm
 
-    def least_squares(self, x) -> "LeastSquares":
-        """J, the weighted frequency residuals r (m,) and dr/dtheta (m, n_var) at one point.
+    def shape_residuals(self, phi: np.ndarray) -> np.ndarray:
+        """The shape part of J as residuals (b, n_shape_modes * n_measured_dofs): per paired mode
+        with a measured shape, sqrt(shape_weight) (a - (a.b) b) for the unit measured shape a and
+        unit model shape b, whose squared norm is shape_weight (1 - MAC) exactly, smooth where
+        MAC -> 1 (unlike sqrt(1 - MAC)) and blind to the sign of b. Empty without a shape term."""
+        if not self.shape_weight:
+            return np.zeros((phi.shape[0], 0))
+        sel = np.flatnonzero(self.has_shape)
+        model = phi[:, :, self.model_index[sel]]
+        measured = self.data.shapes[:, sel]
+        a = measured / np.linalg.norm(measured, axis=0)
+        b = model / np.linalg.norm(model, axis=1, keepdims=True)
+        ab = np.einsum("ik,bik->bk", a, b)
+        r = np.sqrt(self.shape_weight) * (a[None] - ab[:, None, :] * b)
+        return r.transpose(0, 2, 1).reshape(len(phi), -1)
 
-        Uses analytic eigenvalue derivatives (d lambda = phi^T (dK - lambda dM) phi), so it
-        costs one eigen-solve with vectors: counted as `jacobian_cost_evals` of this problem's own
-        evaluations (the harness charges a plugin n_var + 1, adapters.budget.jacobian_cost).
-        The frequency part of J is sum(r^2); J also holds the shape term if there is one."""
+    def least_squares(self, x, charged: int | None = None) -> "LeastSquares":
+        """J, the weighted residuals r of the whole objective (J = sum r^2) and dr/dtheta at one
+        point: the frequency residuals (m,), then, when J has a shape term, `shape_residuals`.
+
+        Frequency rows use analytic eigenvalue derivatives (d lambda = phi^T (dK - lambda dM)
+        phi): one eigen-solve with vectors, counted as `jacobian_cost_evals` of this problem's
+        own evaluations. Shape rows are forward differences (one batched solve of n_var points,
+        counted as n_var more evaluations, or charged - 1 when less was charged), computed only when the caller paid for a Jacobian:
+        `charged` (what the harness charged for the call, adapters.budget.jacobian_cost) of 1
+        means residuals only (the Jacobian is then None). The harness charges n_var + 1 for a
+        Jacobian whichever way it is computed."""
         X = self.check_x(x, "x")
         if X.shape[0] != 1:
             raise ValueError(f"least_squares takes one point, got {X.shape[0]}")
@@ -251,8 +275,31 @@ class UpdatingProblem:
         df = dlam[0, self.model_index, :] / (8.0 * np.pi**2 * f[0, :, None])
         fm = self.data.frequencies_hz
         sw = np.sqrt(self.weights)
-        return LeastSquares(float(self.objective_from_modes(f, phi)[0]), sw * (fm - f[0]) / fm,
-                            -(sw / fm)[:, None] * df)
+        r = sw * (fm - f[0]) / fm
+        jac = -(sw / fm)[:, None] * df
+        if self.shape_weight:
+            rs = self.shape_residuals(phi)[0]
+            r = np.concatenate([r, rs])
+            if charged == 1:
+                jac = None
+            else:
+                jac = np.vstack([jac, self._shape_jacobian(X[0], rs)])
+                # n_var more solves; a caller that paid the point's value before (charged n_var)
+                # is counted what it paid: the point itself was solved again, not a new point
+                extra = self.n_var if charged is None else min(self.n_var, int(charged) - 1)
+                self.n_evals += extra
+                self._points += extra
+        return LeastSquares(float(self.objective_from_modes(f, phi)[0]), r, jac)
+
+    def _shape_jacobian(self, x: np.ndarray, r0: np.ndarray) -> np.ndarray:
+        """d shape_residuals / d theta at x by forward differences (a step of 1e-6 of each
+        parameter's range, taken backwards at the upper bound), one batched solve of n_var points."""
+        span = self.xu - self.xl
+        h = 1e-6 * span
+        h = np.where(x + h > self.xu, -h, h)
+        X = x[None] + np.diag(h)
+        _, phi = self._solve(X, shapes=True)
+        return ((self.shape_residuals(phi) - r0[None]) / h[:, None]).T
 
     #: What one analytic Jacobian costs, in FE evaluations: one eigen-solve with vectors.
     jacobian_cost_evals = 1

@@ -14,8 +14,9 @@ parameters), so A is positive definite even for a free-free structure; its zero-
 as the dense path drops them.
 
 A batch of points on a model of `PARALLEL_MIN_DOFS` free DOFs or more is split over `workers`
-processes: this one and a pool of worker processes shared by all models (SuperLU and the ARPACK
-driver hold the GIL, so threads gave no speed-up), each with one BLAS thread. The points are
+processes: this one and a pool of worker processes shared by all models (_pool.py: started
+without importing the user's main module; SuperLU and the ARPACK driver hold the GIL, so threads
+gave no speed-up), each with one BLAS thread. The points are
 independent and each is solved by the same code from the same start vector, so the result is
 the same for any worker count and any batch.
 """
@@ -26,14 +27,13 @@ import multiprocessing
 import os
 import pickle
 import uuid
-from concurrent.futures import ProcessPoolExecutor
-from concurrent.futures.process import BrokenProcessPool
 
 import numpy as np
 import scipy.linalg
 import scipy.sparse as sp
 from scipy.sparse.linalg import ArpackNoConvergence, LinearOperator, eigsh, splu
 
+from . import _pool
 from .solver import signed
 
 try:  # the Cholesky path: an optional extra (`pip install femu-bench[cholmod]`, needs libsuitesparse-dev)
@@ -86,46 +86,6 @@ def default_workers() -> int:
     except AttributeError:  # not on Linux
         n = os.cpu_count() or 1
     return max(1, min(n, 8))
-
-
-# One pool of worker processes for the whole program (not one per model: a diagnosis builds
-# hundreds of models), started at the first parallel batch. A task carries its solver pickled
-# once (a few MB at 9,000 DOFs) and a token; a worker keeps the last few solvers it was sent.
-_POOL: ProcessPoolExecutor | None = None
-_POOL_SIZE = 0
-_KEPT: dict[str, "SparseModalSolver"] = {}
-_KEEP = 4
-
-
-def _pool(size: int) -> ProcessPoolExecutor:
-    """The shared pool, with at least `size` processes."""
-    global _POOL, _POOL_SIZE
-    if _POOL is None or _POOL_SIZE < size:
-        if _POOL is not None:
-            _POOL.shutdown(wait=True)
-        # forkserver, not fork: this process may run threads (a progress bar, a Dask client) whose
-        # locks a forked child would inherit held; the solver reaches a worker pickled anyway
-        _POOL = ProcessPoolExecutor(size, mp_context=multiprocessing.get_context("forkserver"))
-        _POOL_SIZE = size
-    return _POOL
-
-
-def _drop_pool() -> None:
-    global _POOL, _POOL_SIZE
-    if _POOL is not None:
-        _POOL.shutdown(wait=False, cancel_futures=True)
-    _POOL, _POOL_SIZE = None, 0
-
-
-def _chunk(token: str, blob: bytes, theta: np.ndarray, n_modes: int, shapes: bool, rows, sens: bool):
-    """A worker's share of a batch: the per-point results of `theta` (c, p), in order."""
-    solver = _KEPT.get(token)
-    if solver is None:
-        solver = pickle.loads(blob)
-        if len(_KEPT) >= _KEEP:
-            _KEPT.pop(next(iter(_KEPT)))
-        _KEPT[token] = solver
-    return [solver._modes(t, n_modes, shapes, rows, sens) for t in theta]
 
 
 class SparseModalSolver:
@@ -337,33 +297,15 @@ class SparseModalSolver:
         if n_modes > self.n_elastic:
             raise ValueError(f"model {self.name!r} has only {self.n_elastic} elastic modes, asked for {n_modes}")
         w = min(self.workers, len(theta)) if self.n_free >= PARALLEL_MIN_DOFS else 1
-        if w > 1:
-            parts = np.array_split(theta, w)
-            futures = self._submit(parts[1:], n_modes, shapes, rows, sens)
-            res = [self._modes(t, n_modes, shapes, rows, sens) for t in parts[0]]  # this process takes a share
-            for f, part in zip(futures, parts[1:]):
-                try:
-                    res += f.result()
-                except BrokenProcessPool:  # a worker died (killed, out of memory): do its share here
-                    _drop_pool()
-                    res += [self._modes(t, n_modes, shapes, rows, sens) for t in part]
+        if w > 1:  # this process and w - 1 workers of the shared pool (_pool.py)
+            res = _pool.map_split(self._modes, self._token, self._pickled, "_modes",
+                                  np.array_split(theta, w), (n_modes, shapes, rows, sens))
         else:
             res = [self._modes(t, n_modes, shapes, rows, sens) for t in theta]
         lam = np.stack([r[0] for r in res])
         phi = np.stack([r[1] for r in res]) if res[0][1] is not None else None
         dlam = np.stack([r[2] for r in res]) if sens else None
         return lam, phi, dlam
-
-    def _submit(self, parts, n_modes: int, shapes: bool, rows, sens: bool) -> list:
-        """Hand `parts` to the shared pool; a pool found broken is replaced once."""
-        blob = self._pickled()
-        for attempt in range(2):
-            try:
-                pool = _pool(len(parts))
-                return [pool.submit(_chunk, self._token, blob, part, n_modes, shapes, rows, sens) for part in parts]
-            except BrokenProcessPool:
-                _drop_pool()
-        raise RuntimeError("the worker processes of the sparse solver cannot be started")
 
     def set_workers(self, n: int) -> None:
         """Split later batches over `n` processes (this one and n - 1 workers)."""

@@ -16,8 +16,9 @@ Printed (and with --json as one JSON object on stdout):
 number of a solver is the MEDIAN OVER ITS SEEDS: mean_abs_error_pct (%), frequencies_hz and
 error_pct (per measured mode; of the model at each run's best point), n_evals, wall_s,
 cpu_s, fe_s, overhead_s (seconds), best_f (eq. 4 objective), with the quartiles of best_f
-and of the mean error, the status ("ok", or "mixed" with the count per status) and the
-number of runs. Beside them: the measured and initial frequencies, the paper's Table 1
+and of the mean error, the status ("ok", or "mixed" with the count per status), the
+number of runs, and `best_run`: the seed, J and point (the updated moduli, Pa) of its best run.
+Beside them: the measured and initial frequencies, the paper's Table 1
 frequencies and the mean errors its table implies (recomputed) and its text states.
 
 The defaults (DEFAULT_SEEDS, DEFAULT_BUDGET) were chosen by timing the whole command on a
@@ -81,7 +82,9 @@ def solver_record(s) -> dict:
             "n_evals": _median(s.n_evals), "wall_s": _median(s.wall_s), "cpu_s": _median(s.cpu_s),
             "fe_s": _median(s.fe_s), "overhead_s": _median(s.overhead_s), "best_f": _median(s.best_f),
             "best_f_q1_q3": [s.best_f.to_dict()["q1"], s.best_f.to_dict()["q3"]],
-            "status": s.status, "statuses": dict(s.statuses), "n_runs": s.n_runs}
+            "status": s.status, "statuses": dict(s.statuses), "n_runs": s.n_runs,
+            "best_run": {"seed": s.best_seed, "best_f": None if s.best_x is None else s.best_run_f,
+                         "x": None if s.best_x is None else s.best_x.tolist()}}
 
 
 def _seed_text(seeds: list[int]) -> str:

@@ -286,3 +286,15 @@ class NeedsArguments(MinBudgetRaises):
 
 
 AN_INSTANCE = MinBudgetRaises()
+
+
+class BadFlag:
+    """A capability flag that is not a bool (tests/test_capabilities.py)."""
+
+    name = "bad-flag"
+    anytime = "yes"
+
+    def minimize(self, objective, bounds, budget, rng, x0=None):
+        while True:
+            objective(rng.uniform(bounds[0], bounds[1], (10, len(bounds[0]))))
+

@@ -206,10 +206,10 @@ def test_bad_budget_is_refused_before_anything_runs(budget):
 
 
 def test_budget_below_the_methods_minimum_is_refused():
-    """min_budget is computed from the dimension: one initial population of max(10, n_var // 2)."""
+    """min_budget is computed from the dimension: one initial population of max(20, n_var // 2)."""
     p = make_problem("paper")
-    with pytest.raises(ValueError, match="'pymoo-ga' needs a budget of at least 10 evaluations, got 9"):
-        adapters.run("pymoo-ga", p, 9, seed=0)
+    with pytest.raises(ValueError, match="'pymoo-ga' needs a budget of at least 20 evaluations, got 19"):
+        adapters.run("pymoo-ga", p, 19, seed=0)
     assert p.n_evals == 0
     big = fe_problem.suite_problem("hframe-freq/96/1")
     for name in ("pymoo-ga", "deap-ga-stock"):

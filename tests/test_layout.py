@@ -26,9 +26,10 @@ def test_every_builtin_implements_the_protocol(name):
 def test_min_budget_follows_n_var_and_options():
     assert min_budget(get("scipy-sa"), 12) == 25 and min_budget(get("scipy-sa"), 3) == 7
     assert min_budget(get("cma-es"), 12) == 11 and min_budget(get("cma-es"), 12, popsize=20) == 20
-    # GAs: one initial population, sized to the dimension (max(10, n_var // 2), at most 100)
+    # GAs: one initial population, sized to the dimension and not the budget (max(20, n_var // 2),
+    # at most 100: adapters.budget.ga_population, so that the GAs are anytime)
     for name, option in (("pymoo-ga", "pop_size"), ("deap-ga-stock", "population")):
-        assert [min_budget(get(name), n) for n in (2, 12, 96, 200, 400)] == [10, 10, 48, 100, 100]
+        assert [min_budget(get(name), n) for n in (2, 12, 96, 200, 400)] == [20, 20, 48, 100, 100]
         assert min_budget(get(name), 12, **{option: 40}) == 40
     assert min_budget(get("sensitivity"), 12) == 13 and min_budget(get("sensitivity"), 96) == 97
 

@@ -63,16 +63,20 @@ def _median_iqr(cell: str) -> tuple[float, float]:
 def test_report_has_table1_the_papers_numbers_and_caveats(report):
     _, md = report
     assert "Table 1 rebuilt" in md
-    rows = _table_rows(md, "mode")
-    # the paper's Table 1, column by column (modes 1 and 5)
-    assert rows["1"]["measured"] == "53.9" and rows["5"]["measured"] == "445.1"
-    assert rows["1"]["initial (paper)"] == "56.2" and rows["3"]["initial (paper)"] == "228.4"
-    assert [rows[str(i)]["PSO (paper)"] for i in range(1, 6)] == ["53.9", "117.8", "208.5", "253.8", "438.5"]
-    assert rows["2"]["GA (paper)"] == "122.0" and rows["5"]["SA (paper)"] == "437.0"
+    # Table 1 transposed to fit a page: one row per model, one column per mode (frequencies,
+    # then absolute errors); the paper's Table 1, row by row (modes 1 and 5)
+    rows = _table_rows(md, "model | f1")
+    assert rows["measured"]["f1"] == "53.9" and rows["measured"]["f5"] == "445.1"
+    assert rows["initial (paper)"]["f1"] == "56.2" and rows["initial (paper)"]["f3"] == "228.4"
+    assert [rows["PSO (paper)"][f"f{i}"] for i in range(1, 6)] == ["53.9", "117.8", "208.5", "253.8", "438.5"]
+    assert rows["GA (paper)"]["f2"] == "122.0" and rows["SA (paper)"]["f5"] == "437.0"
     # the paper's mean errors recomputed from its table: PSO 0.41, SA 0.74, GA 1.80, initial 5.51
-    mean = rows["**mean abs err %**"]
-    assert [mean[k] for k in ("initial (paper)", "PSO (paper)", "SA (paper)", "GA (paper)")] == \
+    errors = _table_rows(md, "model | err 1")
+    assert [errors[k]["mean abs err %"] for k in ("initial (paper)", "PSO (paper)", "SA (paper)", "GA (paper)")] == \
         ["**5.51**", "**0.41**", "**0.74**", "**1.80**"]
+    # every table of the report fits a page: at most 15 columns
+    widths = [ln.count("|") - 1 for ln in md.splitlines() if ln.startswith("|")]
+    assert max(widths) <= 15, max(widths)
     # and beside them what its text says
     paper = _table_rows(md, "method")
     assert paper["PSO"]["mean err % (paper's text)"] == "1.95"
@@ -80,7 +84,7 @@ def test_report_has_table1_the_papers_numbers_and_caveats(report):
     assert "do not all agree with its own table" in md
     assert "geometry is a reconstruction" in md
     for name in ("random-search", TINY, BROKEN):
-        assert name in rows["1"], f"no column for {name}"
+        assert name in rows and name in errors, f"no row for {name}"
 
 
 def test_report_numbers_equal_the_runs(study, report):
@@ -98,9 +102,9 @@ def test_report_numbers_equal_the_runs(study, report):
     mean_err = np.median([np.mean(np.abs(c.error_pct)) for c in corr])
     cell = _median_iqr(solvers["random-search"]["mean abs err % median (IQR)"])[0]
     assert cell == pytest.approx(mean_err, abs=0.005)
-    table = _table_rows(md, "mode")
+    table = _table_rows(md, "model | f1")
     f2 = np.median([c.model_hz[1] for c in corr])
-    assert _median_iqr(table["2"]["random-search"])[0] == pytest.approx(f2, abs=0.005)
+    assert _median_iqr(table["random-search"]["f2"])[0] == pytest.approx(f2, abs=0.005)
     # summary.json carries the same numbers unrounded
     summary = json.loads((path.parent / "summary.json").read_text())[0]["solvers"]["random-search"]
     assert summary["best_f"]["median"] == q2
@@ -126,7 +130,8 @@ def _png_size(path) -> tuple[int, int]:
 def test_figures_exist_and_are_real_pngs(report):
     path, md = report
     names = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", md)
-    assert {n.split("_")[0] for n in names} == {"convergence", "ecdf", "errors", "overhead"}
+    assert {n.split("_")[0] for n in names} == {"convergence", "ecdf", "errors", "overhead", "parameters", "modes",
+                                                 "mac"}
     for name in names:
         fig = path.parent / name
         w, h = _png_size(fig)
@@ -178,14 +183,16 @@ def test_ioh_export_round_trips(study, tmp_path):
     for run in runs:
         r = by_key[(run.optimizer, run.seed)]
         assert r.function_name == PREFIX + "paper" and r.dimension == 12
-        assert r.function_id == FUNCTION_IDS["paper"] == 1 and r.instance == 1
+        assert r.function_id == FUNCTION_IDS["paper"] == 20001 and r.instance == 1
+        assert r.function_id > 24                        # clear of BBOB's function ids 1-24
         assert r.evals == run.n_evals
         assert terms.objective(r.best_y) == pytest.approx(run.best_f, rel=1e-9)
         assert r.best_y == pytest.approx((run.best_f - PAPER_F_OPT) / terms.scale, rel=1e-9)
         # the logged points are the trace's improvements, then ioh's last-evaluation line
         imp = improvements(run)
         np.testing.assert_array_equal(r.points[: len(imp), 0], [k for k, _ in imp])
-        np.testing.assert_allclose(r.points[: len(imp), 1], terms.raw([f for _, f in imp]), rtol=0, atol=1e-10)
+        # at full precision, not ioh's 10 fixed decimals
+        np.testing.assert_allclose(r.points[: len(imp), 1], terms.raw([f for _, f in imp]), rtol=1e-15, atol=0)
         assert r.points[-1, 0] == run.n_evals
     meta = json.loads(next((out / "random-search").glob("IOHprofiler_*.json")).read_text())
     assert meta["maximization"] is False and meta["algorithm"]["name"] == "random-search"
@@ -196,6 +203,23 @@ def test_ioh_export_round_trips(study, tmp_path):
         x = np.asarray(entry["best"]["x"])
         assert np.all((x >= 0) & (x <= 1))
         np.testing.assert_allclose(x, terms.unit(rs[entry["seed"]].best_x), atol=1e-6)
+
+
+def test_ioh_export_keeps_a_precision_of_1e_14_that_ten_decimals_would_round_to_0(study, tmp_path):
+    import dataclasses
+
+    run = study.runs()[0]
+    terms = ioh_terms("paper")
+    tiny = PAPER_F_OPT + 1.2345678901234e-14 * terms.scale
+    trace = [list(t) for t in run.trace if t[1] > tiny] + [[run.n_evals, tiny]]
+    close = dataclasses.replace(run, trace=trace, best_f=tiny)
+    out = export_runs([close], tmp_path / "ioh")
+    (r,) = read_ioh(out)
+    assert r.points[-1, 1] == pytest.approx(terms.raw(tiny), rel=1e-15) and r.points[-1, 1] > 1e-14
+    dat = next(out.rglob("*.dat")).read_text()
+    assert dat.splitlines()[0].split() == ["evaluations", "raw_y"]     # ioh's columns, no extra one
+    meta = json.loads(next(out.rglob("IOHprofiler_*.json")).read_text())
+    assert meta["attributes"] == ["evaluations", "raw_y"]
 
 
 def test_ioh_check_catches_a_changed_file(study, tmp_path):
@@ -244,3 +268,29 @@ def test_live_ioh_logging_matches_the_replayed_export(tmp_path):
     assert replay.points[-1, 1] == pytest.approx(replay.best_y, abs=1e-10)
     assert live.points[-1, 1] >= replay.points[-1, 1] - 1e-10
     assert math.isclose(live.attributes["seed"], 3)
+
+
+def test_a_study_of_variants_gets_the_benchmark_statistics(study, report, capsys):
+    # not a suite study: the statistics are there all the same (`femu report --json`)
+    capsys.readouterr()
+    assert cli.main(["report", str(study.path), "--json"]) == 0
+    s = json.loads(capsys.readouterr().out)
+    (p,) = s["problems"]
+    assert p["id"] == "paper" and p["f_opt"] == PAPER_F_OPT and p["f_opt_kind"] == "certified"
+    assert p["targets"][0] == pytest.approx(100 * p["target_scale"])
+    # one problem: no comparison on problems as blocks, said; per-problem tests on 3 pairs
+    assert s["comparisons"] == {} and "at least 2 common problems" in s["not_compared"]
+    pairs = s["per_problem"]["final"]["pairs"]
+    assert {frozenset((q["a"], q["b"])) for q in pairs} == {frozenset(("random-search", BROKEN)),
+                                                            frozenset(("random-search", TINY)), frozenset((BROKEN, TINY))}
+    # the broken solver never reaches a target past its 20 evaluations: its aggregate area is the smallest
+    area = s["aggregate"]["area"]
+    assert set(area) == {"random-search", BROKEN, TINY} and area[BROKEN] == min(area.values())
+    assert {q["tolerance"] for q in s["profiles"]} == {1e-1, 1e-3, 1e-5, 1e-7}
+    assert s["design"]["mannwhitneyu"] == pytest.approx(0.1)            # 3 seeds: 2 / C(6, 3)
+    # the Markdown report links the benchmark report, which draws the aggregate and the profiles
+    path, md = report
+    assert "[benchmark.md](benchmark.md)" in md
+    bench = (path.parent / "benchmark.md").read_text()
+    assert "![aggregated ECDF](aggregate_ecdf.png)" in bench and "![profiles](profiles.png)" in bench
+    assert (path.parent / "aggregate_ecdf.png").stat().st_size > 5000

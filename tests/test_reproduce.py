@@ -61,6 +61,8 @@ def test_json_numbers_are_medians_over_the_stored_seeds(reproduced):
         assert s["mean_abs_error_pct"] == pytest.approx(np.median([np.mean(np.abs(c.error_pct)) for c in corr]),
                                                         rel=1e-12)
         np.testing.assert_allclose(s["frequencies_hz"], np.median([c.model_hz for c in corr], axis=0), rtol=1e-12)
+        best = min(rs, key=lambda r: r.best_f)  # the updated moduli of the best run
+        assert s["best_run"] == {"seed": best.seed, "best_f": best.best_f, "x": list(best.best_x)}
 
 
 def test_resumes_from_the_store_and_prints_a_table(reproduced, capsys):

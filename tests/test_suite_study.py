@@ -9,6 +9,7 @@ import shutil
 import numpy as np
 import pytest
 from scipy import stats as sps
+from statsmodels.stats.multitest import multipletests
 
 import fe_problem as fp
 from adapters import available, run
@@ -55,7 +56,10 @@ def test_suite_study_records_carry_the_id_and_f_opt_and_resume(store, capsys):
     assert main(["study", "--suite", ",".join(PROBLEMS), "--optimizers", ",".join(SOLVERS), "--seeds",
                  f"0-{SEEDS - 1}", "--budget", str(BUDGET), "--store", str(store), "--workers", "0",
                  "--no-progress"]) == 0
-    assert f"(0 new, {len(runs)} kept)" in capsys.readouterr().out
+    out = capsys.readouterr()
+    assert f"(0 new, {len(runs)} kept)" in out.out
+    # 3 seeds: a Mann-Whitney test reaches p = 2 / C(6, 3) = 0.1 at best, Holm over 6 tests 0.6
+    assert "warning: with 3 seed(s) per solver no pairwise test can separate" in out.err and "0.6" in out.err
 
 
 def test_a_family_or_dimension_prefix_selects_every_problem_under_it(tmp_path):
@@ -83,8 +87,9 @@ def test_report_json_targets_ert_and_comparison(store, capsys):
         prob = fp.suite_problem(p["id"])
         gap = float(prob.evaluate(prob.x0)[0]) - prob.f_opt
         t = np.asarray(p["targets"])
-        # 51 targets, 5 per decade over 10 decades, from the power of ten at or above J(x0) - f_opt
-        assert len(t) == 51 and t[0] / 10 < gap <= t[0] and t[0] == 10.0 ** round(math.log10(t[0]))
+        # 51 targets, 5 per decade over 10 decades: COCO's 1e2 ... 1e-8 times the family's fixed scale
+        assert gap > 0 and p["target_scale"] == fp.suite.TARGET_SCALE["hframe-freq"] == 1e-4
+        assert len(t) == 51 and t[0] == pytest.approx(100 * p["target_scale"], rel=1e-15)
         np.testing.assert_allclose(t[1:] / t[:-1], 10 ** -0.2, rtol=1e-12)
         assert t[-1] == pytest.approx(t[0] * 1e-10, rel=1e-12)
     # ERT recomputed from the records: evaluations until hit (or all) summed / runs that hit
@@ -97,12 +102,33 @@ def test_report_json_targets_ert_and_comparison(store, capsys):
             want = np.minimum(hits, BUDGET).sum() / np.isfinite(hits).sum() if np.isfinite(hits).any() else None
             got = s["ert"]["ert"][solver]["hframe-freq/12"][level]
             assert (got is None and want is None) or got == pytest.approx(want)
-    for metric in ("auc", "final"):
-        c = s["comparisons"][metric]
-        assert c["n_blocks"] == len(PROBLEMS) * SEEDS and set(c["mean_ranks"]) == set(SOLVERS)
-        assert sum(c["mean_ranks"].values()) == pytest.approx(6.0)
-        assert 0 <= c["friedman_p"] <= 1 and len(c["pairwise"]) == 3
-        assert all(p["p"] <= p["p_holm"] <= 1 for p in c["pairwise"])
+    # problems as blocks: one value per (solver, problem), recomputed from the records
+    c = s["comparisons"]["median_final"]
+    assert c["n_blocks"] == len(PROBLEMS) and c["problems"] == list(PROBLEMS) and set(c["mean_ranks"]) == set(SOLVERS)
+    table = np.array([[np.median([max(r.best_f, targets[pid][-1]) for r in runs if r.optimizer == so and r.problem == pid])
+                       for so in sorted(SOLVERS)] for pid in PROBLEMS])
+    assert np.array([c["table"][so] for so in sorted(SOLVERS)]).T == pytest.approx(table)
+    fr = sps.friedmanchisquare(*table.T)
+    if np.all(table == table[:, :1]):
+        assert c["friedman_p"] == 1.0
+    else:
+        assert c["friedman_p"] == pytest.approx(fr.pvalue)
+    assert sum(c["mean_ranks"].values()) == pytest.approx(6.0) and len(c["pairwise"]) == 3
+    assert c["cd_test"] == "nemenyi" and c["smallest_p"]["wilcoxon"] == 0.5       # 2 problems: 2 / 2^2
+    assert "ert" in s["comparisons"] and s["ert_block_level"] == 25
+    # per-problem Mann-Whitney U on the unpaired runs, Holm over 3 pairs x 2 problems
+    t = s["per_problem"]["final"]
+    assert len(t["pairs"]) == 6 and t["smallest_p"] == pytest.approx(0.1) and t["smallest_p_holm"] == pytest.approx(0.6)
+    q = t["pairs"][0]
+    x = [max(r.best_f, targets[q["problem"]][-1]) for r in runs if r.optimizer == q["a"] and r.problem == q["problem"]]
+    y = [max(r.best_f, targets[q["problem"]][-1]) for r in runs if r.optimizer == q["b"] and r.problem == q["problem"]]
+    if len(set(x) | set(y)) > 1:
+        assert q["p"] == pytest.approx(sps.mannwhitneyu(x, y, alternative="two-sided").pvalue)
+    assert s["design"]["mannwhitneyu_holm"] == pytest.approx(0.6) and s["below_f_opt"] == []
+    # the aggregate ECDF and the profiles
+    assert set(s["aggregate"]["area"]) == set(SOLVERS) and all(0 <= a <= 1 for a in s["aggregate"]["area"].values())
+    assert [p["tolerance"] for p in s["profiles"]] == [1e-1, 1e-3, 1e-5, 1e-7]
+    assert all(max(v) <= 1 for p in s["profiles"] for v in p["data"].values())
     fb = {(f["solver"], f["budget"]) for f in s["fixed_budget"]}
     assert fb == {(so, b) for so in SOLVERS for b in (3, 30, BUDGET)}
     assert {c["problem"] for c in s["convergence"]} == set(PROBLEMS)
@@ -124,9 +150,13 @@ def test_markdown_report_figures_and_ioh_export(store, tmp_path, capsys):
     assert main(["report", str(store), "--out", str(out), "--ioh"]) == 0
     md = (out / "report.md").read_text()
     for heading in ("## Problems", "## Expected running time (ERT)", "## Fixed-target ECDFs",
-                    "## Fixed-budget precision", "## Statistical comparison", "## Costs", "## Convergence per problem"):
+                    "## Aggregated ECDF over all problems and targets", "## Data and performance profiles",
+                    "## Fixed-budget precision", "## Statistical comparison on problems as blocks",
+                    "## Per-problem tests on the runs", "## Costs", "## Convergence per problem"):
         assert heading in md
-    for png in ("ert.png", "ecdf.png", "cd.png", "fixed_budget_hframe-freq_12.png", "convergence_hframe-freq_12.png"):
+    assert "Smallest p-values this design can reach" in md and "No per-problem Mann-Whitney (more seeds) and no Wilcoxon-Holm" in md
+    for png in ("ert.png", "ecdf.png", "cd.png", "aggregate_ecdf.png", "profiles.png", "fixed_budget_hframe-freq_12.png",
+                "convergence_hframe-freq_12.png"):
         assert (out / png).stat().st_size > 5000 and f"({png})" in md
     assert json.loads((out / "stats.json").read_text())["problems"][0]["id"] == PROBLEMS[0]
     # IOHprofiler: our function id, the suite instance, raw_y = (J - f_opt) / scale, x in [0, 1]
@@ -165,13 +195,20 @@ def test_solvers_reaching_f_opt_within_round_off_are_tied(tmp_path, capsys):
         store.write(_record("b", k, start + [[700, 3e-15], [1000, 3e-15]]))
         store.write(_record("c", k, [[1, 4e-3], [500, 1e-4 * (1 + 0.1 * k)], [1000, 1e-4 * (1 + 0.1 * k)]]))
     s = _report_json(store.path, capsys)
+    # one problem: no comparison on problems as blocks, said; the per-problem tests tie a and b
+    assert s["comparisons"] == {} and "at least 2 common problems" in s["not_compared"]
     for metric in ("auc", "final"):
-        c = s["comparisons"][metric]
-        assert c["mean_ranks"]["a"] == c["mean_ranks"]["b"] == 1.5 and c["mean_ranks"]["c"] == 3.0
-        pw = {(p["a"], p["b"]): p for p in c["pairwise"]}
+        pw = {(p["a"], p["b"]): p for p in s["per_problem"][metric]["pairs"]}
         assert pw[("a", "b")]["p"] == 1.0 and pw[("a", "b")]["better"] is None
         assert pw[("a", "c")]["better"] == "a" and pw[("b", "c")]["better"] == "b"
-        assert c["cliques"] == [["a", "b"]]
+    # final: a's runs all tie at the last target (1e-12), c's are its final values; scipy's test
+    # (asymptotic: ties), Holm over the 3 pairs
+    pw = {(p["a"], p["b"]): p for p in s["per_problem"]["final"]["pairs"]}
+    ref = sps.mannwhitneyu(np.full(n, 1e-12), [1e-4 * (1 + 0.1 * k) for k in range(n)], alternative="two-sided")
+    assert pw[("a", "c")]["p"] == pytest.approx(ref.pvalue) and pw[("a", "c")]["statistic"] == 0
+    # Holm over the 3 pairs (p, p, 1): 3p for both equal p-values (statsmodels' multipletests)
+    assert pw[("a", "c")]["p_holm"] == pytest.approx(multipletests([1.0, ref.pvalue, ref.pvalue], method="holm")[1][1])
+    assert pw[("a", "c")]["p_holm"] == pytest.approx(3 * ref.pvalue)
     # on the raw final values a test would separate a and b: the last target is what ties them
     assert sps.wilcoxon(a_end, np.full(n, 3e-15)).pvalue < 0.05
 
@@ -200,3 +237,17 @@ def test_every_builtin_spends_its_exact_budget_at_dimensions_12_and_96(pid):
         if need > 1:  # below its computed minimum the method is refused before it runs
             with pytest.raises(ValueError, match=f"needs a budget of at least {need} evaluations"):
                 run(name, fp.suite_problem(pid), need - 1, 0)
+
+
+def test_a_record_within_rounding_below_f_opt_is_accepted_and_reported(tmp_path, capsys):
+    from femu.studies.store import check_record
+
+    store = Store(tmp_path / "rounding")
+    for k in range(2):
+        # a record of a version that did not clamp 1 - MAC: best J -3e-15 (seen on hframe-shape)
+        store.write(_record("a", k, [[1, 4e-3], [600, -3e-15 * (k + 1)]]))
+        store.write(_record("b", k, [[1, 4e-3], [900, 1e-5]]))
+    s = _report_json(store.path, capsys)
+    assert s["below_f_opt"] == [] and s["n_runs"] == 4
+    bad = _record("a", 9, [[1, 4e-3], [600, -1e-9]]).to_dict()
+    assert "field 'best_f'" in check_record(bad, "hframe-freq+12+1__a__b1000__s9")

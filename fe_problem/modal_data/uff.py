@@ -32,7 +32,6 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-import pyuff
 
 from ..dofs import DEFAULT_LAYOUT, SPATIAL, DofLayout
 from .json_format import modal_data_from_dict
@@ -71,6 +70,8 @@ def write_uff55(data: ModalData, path: str | Path) -> Path:
     values = np.zeros((data.n_modes, len(nodes), 6))
     for i, (node, direction) in enumerate(data.dofs):
         values[:, row[node], SPATIAL.index(direction)] = data.shapes[i]
+
+    import pyuff  # imported where used: `import fe_problem` does not need it
 
     datasets = []
     for k in range(data.n_modes):
@@ -158,6 +159,8 @@ def read_uff55(path: str | Path, model: str | None = None, layout: DofLayout | N
         raise DataFileError(f"{path}: is a directory, not a UFF file")
     opened_at = uff_dataset_lines(path, 55)
     n_raw = len(opened_at)
+    import pyuff
+
     try:
         uff = pyuff.UFF(str(path))
         types = [int(t) for t in uff.get_set_types()]

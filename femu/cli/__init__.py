@@ -16,7 +16,7 @@ import sys
 import warnings
 
 #: The commands, in the order `femu --help` lists them: each is the module femu.cli.<name>.
-COMMANDS = ("model", "suite", "study", "results", "report", "reproduce", "diagnose", "identify")
+COMMANDS = ("model", "suite", "optimizers", "study", "results", "report", "reproduce", "diagnose", "identify")
 
 
 def _module(name: str):
@@ -30,10 +30,29 @@ class HelpFormatter(argparse.RawDescriptionHelpFormatter):
 
     def _get_help_string(self, action):
         text = action.help or ""
+        if action.required and action.option_strings:
+            return text + " (required)"
         if ("%(default)" in text or "default" in text.lower() or not action.option_strings
                 or action.default in (None, False, argparse.SUPPRESS)):
             return text
         return text + " (default: %(default)s)"
+
+
+class _Version(argparse.Action):
+    """`femu --version`: the installed version, looked up only when asked (startup stays fast)."""
+
+    def __init__(self, option_strings, dest=argparse.SUPPRESS, default=argparse.SUPPRESS, help=None):
+        super().__init__(option_strings, dest=dest, default=default, nargs=0, help=help)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            text = version("femu-bench")
+        except PackageNotFoundError:  # run from a source tree that is not installed
+            text = "unknown (not installed)"
+        print(f"femu {text} (femu-bench)")
+        parser.exit(0)
 
 
 class ArgumentParser(argparse.ArgumentParser):
@@ -50,6 +69,7 @@ def build_parser() -> argparse.ArgumentParser:
                                 description="FE model updating of planar frames: models, optimizer "
                                 "benchmarks, studies, reports and diagnosis. `femu COMMAND --help` "
                                 "describes each command's arguments.")
+    p.add_argument("--version", action=_Version, help="print the version and exit")
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name in COMMANDS:
         module = _module(name)

@@ -1,13 +1,16 @@
 """find the physics the model is missing from measured data
 
-`femu diagnose DATA [--model M] [--out DIR] [--json]` runs `fe_problem.diagnose` and shows it.
+Compares the model with the measured modes, tries every candidate effect (a loss or gain of
+stiffness, an added or spread mass, a soft support, a flexible joint, shear deformation), keeps
+the causes the data prove beyond the stated noise and says whether the result fits. Example:
 
-Default output is a terminal summary of the record; --json prints the record itself
-(`Diagnosis.to_dict()`) as the only thing on stdout; --out DIR writes extended.model.json
-(when there is an effect to add), diagnosis.json, the figures (shapes.png, frequency_errors.png,
-correlation.png when shapes were measured, candidates.png) and report.md, and names every file
-it wrote. Progress and warnings go to stderr. Bad input raises ValueError/FileNotFoundError with a message naming
-the file, which `femu.cli.main` turns into one line on stderr and exit code 2.
+  femu diagnose crack.json --out diag/
+
+Without options it prints a summary. --json prints the whole record as JSON, the only thing on
+stdout. --out DIR writes extended.model.json (the model with the causes found, when there is
+one), diagnosis.json, report.md and its figures (shapes.png, frequency_errors.png,
+correlation.png when shapes were measured, candidates.png), naming every file it wrote.
+Progress and warnings go to stderr. The method and its tests: docs/diagnosis.md.
 """
 
 from __future__ import annotations

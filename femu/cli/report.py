@@ -1,4 +1,10 @@
-"""Markdown report with figures from a store"""
+"""Markdown report with figures from a store
+
+Give --out DIR (the report: report.md and its figures), --json (the benchmark statistics on
+stdout), or both: one of them is required. Example:
+
+  femu report runs/ --out report/ --ioh
+"""
 
 from __future__ import annotations
 
@@ -9,10 +15,12 @@ def add_arguments(rp) -> None:
     """The arguments of `femu report`."""
     add_store_argument(rp)
     rp.add_argument("--out", type=directory, default=None,
-                    help="output directory: report.md, summary.json (stats.json for suite runs) and PNG figures")
+                    help="output directory: report.md, summary.json (stats.json for suite runs) and PNG figures "
+                         "(required unless --json)")
     rp.add_argument("--json", action="store_true",
-                    help="print the benchmark statistics of the suite runs as JSON (targets, ERT, mean ranks, "
-                         "Friedman, pairwise tests); with --out, also write the report")
+                    help="print the benchmark statistics of the runs as JSON (targets, ERT with its bootstrapped "
+                         "range, comparisons on problems as blocks, per-problem tests, aggregate ECDF, profiles); "
+                         "with --out, also write the report (required unless --out)")
     rp.add_argument("--ioh", action="store_true", help="also export IOHprofiler files to OUT/ioh")
 
 

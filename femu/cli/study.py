@@ -35,19 +35,75 @@ def add_arguments(s) -> None:
     s.add_argument("--x0", choices=("none", "all"), default="none",
                    help="what every solver is told of the start: none (each draws its own from its seed) or all "
                         "(each is given the model's initial parameters)")
+    s.add_argument("--option", action="append", default=None, metavar="NAME.KEY=VALUE",
+                   help="an option for optimizer NAME's minimize, VALUE in JSON (20, 0.5, true, \"text\", [1, 2]); "
+                        "repeat for more (`femu optimizers` lists each one's options and defaults)")
     s.add_argument("--retry-failed", action="store_true",
                    help="run again the runs stored as failed or timeout (they are kept otherwise)")
+
+
+def parse_options(items: list[str]) -> dict[str, dict]:
+    """{optimizer: {key: value}} from --option NAME.KEY=VALUE items (VALUE in JSON); ValueError
+    naming the item otherwise. NAME may be a package.module:Class path (the key follows its
+    last dot)."""
+    import json
+
+    out: dict[str, dict] = {}
+    for item in items:
+        left, eq, text = item.partition("=")
+        name, dot, key = left.rpartition(".")
+        if not eq or not dot or not name or not key.isidentifier():
+            raise ValueError(f"--option {item!r}: expected NAME.KEY=VALUE, e.g. cma-es.sigma0=0.2")
+        try:
+            value = json.loads(text)
+        except ValueError:
+            raise ValueError(f"--option {item!r}: the value {text!r} is not JSON (a text is written with "
+                             f"quotes: {name}.{key}='\"{text}\"')") from None
+        if key in out.setdefault(name, {}):
+            raise ValueError(f"--option {item!r}: {name}.{key} is given twice")
+        out[name][key] = value
+    return out
+
+
+def seeds_warning(optimizers, seeds, variants, suite, alpha: float = 0.05) -> str | None:
+    """The warning `femu study` prints when its seeds are too few for any per-problem pairwise
+    test (Mann-Whitney U, Holm over every pair and problem) to separate two solvers at alpha;
+    None when they suffice, or when the arguments are bad (the study says why)."""
+    from fe_problem.suite import select_suite
+    from femu.reports.stats import seeds_can_separate, smallest_p
+    from femu.studies.seeds import parse_names, parse_seeds
+
+    try:
+        n_seeds = len(parse_seeds(seeds))
+        n_opt = len(parse_names(optimizers, "optimizers"))
+        problems = (len(parse_names(variants, "variants")) if variants else (0 if suite else 1))
+        problems += len(select_suite(suite)) if suite else 0
+    except ValueError:
+        return None
+    if n_opt < 2 or seeds_can_separate(n_seeds, n_opt, problems, alpha):
+        return None
+    m = n_opt * (n_opt - 1) // 2 * problems
+    return (f"femu study: warning: with {n_seeds} seed(s) per solver no pairwise test can separate two solvers: "
+            f"the smallest Mann-Whitney p is {smallest_p('mannwhitneyu', n_seeds, n_seeds):.2g}, "
+            f"{smallest_p('mannwhitneyu', n_seeds, n_seeds, n_tests=m):.2g} after Holm over {m} tests "
+            f"(alpha {alpha}); use more seeds")
 
 
 def run(args) -> int:
     """`femu study`: run the grid into the store, print a one-line summary."""
     from femu.studies.study import run_study
 
+    options = parse_options(getattr(args, "option", []) or [])
+
+    warning = seeds_warning(args.optimizers, args.seeds, args.variants, args.suite)
+    if warning:
+        print(warning, file=sys.stderr)
+
     try:
         result = run_study(args.optimizers, args.seeds, args.budget, args.store, variants=args.variants,
                            workers=args.workers, scheduler=args.scheduler, time_limit_s=args.time_limit, suite=args.suite,
                            progress=not args.no_progress, retry_failed=getattr(args, "retry_failed", False),
-                           x0=getattr(args, "x0", "none"))
+                           x0=getattr(args, "x0", "none"), options=options or None)
     except KeyboardInterrupt:
         print(f"femu study: interrupted; the finished runs are in {args.store}: the same command resumes the study",
               file=sys.stderr)

@@ -1,16 +1,24 @@
-"""The benchmark report of a suite study (runs whose variant is a suite id, `femu study --suite`):
-fixed targets on J - f_opt, ERT, fixed-target ECDFs, fixed-budget distributions, convergence
-per problem, Friedman + pairwise Wilcoxon-Holm + critical-difference diagram (femu.reports.stats),
-and the costs of each solver.
+"""The benchmark report of a study: fixed targets on J - f_opt, ERT with COCO's bootstrapped
+10-90 % range, fixed-target ECDFs, fixed-budget distributions, convergence per problem, the
+comparison of solvers on problems as blocks (Friedman, Wilcoxon-Holm, Nemenyi's critical
+difference and its cliques: the CD diagram), per-problem Mann-Whitney U tests on the unpaired
+runs (Holm over every pair and problem), the ECDF aggregated over every (problem, target) pair
+with its area, data and performance profiles, and the costs of each solver (femu.reports.stats).
+
+Any study gets it: suite problems (`femu study --suite`) with their certified f_opt and their
+family's fixed target scale, and problem variants (``paper``: the suite's paper problem;
+``synthetic``: f_opt 0, the lower bound J >= 0, targets from the power of ten at or above
+J(x0)). The comparisons need at least two solvers on a shared problem (two problems for the
+block comparison).
 
 `benchmark_statistics(runs)` computes every number (what `femu report STORE --json` prints);
 `write_benchmark(runs, out_dir, source)` renders them as OUT/report.md, OUT/stats.json and the
 figures, through femu.reports.render.
 
-Targets depend on the problem only: f_opt and J(x0) of the suite problem, rebuilt from its id
-(`fe_problem.suite_problem`); a record whose stored f_opt differs from the rebuilt one was made
-by another version of the suite and is refused. Where a store holds several budgets of one
-(solver, problem, seed), the run with the largest budget counts.
+Targets depend on the problem only: f_opt, its precision and J(x0) of the problem, rebuilt
+from its id (`fe_problem.suite_problem`); a record whose stored f_opt differs from the rebuilt
+one was made by another version of the suite and is refused. Where a store holds several
+budgets of one (solver, problem, seed), the run with the largest budget counts.
 """
 
 from __future__ import annotations
@@ -29,32 +37,52 @@ from . import stats as st
 from .render import make_out_dir
 from .render import markdown_table
 
-#: The comparison metrics, the first drawn as the CD diagram (femu.reports.stats.run_scores).
+#: The run scores of the per-problem tests (femu.reports.stats.run_scores).
 COMPARISON_METRICS = ("auc", "final")
+#: The block values of the comparison on problems, the first drawn as the CD diagram.
+BLOCK_VALUES = ("median_final", "ert")
+#: The target level of the ``ert`` block value: 5 decades below the top (1e-3 times the scale).
+ERT_BLOCK_LEVEL = 5 * st.PER_DECADE
 #: Target levels shown in the ERT table: every decade below the top target.
 ERT_COLUMNS = tuple(range(0, st.DECADES * st.PER_DECADE + 1, st.PER_DECADE))
 
 
 @lru_cache(maxsize=None)
 def problem_facts(problem_id: str) -> dict:
-    """f_opt, how it is known, J(x0), n_var and bounds (Pa) of a suite problem (built once)."""
-    from fe_problem import suite_problem
+    """f_opt, how it is known and its precision, the target scale (None: the problem's own
+    decade), J(x0), n_var and bounds (Pa) of a suite problem or a variant (built once)."""
+    if is_suite_id(problem_id):
+        from fe_problem import suite_problem
 
-    p = suite_problem(problem_id)
-    return {"f_opt": float(p.f_opt), "f_opt_kind": p.f_opt_kind, "f_start": float(p.evaluate(p.x0)[0]),
-            "n_var": int(p.n_var), "xl": np.asarray(p.xl, float), "xu": np.asarray(p.xu, float),
-            "truth": None if p.truth is None else np.asarray(p.truth, float)}
+        p = suite_problem(problem_id)
+        f_opt, kind, precision, scale = float(p.f_opt), p.f_opt_kind, p.f_opt_precision, p.target_scale
+    else:
+        from adapters.variants import make_problem
+        from fe_problem.suite import PAPER_F_OPT, PAPER_F_OPT_PRECISION, TARGET_SCALE
+
+        p = make_problem(problem_id)
+        if problem_id == "paper":  # the suite's paper problem
+            f_opt, kind, precision, scale = PAPER_F_OPT, "certified", PAPER_F_OPT_PRECISION, TARGET_SCALE["paper"]
+        else:  # J >= 0 is all that is known
+            f_opt, kind, precision, scale = 0.0, "lower bound", None, None
+    return {"f_opt": f_opt, "f_opt_kind": kind, "f_opt_precision": precision, "target_scale": scale,
+            "f_start": float(p.evaluate(p.x0)[0]), "n_var": int(p.n_var), "xl": np.asarray(p.xl, float),
+            "xu": np.asarray(p.xu, float), "truth": None if getattr(p, "truth", None) is None else np.asarray(p.truth, float)}
+
+
+def study_runs(runs) -> list:
+    """The runs, one per (solver, problem, seed): the largest budget's."""
+    best: dict = {}
+    for r in runs:
+        key = (r.optimizer, r.variant, r.seed)
+        if key not in best or r.budget > best[key].budget:
+            best[key] = r
+    return [best[k] for k in sorted(best)]
 
 
 def suite_runs(runs) -> list:
     """The runs on suite problems, one per (solver, problem, seed): the largest budget's."""
-    best: dict = {}
-    for r in runs:
-        if is_suite_id(r.variant):
-            key = (r.optimizer, r.variant, r.seed)
-            if key not in best or r.budget > best[key].budget:
-                best[key] = r
-    return [best[k] for k in sorted(best)]
+    return study_runs([r for r in runs if is_suite_id(r.variant)])
 
 
 def targets_of(runs) -> dict[str, st.Targets]:
@@ -69,8 +97,45 @@ def targets_of(runs) -> dict[str, st.Targets]:
         if stored is not None and not math.isclose(stored, facts["f_opt"], rel_tol=1e-9, abs_tol=1e-15):
             raise ValueError(f"run {r.optimizer} seed {r.seed} on {r.variant}: its record's f_opt {stored!r} is not "
                              f"the suite's {facts['f_opt']!r} (made by another version of the suite); use a new store")
-        out[r.variant] = st.fixed_targets(r.variant, facts["f_opt"], facts["f_start"])
+        out[r.variant] = st.fixed_targets(r.variant, facts["f_opt"], facts["f_start"], scale=facts["target_scale"])
     return dict(sorted(out.items()))
+
+
+def below_f_opt(runs) -> list[dict]:
+    """Runs that ended below f_opt by more than its stated precision (and J's rounding): each
+    would show that f_opt is not the minimum. Empty for an honest store and a true f_opt."""
+    out = []
+    for r in runs:
+        facts = problem_facts(r.variant)
+        allowed = (facts["f_opt_precision"] or 0.0) + 1e-12 * max(1.0, abs(facts["f_opt"]))
+        if facts["f_opt_kind"] in ("exact", "certified") and r.best_f is not None and r.best_f < facts["f_opt"] - allowed:
+            out.append({"optimizer": r.optimizer, "problem": r.variant, "seed": r.seed, "best_f": r.best_f,
+                        "f_opt": facts["f_opt"], "precision": facts["f_opt_precision"]})
+    return out
+
+
+def design(runs, alpha: float = 0.05) -> dict:
+    """The smallest p-values the study's design can reach: Mann-Whitney per problem (the fewest
+    runs of a solver on a problem), after Holm over every pair and problem, and the block tests
+    on the problems every solver ran."""
+    solvers = sorted({r.optimizer for r in runs})
+    problems = sorted({r.variant for r in runs})
+    counts = {}
+    for r in runs:
+        counts[(r.variant, r.optimizer)] = counts.get((r.variant, r.optimizer), 0) + 1
+    shared = [p for p in problems if all((p, s) in counts for s in solvers)]
+    n_pairs = sum(math.comb(sum((p, s) in counts for s in solvers), 2) for p in problems)
+    fewest = min(counts.values()) if counts else 0
+    out = {"alpha": alpha, "solvers": len(solvers), "problems": len(problems), "shared_problems": len(shared),
+           "fewest_runs": fewest, "per_problem_tests": n_pairs}
+    if n_pairs and fewest:
+        out["mannwhitneyu"] = st.smallest_p("mannwhitneyu", fewest, fewest)
+        out["mannwhitneyu_holm"] = st.smallest_p("mannwhitneyu", fewest, fewest, n_tests=n_pairs)
+    if len(solvers) >= 2 and len(shared) >= 2:
+        out["wilcoxon_holm"] = st.smallest_p("wilcoxon", len(shared), n_tests=math.comb(len(solvers), 2))
+        if len(solvers) >= 3:
+            out["friedman"] = st.smallest_p("friedman", len(shared), len(solvers))
+    return out
 
 
 def fixed_budgets(max_budget: int) -> list[int]:
@@ -95,34 +160,67 @@ def costs(runs) -> dict:
     return out
 
 
+def not_anytime(runs) -> dict[str, int]:
+    """{solver: its smallest run budget} for the solvers that are not anytime: their record's
+    capabilities say so, or (records written before capabilities were recorded) the optimizer's
+    class does not declare anytime = True, or cannot be loaded. Their best-so-far below the
+    budget is not what a run of that budget would find (the schedule follows the budget)."""
+    from adapters.capabilities import capabilities
+    from adapters.registry import get
+
+    out: dict[str, int] = {}
+    for r in runs:
+        caps = getattr(r, "capabilities", None) or {}
+        if "anytime" in caps:
+            anytime = bool(caps["anytime"])
+        else:
+            try:
+                anytime = capabilities(get(r.optimizer))["anytime"]
+            except ValueError:
+                anytime = False
+        if not anytime:
+            out[r.optimizer] = min(out.get(r.optimizer, r.budget), r.budget)
+    return dict(sorted(out.items()))
+
+
 def benchmark_statistics(runs) -> dict:
-    """Every number of the benchmark report of the suite runs among `runs` (RunResults):
-    problems and targets, ERT per solver, group and target level, ECDFs, fixed-budget
-    distributions, the comparisons (Friedman, pairwise Wilcoxon-Holm, mean ranks, CD) and the
-    costs. ValueError when no run is on a suite problem."""
-    runs = suite_runs(runs)
+    """Every number of the benchmark report of `runs` (RunResults, suite problems or variants):
+    problems and targets, ERT per solver, group and target level with its bootstrapped range,
+    ECDFs, fixed-budget distributions, the comparisons on problems as blocks, the per-problem
+    tests, the aggregated ECDF, the profiles, the design's smallest p-values and the costs.
+    ValueError when there are no runs."""
+    runs = study_runs(runs)
     if not runs:
-        raise ValueError("no runs on suite problems (femu study --suite ...) to report on")
+        raise ValueError("no runs to report on")
     targets = targets_of(runs)
     traces = [st.RunTrace(r.optimizer, r.variant, r.seed, r.n_evals, tuple(tuple(t) for t in r.trace))
               for r in runs]
+    n_var = {pid: problem_facts(pid)["n_var"] for pid in targets}
     budgets = fixed_budgets(max(r.budget for r in runs))
+    one_budget = not_anytime(runs)
+    # a solver that is not anytime has no honest value below its budget: left out
+    fixed = [fb for fb in st.fixed_budget(traces, targets, budgets)
+             if fb.solver not in one_budget or fb.budget >= one_budget[fb.solver]]
     comparisons, not_compared = {}, None
-    for metric in COMPARISON_METRICS:
+    for value in BLOCK_VALUES:
         try:
-            comparisons[metric] = st.compare(traces, targets, metric)
+            comparisons[value] = st.compare_problems(traces, targets, value, level=ERT_BLOCK_LEVEL)
         except ValueError as exc:
             not_compared = str(exc)
-    problems = [{"id": pid, "n_var": problem_facts(pid)["n_var"], "f_opt": t.f_opt,
-                 "f_opt_kind": problem_facts(pid)["f_opt_kind"], "f_start": t.f_start, "targets": t.deltas}
+    per_problem = {m: st.per_problem_tests(traces, targets, m) for m in COMPARISON_METRICS}
+    problems = [{"id": pid, "n_var": n_var[pid], "f_opt": t.f_opt, "f_opt_kind": problem_facts(pid)["f_opt_kind"],
+                 "f_opt_precision": problem_facts(pid)["f_opt_precision"],
+                 "target_scale": problem_facts(pid)["target_scale"], "f_start": t.f_start, "targets": t.deltas}
                 for pid, t in targets.items()]
-    return {"format": "femu.benchmark/1", "solvers": sorted({r.optimizer for r in runs}),
+    return {"format": "femu.benchmark/2", "solvers": sorted({r.optimizer for r in runs}),
             "budget": max(r.budget for r in runs), "n_runs": len(runs), "problems": problems,
             "target_levels": list(st.target_levels()),
-            "ert": st.ert_table(traces, targets), "ecdf": st.ecdfs(traces, targets),
-            "fixed_budget": st.fixed_budget(traces, targets, budgets), "comparisons": comparisons,
-            "not_compared": not_compared if not comparisons else None, "costs": costs(runs),
-            "convergence": convergence(traces, targets)}
+            "ert": st.ert_table(traces, targets), "ert_block_level": ERT_BLOCK_LEVEL, "ecdf": st.ecdfs(traces, targets),
+            "fixed_budget": fixed, "one_budget": one_budget, "comparisons": comparisons,
+            "not_compared": not_compared if not comparisons else None, "per_problem": per_problem,
+            "design": design(runs), "below_f_opt": below_f_opt(runs),
+            "aggregate": st.aggregate_ecdf(traces, targets, n_var), "profiles": st.profiles(traces, targets, n_var),
+            "costs": costs(runs), "convergence": convergence(traces, targets)}
 
 
 def convergence(traces, targets, points: int = 40) -> list[dict]:
@@ -153,10 +251,17 @@ def _ert_lines(s: dict) -> list[str]:
         rows = []
         for solver, per in table.ert.items():
             if group in per:
-                rows.append([solver] + [f"{_g(per[group][i])} ({table.successes[solver][group][i]}/"
-                                        f"{table.runs[solver][group]})" for i in ERT_COLUMNS])
-        out += [f"**{group}**: ERT in FE evaluations (runs that hit / runs) per target, in decades below "
-                "the problem's top target", ""]
+                cells = []
+                for i in ERT_COLUMNS:
+                    mark = " (beyond budget)" if table.beyond_budget[solver][group][i] else ""
+                    rng = (f" [{_g(table.lower[solver][group][i])}, {_g(table.upper[solver][group][i])}]"
+                           if math.isfinite(per[group][i]) else "")
+                    cells.append(f"{_g(per[group][i])}{rng}{mark} ({table.successes[solver][group][i]}/"
+                                 f"{table.runs[solver][group]})")
+                rows.append([solver] + cells)
+        out += [f"**{group}**: ERT in FE evaluations [10 %, 90 % of COCO's bootstrapped run lengths with restarts] "
+                "(runs that hit / runs) per target; *beyond budget*: the ERT exceeds every run's budget (an "
+                "extrapolation from restarts no run made)", ""]
         out += markdown_table(["solver"] + [f"top x 1e-{-round(math.log10(v))}" if v < 1 else "top" for v in levels], rows)
         out.append("")
     return out
@@ -168,48 +273,131 @@ def _fixed_budget_lines(s: dict) -> list[str]:
         q1, med, q3 = fb.quartiles
         rows.setdefault((fb.group, fb.solver), {})[fb.budget] = f"{_g(med)} [{_g(q1)}, {_g(q3)}]"
     budgets = sorted({fb.budget for fb in s["fixed_budget"]})
+    one = s.get("one_budget", {})
+    blank = lambda so, b: "not anytime" if so in one and b < one[so] else ""  # noqa: E731
     return markdown_table(["group", "solver"] + [f"after {b}" for b in budgets],
-                          [[g, so] + [v.get(b, "") for b in budgets] for (g, so), v in sorted(rows.items())])
+                          [[g, so] + [v.get(b, blank(so, b)) for b in budgets] for (g, so), v in sorted(rows.items())])
 
 
-def _comparison_lines(c: st.Comparison) -> list[str]:
+def _one_budget_lines(s: dict) -> list[str]:
+    """The note on solvers whose curves are from one budget (not anytime)."""
+    one = s.get("one_budget", {})
+    if not one:
+        return []
+    names = ", ".join(f"`{k}` (budget {b})" for k, b in one.items())
+    return [f"Not anytime: {names}. Their schedule follows the budget (`femu optimizers` lists each "
+            "optimizer's capabilities), so their ECDF, ERT and convergence curves below the budget are from one "
+            "budget's runs, not what runs of a smaller budget would find; their fixed-budget values below it are "
+            "left out.", ""]
+
+
+def _comparison_lines(c: st.BlockComparison) -> list[str]:
     ranks = sorted(c.mean_ranks.items(), key=lambda kv: (kv[1], kv[0]))
-    out = [f"Metric `{c.metric}` on {c.n_blocks} (problem, seed) blocks ({c.n_dropped_blocks} dropped): "
-           + (f"Friedman chi2 = {c.friedman_statistic:.3g}, p = {c.friedman_p:.3g}; " if c.friedman_p is not None
-              else "two solvers, no omnibus test; ")
-           + f"Nemenyi CD = {c.critical_difference:.2f}.", ""]
-    out += markdown_table(["solver", "mean rank"], [[k, f"{v:.2f}"] for k, v in ranks]) + [""]
+    lim = c.smallest_p
+    out = [f"**`{c.value}`**: {c.value_name}, one value per (solver, problem), on {c.n_blocks} problems as blocks "
+           f"({c.n_dropped_problems} dropped: not run by every solver). "
+           + (f"Friedman chi2 = {c.friedman_statistic:.3g}, p = {c.friedman_p:.3g} (smallest reachable "
+              f"{lim['friedman']:.2g}); " if c.friedman_p is not None else "two solvers, no omnibus test; ")
+           + f"Nemenyi CD = {c.critical_difference:.2f} (alpha {c.alpha}); Wilcoxon signed-rank on the problems, Holm "
+           f"over {len(c.pairwise)} pairs (smallest reachable p {lim['wilcoxon_holm']:.2g}).", ""]
+    out += markdown_table(["solver", "mean rank", "Nemenyi clique"],
+                          [[k, f"{v:.2f}", ", ".join(str(i + 1) for i, cl in enumerate(c.cliques) if k in cl) or "-"]
+                           for k, v in ranks]) + [""]
     out += markdown_table(["a", "b", "Wilcoxon W", "p", "p (Holm)", "better (p Holm <= alpha)"],
                           [[p.a, p.b, f"{p.statistic:.3g}", f"{p.p:.3g}", f"{p.p_holm:.3g}", p.better or "-"]
                            for p in c.pairwise])
     return out + [""]
 
 
+def _per_problem_lines(t: st.ProblemTests) -> list[str]:
+    hits = [p for p in t.pairs if p.better is not None]
+    out = [f"**`{t.metric}`**: {len(t.pairs)} Mann-Whitney U tests (every pair on every problem, runs unpaired), Holm "
+           f"over all of them; smallest reachable p {t.smallest_p:.2g} per test, {t.smallest_p_holm:.2g} after Holm. "
+           f"{len(hits)} separated at alpha {t.alpha}" + (":" if hits else "."), ""]
+    if hits:
+        out += markdown_table(["problem", "a", "b", "runs", "U", "p", "p (Holm)", "better"],
+                              [[p.problem, p.a, p.b, f"{p.n_a}/{p.n_b}", f"{p.statistic:.3g}", f"{p.p:.3g}",
+                                f"{p.p_holm:.3g}", p.better] for p in hits]) + [""]
+    return out
+
+
+def _design_lines(d: dict) -> list[str]:
+    parts = []
+    if "mannwhitneyu_holm" in d:
+        parts.append(f"a per-problem Mann-Whitney test with {d['fewest_runs']} runs per solver reaches p >= "
+                     f"{d['mannwhitneyu']:.2g}, {d['mannwhitneyu_holm']:.2g} after Holm over {d['per_problem_tests']} tests")
+    if "wilcoxon_holm" in d:
+        parts.append(f"on {d['shared_problems']} shared problems a Wilcoxon-Holm pair reaches p >= {d['wilcoxon_holm']:.2g}"
+                     + (f" and Friedman p >= {d['friedman']:.2g}" if "friedman" in d else ""))
+    if not parts:
+        return ["No pairwise test is possible: fewer than two solvers on a shared problem.", ""]
+    names = {"mannwhitneyu_holm": "per-problem Mann-Whitney (more seeds)",
+             "wilcoxon_holm": "Wilcoxon-Holm on the problems (more problems)"}
+    weak = [names[k] for k in names if k in d and d[k] > d["alpha"]]
+    return ["Smallest p-values this design can reach: " + "; ".join(parts) + "."
+            + (f" **No {' and no '.join(weak)} test can separate two solvers at alpha {d['alpha']}.**"
+               if weak else ""), ""]
+
+
+def _aggregate_lines(s: dict) -> list[str]:
+    a = s["aggregate"]
+    rows = sorted(a.area.items(), key=lambda kv: -kv[1])
+    return (["Per solver, the fraction of (problem, target) pairs reached (runs averaged per problem, problems "
+             "weighted equally) against FE evaluations / dimension, and the area under it on a log scale from "
+             f"{a.lower:.3g} to {a.upper:.3g} evaluations per dimension (1: every target at once; COCO's and "
+             "IOHanalyzer's aggregated ECDF).", ""]
+            + markdown_table(["solver", "ECDF area"], [[k, f"{v:.3f}"] for k, v in rows]) + [""])
+
+
 def render_benchmark(s: dict, figures: dict, source: str) -> str:
     """The Markdown of the benchmark report from `benchmark_statistics` and the figure names."""
     lines = [f"# Benchmark report: {', '.join(s['solvers'])}", "",
              f"{s['n_runs']} runs from {source}, budget {s['budget']} FE evaluations. Targets: J - f_opt at "
-             f"{len(s['target_levels'])} levels, {st.PER_DECADE} per decade over {st.DECADES} decades from the "
-             "power of ten at or above J(x0) - f_opt; fixed per problem, whatever solvers ran. Values below "
-             "the last target are ties.", "", "## Problems", ""]
-    lines += markdown_table(["id", "n_var", "f_opt", "known as", "J(x0)", "top target", "last target"],
-                            [[p["id"], p["n_var"], f"{p['f_opt']:.10g}", p["f_opt_kind"], f"{p['f_start']:.4g}",
-                              _g(p["targets"][0]), _g(p["targets"][-1])] for p in s["problems"]])
-    lines += ["", "## Expected running time (ERT)", ""] + _ert_lines(s)
+             f"{len(s['target_levels'])} levels, {st.PER_DECADE} per decade over {st.DECADES} decades: COCO's "
+             "1e2 ... 1e-8 times the family's fixed target scale (the same on every instance; docs/suite.md), or "
+             "from the power of ten at or above J(x0) - f_opt for a variant without one. Values below the last "
+             "target are ties.", ""]
+    lines += _design_lines(s["design"])
+    if s["below_f_opt"]:
+        lines += [f"**{len(s['below_f_opt'])} run(s) ended below f_opt by more than its precision**: "
+                  + ", ".join(f"{b['optimizer']} seed {b['seed']} on {b['problem']} ({b['best_f']:.17g} < "
+                              f"{b['f_opt']:.17g})" for b in s["below_f_opt"]), ""]
+    lines += ["## Problems", ""]
+    lines += markdown_table(["id", "n_var", "f_opt", "known as", "precision", "target scale", "J(x0)", "top target",
+                             "last target"],
+                            [[p["id"], p["n_var"], f"{p['f_opt']:.17g}", p["f_opt_kind"],
+                              "-" if p["f_opt_precision"] is None else f"{p['f_opt_precision']:.2g}",
+                              "own decade" if p["target_scale"] is None else f"{p['target_scale']:.3g}",
+                              f"{p['f_start']:.4g}", _g(p["targets"][0]), _g(p["targets"][-1])] for p in s["problems"]])
+    lines += [""] + _one_budget_lines(s)
+    lines += ["## Expected running time (ERT)", ""] + _ert_lines(s)
     lines += [f"![ERT]({figures['ert']})", "", "## Fixed-target ECDFs (instances pooled)", "",
-              f"![ECDF]({figures['ecdf']})", "", "## Fixed-budget precision: median [q1, q3] of J - f_opt", ""]
+              f"![ECDF]({figures['ecdf']})", "", "## Aggregated ECDF over all problems and targets", ""]
+    lines += _aggregate_lines(s) + [f"![aggregated ECDF]({figures['aggregate']})", "",
+                                    "## Data and performance profiles", "",
+                                    "Moré-Wild data profiles (fraction of problems solved within alpha (n_var + 1) "
+                                    "evaluations) and Dolan-Moré performance profiles (fraction of problems whose "
+                                    "cost is within a ratio of the best solver's), solved meaning J <= f_opt + tau "
+                                    "(J(x0) - f_opt), the cost a solver's ERT on the problem.", "",
+                                    f"![profiles]({figures['profiles']})", "",
+                                    "## Fixed-budget precision: median [q1, q3] of J - f_opt", ""]
     lines += _fixed_budget_lines(s) + [""] + [f"![fixed budget {g}]({f})" for g, f in figures["fixed_budget"].items()]
-    lines += ["", "## Statistical comparison", "",
-              "Scores per (problem, seed): `auc` = the fraction of (target, budget) pairs not reached (from the "
-              "target-hitting times: earlier and more hits score lower), `final` = final J - f_opt raised to "
-              "the last target. Friedman, then pairwise Wilcoxon signed-rank with Holm's correction (alpha "
-              "0.05); ties below the last target are ties.", ""]
+    lines += ["", "## Statistical comparison on problems as blocks", "",
+              "One value per (solver, problem): seeds are never paired across solvers (they are independent "
+              "draws). Friedman's test, Nemenyi's critical difference (two solvers differ when their mean ranks "
+              "differ by at least the CD: the CD diagram's bars and cliques both come from it) and, beside it, "
+              "Wilcoxon signed-rank tests on the problems with Holm's correction (Demsar 2006).", ""]
     for c in s["comparisons"].values():
         lines += _comparison_lines(c)
     if s["comparisons"]:
         lines += [f"![critical difference]({figures['cd']})", ""]
     else:
-        lines += [f"No comparison: {s['not_compared']}", ""]
+        lines += [f"No comparison on problems as blocks: {s['not_compared']}", ""]
+    lines += ["## Per-problem tests on the runs", "",
+              "Scores per run: `auc` = the fraction of (target, budget) pairs not reached, `final` = final J - f_opt "
+              "raised to the last target (ties below it).", ""]
+    for t in s["per_problem"].values():
+        lines += _per_problem_lines(t)
     lines += ["## Costs (medians per run)", ""]
     lines += markdown_table(["solver", "runs", "evaluations", "FE s", "optimizer s", "clock", "statuses"],
                             [[k, c["runs"], f"{c['median_evals']:.0f}", f"{c['median_fe_s']:.3g}",
@@ -220,8 +408,8 @@ def render_benchmark(s: dict, figures: dict, source: str) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_benchmark(runs, out_dir, source: str) -> Path:
-    """Write OUT/report.md, OUT/stats.json and the figures of the suite runs; returns report.md."""
+def write_benchmark(runs, out_dir, source: str, name: str = "report.md") -> Path:
+    """Write OUT/<name> (report.md), OUT/stats.json and the figures of the runs; returns its path."""
     from . import stats_figures as sf
 
     s = benchmark_statistics(runs)
@@ -229,15 +417,17 @@ def write_benchmark(runs, out_dir, source: str) -> Path:
     groups = sorted({st.group_of(p["id"]) for p in s["problems"]})
     figures = {"ert": sf.plot_ert(s["ert"], out / "ert.png").name,
                "ecdf": sf.plot_ecdf(s["ecdf"], out / "ecdf.png").name,
+               "aggregate": sf.plot_aggregate(s["aggregate"], out / "aggregate_ecdf.png").name,
+               "profiles": sf.plot_profiles(s["profiles"], out / "profiles.png").name,
                "fixed_budget": {g: sf.plot_fixed_budget(s["fixed_budget"], g, out / f"fixed_budget_{_stem(g)}.png").name
                                 for g in groups},
                "convergence": {g: sf.plot_convergence([c for c in s["convergence"] if st.group_of(c["problem"]) == g],
                                                       out / f"convergence_{_stem(g)}.png").name for g in groups}}
     if s["comparisons"]:
-        figures["cd"] = sf.plot_cd(s["comparisons"][COMPARISON_METRICS[0]] if COMPARISON_METRICS[0] in s["comparisons"]
+        figures["cd"] = sf.plot_cd(s["comparisons"][BLOCK_VALUES[0]] if BLOCK_VALUES[0] in s["comparisons"]
                                    else next(iter(s["comparisons"].values())), out / "cd.png").name
     write_text(out / "stats.json", dumps(s) + "\n")
-    path = out / "report.md"
+    path = out / name
     write_text(path, render_benchmark(s, figures, source))
     return path
 

@@ -14,15 +14,18 @@ Two ways in, one file format:
 
 raw_y is the precision J - f_opt, as ioh's own Analyzer logs its BBOB problems (f - f_opt,
 0 at the optimum), in units of the problem's top target (`IOHTerms.scale`, the power of ten at
-or above J(x0) - f_opt, femu.reports.stats.fixed_targets): ioh writes raw_y with 10 fixed
-decimals, which in these units keep the 10 decades of targets. f_opt is the suite's (the
-paper's best known J for ``paper``); a problem without a known optimum (the ``synthetic``
+or above J(x0) - f_opt), at full precision: ioh's Analyzer writes its raw_y column with 10
+fixed decimals (1e-14 would read 0), so ioh's own RawY property is logged a second time with
+17 significant digits and put in raw_y's place when the logger closes (`full_precision`).
+f_opt is the suite's (the paper's certified minimum for ``paper``); a problem without a known optimum (the ``synthetic``
 variant) logs J itself in the same kind of units, f_opt 0. f_opt, the scale and how f_opt is
 known are in OUT/femu-ioh.json. The ioh problem's optimum is (x*, 0) where x* is known.
 
 x is in the problem's declared search space [0, 1]^n: (x - xl) / (xu - xl), xl and xu the
 parameter bounds (Pa). Function ids are ours (`FUNCTION_IDS`, never ioh's registration order),
-one per problem family; the instance is the suite instance (1 for a variant).
+one per problem family, from 20001: clear of BBOB's 1-24 and of ioh's other suites (the first
+exports used 1, 2, 11-15, `OLD_FUNCTION_IDS`); the instance is the suite instance (1 for a
+variant).
 
 Layout (ioh's): OUT/<algorithm>/IOHprofiler_f<id>_femu_<family>.json and
 OUT/<algorithm>/data_f<id>_femu_<family>/IOHprofiler_f<id>_DIM<n>.dat; one folder per
@@ -53,8 +56,15 @@ MARKER = "femu-ioh.json"
 
 #: Our IOHprofiler function ids, one per problem family (a variant is its own family; the
 #: ``paper`` variant is the suite's ``paper`` problem). Stable: never renumber, only add.
-FUNCTION_IDS = {"paper": 1, "synthetic": 2, "hframe-freq": 11, "hframe-shape": 12, "hframe-freq-noisy": 13,
-                "hframe-shape-noisy": 14, "frame-shape": 15}
+FUNCTION_IDS = {"paper": 20001, "synthetic": 20002, "hframe-freq": 20011, "hframe-shape": 20012,
+                "hframe-freq-noisy": 20013, "hframe-shape-noisy": 20014, "frame-shape": 20015}
+#: The ids of femu-bench 0.1's first exports (1, 2, 11-15), which collided with BBOB's 1-24.
+OLD_FUNCTION_IDS = {"paper": 1, "synthetic": 2, "hframe-freq": 11, "hframe-shape": 12, "hframe-freq-noisy": 13,
+                    "hframe-shape-noisy": 14, "frame-shape": 15}
+#: The extra column ioh logs raw_y into at full precision (its own RawY property, format {:.17g});
+#: it replaces ioh's raw_y column (10 fixed decimals) once a logger is closed (`full_precision`).
+FULL = "raw_y_full"
+_PROPERTIES: list = []
 
 _FEEDS: dict[str, object] = {}
 #: The optimum (x in [0, 1]^n, raw_y) ioh reports per (family, instance, n_var): x NaN where
@@ -106,7 +116,7 @@ def ioh_terms(variant: str) -> IOHTerms:
     p = problem_of(variant)
     family, instance = (variant.split("/")[0], int(variant.split("/")[2])) if is_suite_id(variant) else (variant, 1)
     f_opt = getattr(p, "f_opt", PAPER_F_OPT if variant == "paper" else None)
-    kind = getattr(p, "f_opt_kind", "best known" if variant == "paper" else "unknown")
+    kind = getattr(p, "f_opt_kind", "certified" if variant == "paper" else "unknown")
     gap = float(p.evaluate(p.x0)[0]) - (f_opt or 0.0)
     xl, xu = np.asarray(p.xl, float), np.asarray(p.xu, float)
     truth = getattr(p, "truth", None)
@@ -161,13 +171,48 @@ def _analyzer(root: Path, algorithm: str, info: str, triggers: list):
     # one crashes the process at the next evaluation
     from femu.studies.store import safe_name
 
+    full = ioh.logger.property.RawY(FULL, "{:.17g}")
+    _PROPERTIES.append(full)  # as the triggers: ioh does not keep it alive
     # the folder's name comes from the optimizer's (user input): a safe file-name piece
-    lg = ioh.logger.Analyzer(triggers=triggers, root=str(root), folder_name=safe_name(algorithm), algorithm_name=algorithm,
-                             algorithm_info=info, store_positions=False)
+    lg = ioh.logger.Analyzer(triggers=triggers, additional_properties=[full], root=str(root),
+                             folder_name=safe_name(algorithm), algorithm_name=algorithm, algorithm_info=info,
+                             store_positions=False)
     lg.add_run_attribute("seed", 0.0)
     lg.add_experiment_attribute("raw_y", "(J - f_opt) / scale, J the objective; f_opt and scale per function "
                                          "and instance in femu-ioh.json")
     return lg
+
+
+def _safe(name: str) -> str:
+    from femu.studies.store import safe_name
+
+    return safe_name(name)
+
+
+def full_precision(folder) -> None:
+    """Put the full-precision raw_y (ioh's own RawY property logged as `FULL`, 17 significant
+    digits) in place of ioh's raw_y column (10 fixed decimals: 1e-14 would read 0) in every
+    .dat file under FOLDER (a closed logger's), and drop the extra column from the files and
+    the .json's attribute list. Nothing else of ioh's files changes."""
+    folder = Path(folder)
+    for dat in folder.rglob("IOHprofiler_*.dat"):
+        lines = dat.read_text().splitlines()
+        head = lines[0].split() if lines else []
+        if FULL not in head:
+            continue
+        i_raw, i_full = head.index("raw_y"), head.index(FULL)
+        out = []
+        for line in lines:
+            cells = line.split()
+            if cells and cells[0] != "evaluations":
+                cells[i_raw] = cells[i_full]
+            out.append(" ".join(c for k, c in enumerate(cells) if k != i_full))
+        write_text(dat, "\n".join(out) + "\n")
+    for js in folder.rglob("IOHprofiler_*.json"):
+        meta = json.loads(js.read_text())
+        if FULL in meta.get("attributes", []):
+            meta["attributes"] = [a for a in meta["attributes"] if a != FULL]
+            write_text(js, json.dumps(meta, indent=1))
 
 
 class IOHLoggedProblem:
@@ -200,7 +245,7 @@ class IOHLoggedProblem:
         """The problem's least-squares form, logged as the `charged` evaluations the harness
         charged for it (residuals alone 1, with the Jacobian n_var + 1, adapters.budget
         .jacobian_cost): the point once, then as often again without change."""
-        out = self.problem.least_squares(x)
+        out = self.problem.least_squares(x, charged=charged)
         self._log(np.repeat(np.atleast_2d(x), charged, axis=0), np.full(charged, out.f))
         return out
 
@@ -220,6 +265,9 @@ def run_logged(name: str, variant: str, budget: int, seed: int, out_dir, **optio
     result = run(name, wrapped, budget, seed, variant=variant, **options)
     wrapped.ioh.reset()
     logger.close()
+    from femu.studies.store import safe_name
+
+    full_precision(Path(out_dir) / safe_name(name))
     return result
 
 
@@ -289,6 +337,7 @@ def export_runs(runs, out_dir, validate: bool = True) -> Path:
             problem.reset()
             problem.detach_logger()
         logger.close()
+        full_precision(out / _safe(alg))
     write_text(out / MARKER, dumps({
         "format": "femu.ioh-export/1",
         "raw_y": "(J - f_opt) / raw_y_scale; x in [0, 1]: (x - xl) / (xu - xl)",
@@ -367,9 +416,9 @@ def check_export(root, by_algorithm: dict[str, list[RunResult]]) -> None:
             expect = [(k, float(terms.raw(f))) for k, f in improvements(run)]
             if expect[-1][0] != run.n_evals:
                 expect.append((run.n_evals, float(terms.raw(run.best_f))))
-            # ioh writes raw_y with 10 fixed decimals
+            # raw_y at full precision (`full_precision`): equal to the last bits
             if (r.evals != run.n_evals or r.points.shape != (len(expect), 2)
-                    or not np.allclose(r.points, expect, rtol=0, atol=1e-10)):
+                    or not np.allclose(r.points, expect, rtol=1e-15, atol=0)):
                 raise RuntimeError(f"{root}: run {key} reads back as {r.evals} evaluations, {r.points.tolist()}; "
                                    f"expected {run.n_evals}, {expect}")
             if not math.isclose(float(terms.objective(r.best_y)), run.best_f, rel_tol=1e-9):

@@ -107,6 +107,9 @@ class SolverSummary:
     overhead_ms_per_eval: Spread
     curve: Curve | None
     ecdf: np.ndarray | None = None  # fraction of (run, target) pairs reached on the group's grid
+    best_seed: int | None = None  # the seed of this optimizer's best run (lowest best_f)
+    best_x: np.ndarray | None = None  # that run's point: the updated parameters (Pa for moduli)
+    best_run_f: float = math.nan  # that run's J
 
     @property
     def n_runs(self) -> int:
@@ -132,7 +135,8 @@ class SolverSummary:
                 "mean_comac": opt(self.mean_comac), "n_evals": self.n_evals.to_dict(),
                 "wall_s": self.wall_s.to_dict(), "cpu_s": self.cpu_s.to_dict(), "fe_s": self.fe_s.to_dict(),
                 "overhead_s": self.overhead_s.to_dict(),
-                "overhead_ms_per_eval": self.overhead_ms_per_eval.to_dict()}
+                "overhead_ms_per_eval": self.overhead_ms_per_eval.to_dict(),
+                "best_run": {"seed": self.best_seed, "best_f": _num(self.best_run_f), "x": _arr(self.best_x)}}
 
 
 @dataclass(frozen=True, eq=False)
@@ -153,6 +157,53 @@ class PaperComparison:
 
 
 @dataclass(frozen=True, eq=False)
+class Parameters:
+    """The updating parameters of a group's problem: labels (E1 ...), what each is, initial
+    values and bounds (SI units: Pa for moduli)."""
+
+    labels: tuple[str, ...]
+    kinds: tuple[str, ...]
+    x0: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+
+    def at_bound(self, x: np.ndarray, rtol: float = 1e-3) -> np.ndarray:
+        """-1 / +1 where x is within rtol of the range from its lower / upper bound, else 0."""
+        tol = rtol * (self.upper - self.lower)
+        return np.where(x <= self.lower + tol, -1, np.where(x >= self.upper - tol, 1, 0))
+
+
+@dataclass(frozen=True, eq=False)
+class ModeComparison:
+    """The model at its initial parameters and at the group's best point (the lowest J of any
+    run): the first modes of both for drawing, and MAC matrices against the updated modes.
+
+    `shapes_initial`, `shapes_updated`: (n_dof, k) on every nodal DOF of `model` (its
+    `model.dofs` order), the updated ones signed to agree with the initial mode they pair with;
+    `mac_initial_updated`: (k, k) over the measured coordinates; `mac_measured_updated`: (m, k),
+    measured against updated modes (None when the data have no measured shapes)."""
+
+    model: object  # the FrameModel the shapes are drawn on
+    optimizer: str
+    seed: int
+    best_f: float
+    frequencies_initial_hz: np.ndarray
+    frequencies_updated_hz: np.ndarray
+    shapes_initial: np.ndarray
+    shapes_updated: np.ndarray
+    mac_initial_updated: np.ndarray
+    mac_measured_updated: np.ndarray | None
+
+    def to_dict(self) -> dict:
+        return {"optimizer": self.optimizer, "seed": self.seed, "best_f": _num(self.best_f),
+                "frequencies_initial_hz": _arr(self.frequencies_initial_hz),
+                "frequencies_updated_hz": _arr(self.frequencies_updated_hz),
+                "mac_initial_updated": jsonable(self.mac_initial_updated),
+                "mac_measured_updated": None if self.mac_measured_updated is None
+                else jsonable(self.mac_measured_updated)}
+
+
+@dataclass(frozen=True, eq=False)
 class GroupSummary:
     """Every optimizer on one problem variant under one budget, with the initial model,
     the ECDF targets and grid, and (variant 'paper') the paper's own numbers."""
@@ -170,6 +221,10 @@ class GroupSummary:
     targets: np.ndarray  # ECDF objective targets, descending
     paper: PaperComparison | None = None
     notes: tuple[str, ...] = field(default_factory=tuple)
+    parameters: Parameters | None = None
+    best_known_f: float | None = None  # the lowest J known for the problem (a line on the curves)
+    best_known_how: str = ""  # where that value comes from
+    modes: ModeComparison | None = None
 
     @property
     def initial_mean_abs_error_pct(self) -> float:
@@ -186,7 +241,13 @@ class GroupSummary:
              "initial_hz": _arr(self.initial_hz), "initial_error_pct": _arr(self.initial_error_pct),
              "initial_mean_abs_error_pct": self.initial_mean_abs_error_pct,
              "initial_mean_comac": self.initial_mean_comac, "has_shapes": self.has_shapes,
-             "targets": _arr(self.targets), "solvers": {s.optimizer: s.to_dict() for s in self.solvers}}
+             "targets": _arr(self.targets), "solvers": {s.optimizer: s.to_dict() for s in self.solvers},
+             "best_known_f": _num(self.best_known_f), "best_known_how": self.best_known_how,
+             "modes": None if self.modes is None else self.modes.to_dict()}
+        if self.parameters is not None:
+            q = self.parameters
+            d["parameters"] = {"labels": list(q.labels), "kinds": list(q.kinds), "x0": _arr(q.x0),
+                               "lower": _arr(q.lower), "upper": _arr(q.upper)}
         if self.paper is not None:
             p = self.paper
             d["paper"] = {"measured_hz": _arr(p.measured_hz), "initial_hz": _arr(p.initial_hz),

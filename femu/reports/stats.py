@@ -62,14 +62,23 @@ class Targets:
 
 
 def fixed_targets(problem: str, f_opt: float, f_start: float, decades: int = DECADES,
-                  per_decade: int = PER_DECADE) -> Targets:
-    """Targets 10^(top - k/per_decade), k = 0 .. decades*per_decade, with 10^top the power of ten
-    at or above the initial precision f_start - f_opt (> 0, else ValueError)."""
+                  per_decade: int = PER_DECADE, scale: float | None = None) -> Targets:
+    """Targets on Delta = J - f_opt, `per_decade` per decade over `decades` decades.
+
+    With `scale` (the problem family's fixed normalisation, fe_problem.suite.target_scale):
+    COCO's absolute targets 10^(2 - k/per_decade), k = 0 .. decades*per_decade, on
+    Delta / scale: 1e2 ... 1e-8 times the scale, the same on every instance of the family.
+    Without: 10^(top - k/per_decade) with 10^top the power of ten at or above the initial
+    precision f_start - f_opt (a problem that is its own family). ValueError unless
+    f_start > f_opt."""
     gap = float(f_start) - float(f_opt)
     if not (math.isfinite(gap) and gap > 0):
         raise ValueError(f"problem {problem!r}: the initial J ({f_start!r}) must be above f_opt ({f_opt!r})")
-    top = math.ceil(math.log10(gap) - 1e-12)
     k = np.arange(decades * per_decade + 1)
+    if scale is not None:
+        return Targets(problem, float(f_opt), float(f_start),
+                       tuple(float(v) for v in float(scale) * 10.0 ** (2 - k / per_decade)))
+    top = math.ceil(math.log10(gap) - 1e-12)
     return Targets(problem, float(f_opt), float(f_start), tuple(float(v) for v in 10.0 ** (top - k / per_decade)))
 
 
@@ -151,28 +160,42 @@ def by_key(runs, key) -> dict:
 
 @dataclass(frozen=True)
 class ErtTable:
-    """ERT (evaluations) per solver, group and target level; inf where no run hit."""
+    """ERT (evaluations) per solver, group and target level; inf where no run hit. `lower`,
+    `upper`: the 10 and 90 % points of COCO's bootstrapped run lengths with restarts
+    (`ert_interval`); `beyond_budget`: the ERT exceeds the largest budget any of those runs had
+    (an extrapolation from restarts that no run made; never for an infinite ERT)."""
 
     levels: tuple[float, ...]
     ert: dict          # {solver: {group: [ERT per level]}}
     successes: dict    # {solver: {group: [runs that hit, per level]}}
     runs: dict         # {solver: {group: number of runs}}
+    lower: dict = field(default_factory=dict)          # {solver: {group: [10 % point per level]}}
+    upper: dict = field(default_factory=dict)          # {solver: {group: [90 % point per level]}}
+    beyond_budget: dict = field(default_factory=dict)  # {solver: {group: [bool per level]}}
 
     def to_dict(self) -> dict:
         return _dict(self)
 
 
-def ert_table(runs: list[RunTrace], targets: dict[str, Targets]) -> ErtTable:
-    """ERT of every solver on every group (family/dimension), runs pooled over instances."""
+def ert_table(runs: list[RunTrace], targets: dict[str, Targets], samples: int = 1000) -> ErtTable:
+    """ERT of every solver on every group (family/dimension), runs pooled over instances, with
+    COCO's bootstrapped 10-90 % range (`samples` simulated restarts, a fixed seed) and the
+    beyond-budget flag."""
     _check(runs, targets)
-    out, succ, count = {}, {}, {}
+    out, succ, count, lo, hi, beyond = {}, {}, {}, {}, {}, {}
     for (solver, group), rs in by_key(runs, lambda r: (r.solver, group_of(r.problem))).items():
         times = np.array([hitting_times(r, targets[r.problem]) for r in rs])
-        out.setdefault(solver, {})[group] = ert(times, np.array([r.n_evals for r in rs])).tolist()
+        n_evals = np.array([r.n_evals for r in rs])
+        e = ert(times, n_evals)
+        out.setdefault(solver, {})[group] = e.tolist()
         succ.setdefault(solver, {})[group] = np.isfinite(times).sum(axis=0).tolist()
         count.setdefault(solver, {})[group] = len(rs)
+        ranges = [ert_interval(times[:, k], n_evals, samples=samples, seed=k) for k in range(times.shape[1])]
+        lo.setdefault(solver, {})[group] = [a for a, _ in ranges]
+        hi.setdefault(solver, {})[group] = [b for _, b in ranges]
+        beyond.setdefault(solver, {})[group] = [bool(math.isfinite(v) and v > n_evals.max()) for v in e]
     n = len(next(iter(targets.values())).deltas) if targets else 0
-    return ErtTable(target_levels(n // PER_DECADE if n else DECADES), out, succ, count)
+    return ErtTable(target_levels(n // PER_DECADE if n else DECADES), out, succ, count, lo, hi, beyond)
 
 
 @dataclass(frozen=True)
@@ -261,14 +284,9 @@ def run_scores(runs: list[RunTrace], targets: dict[str, Targets], metric: str = 
 
 
 def holm(pvalues) -> np.ndarray:
-    """Holm's step-down adjusted p-values (same order as given), capped at 1."""
-    p = np.asarray(pvalues, dtype=float)
-    order = np.argsort(p, kind="stable")
-    m = len(p)
-    adj = np.minimum(1.0, np.maximum.accumulate((m - np.arange(m)) * p[order]))
-    out = np.empty(m)
-    out[order] = adj
-    return out
+    """Holm's step-down adjusted p-values (same order as given), capped at 1 (statsmodels'
+    multipletests, method "holm")."""
+    return _holm(pvalues)
 
 
 def nemenyi_cd(k: int, n_blocks: int, alpha: float = 0.05) -> float:
@@ -375,3 +393,349 @@ def compare(runs: list[RunTrace], targets: dict[str, Targets], metric: str = "fi
     order = sorted(solvers, key=lambda s: (mean_ranks[s], s))
     return Comparison(metric, alpha, solvers, len(blocks), dropped, mean_ranks, fs, fp, pairwise,
                       nemenyi_cd(len(solvers), len(blocks), alpha), _cliques(order, separated))
+
+
+# -- problems as blocks (Demsar 2006) ------------------------------------------------------------
+#: One value per (solver, problem) for the block comparison: ``median_final`` (median over the
+#: solver's runs of the final J - f_opt, raised to the problem's last target) or ``ert`` (the
+#: ERT at one target level, inf where no run hit).
+BLOCK_VALUES = ("median_final", "ert")
+
+
+def _holm(pvalues) -> np.ndarray:
+    from statsmodels.stats.multitest import multipletests
+
+    p = np.asarray(pvalues, dtype=float)
+    return multipletests(p, method="holm")[1] if len(p) else p
+
+
+def smallest_p(test: str, *sizes: int, n_tests: int = 1) -> float:
+    """The smallest p-value a design can reach, after Holm over `n_tests` tests (times n_tests):
+    ``mannwhitneyu`` (sizes n_a, n_b): 2 / C(n_a + n_b, n_a), the exact two-sided test with no
+    ties; ``wilcoxon`` (n blocks): 2 / 2^n, the exact signed-rank test; ``friedman`` (n blocks,
+    k solvers): the chi-square tail at the largest statistic n (k - 1) (every block ranked alike)."""
+    if test == "mannwhitneyu":
+        n_a, n_b = sizes
+        p = 2.0 / math.comb(n_a + n_b, n_a)
+    elif test == "wilcoxon":
+        (n,) = sizes
+        p = 2.0 / 2.0 ** n
+    elif test == "friedman":
+        n, k = sizes
+        p = float(sps.chi2.sf(n * (k - 1), k - 1))
+    else:
+        raise ValueError(f"test must be mannwhitneyu, wilcoxon or friedman, got {test!r}")
+    return float(min(1.0, p * n_tests))
+
+
+def block_table(runs: list[RunTrace], targets: dict[str, Targets], value: str = "median_final",
+                level: int = 0):
+    """(solvers, problems, table (n_problems, n_solvers), dropped problems): one value per
+    (solver, problem) (`BLOCK_VALUES`; `level` indexes the target of ``ert``), lower is better;
+    a problem some solver did not run is dropped."""
+    if value not in BLOCK_VALUES:
+        raise ValueError(f"value must be one of {BLOCK_VALUES}, got {value!r}")
+    _check(runs, targets)
+    solvers = tuple(sorted({r.solver for r in runs}))
+    cells = by_key(runs, lambda r: (r.problem, r.solver))
+    all_problems = sorted({r.problem for r in runs})
+    problems = [p for p in all_problems if all((p, s) in cells for s in solvers)]
+
+    def cell(rs):
+        t = targets[rs[0].problem]
+        if value == "median_final":
+            return float(np.median([max(r.best_at([r.n_evals])[0] - t.f_opt, t.floor) for r in rs]))
+        times = np.array([hitting_times(r, t)[level] for r in rs])[:, None]
+        return float(ert(times, np.array([r.n_evals for r in rs]))[0])
+
+    table = np.array([[cell(cells[(p, s)]) for s in solvers] for p in problems]).reshape(len(problems), len(solvers))
+    return solvers, tuple(problems), table, len(all_problems) - len(problems)
+
+
+def value_name(value: str, targets: dict[str, Targets] | None = None, level: int = 0) -> str:
+    """What a block value means, as the report and the JSON name it."""
+    if value == "median_final":
+        return "median over the solver's runs of the final J - f_opt (raised to the problem's last target)"
+    return f"ERT (FE evaluations) to target level {level} (J - f_opt <= the problem's target {level}; inf: never)"
+
+
+@dataclass(frozen=True)
+class BlockComparison:
+    """Solvers compared on problems as blocks (Demsar 2006): one value per (solver, problem)
+    (`value`, named), mean ranks (1 = best, ties averaged), Friedman's test (None for fewer than
+    3 solvers), pairwise Wilcoxon signed-rank tests on the problems with Holm's correction,
+    Nemenyi's critical difference and its cliques (solvers whose mean ranks differ by less than
+    the CD: the bars and the scale of the CD diagram come from this one test), and the smallest
+    p-values the design can reach."""
+
+    value: str
+    value_name: str
+    alpha: float
+    solvers: tuple[str, ...]
+    problems: tuple[str, ...]
+    n_dropped_problems: int
+    table: dict
+    mean_ranks: dict
+    friedman_statistic: float | None
+    friedman_p: float | None
+    pairwise: tuple[Pairwise, ...]
+    critical_difference: float
+    cd_test: str
+    cliques: tuple[tuple[str, ...], ...]
+    smallest_p: dict
+
+    @property
+    def n_blocks(self) -> int:
+        """The number of blocks (problems)."""
+        return len(self.problems)
+
+    def to_dict(self) -> dict:
+        return dict(_dict(self), n_blocks=self.n_blocks)
+
+
+def wilcoxon_values(table: np.ndarray) -> np.ndarray:
+    """The block values the signed-rank test sees: an infinite ERT (no run hit) counts as 10 x
+    the largest finite value of the table, worse than every ERT and tied with other infinities
+    (the ranks of Friedman and Nemenyi are the same either way)."""
+    finite = table[np.isfinite(table)]
+    return np.where(np.isfinite(table), table, 10.0 * (finite.max() if finite.size else 1.0))
+
+
+def compare_problems(runs: list[RunTrace], targets: dict[str, Targets], value: str = "median_final",
+                     level: int = 0, alpha: float = 0.05) -> BlockComparison:
+    """Friedman, Wilcoxon-Holm on problems, mean ranks, Nemenyi CD and its cliques on one value
+    per (solver, problem); seeds are never paired across solvers. ValueError for fewer than 2
+    solvers or 2 common problems."""
+    solvers, problems, table, dropped = block_table(runs, targets, value, level)
+    if len(solvers) < 2 or len(problems) < 2:
+        raise ValueError(f"a comparison on problems as blocks needs at least 2 solvers on at least 2 common problems, "
+                         f"got {len(solvers)} solver(s) on {len(problems)} problem(s)")
+    n, k = table.shape
+    ranks = sps.rankdata(table, axis=1).mean(axis=0)
+    mean_ranks = dict(zip(solvers, ranks.tolist()))
+    fs = fp = None
+    if k >= 3:
+        if np.all(table == table[:, :1]):
+            fs, fp = 0.0, 1.0
+        else:
+            res = sps.friedmanchisquare(*table.T)
+            fs, fp = float(res.statistic), float(res.pvalue)
+    pairs = list(combinations(range(k), 2))
+    tested = wilcoxon_values(table)
+    raw = [_wilcoxon(tested[:, i], tested[:, j]) for i, j in pairs]
+    adj = _holm([p for _, p in raw])
+    pairwise = tuple(Pairwise(solvers[i], solvers[j], st, p, float(pa),
+                              (solvers[i] if ranks[i] < ranks[j] else solvers[j]) if pa <= alpha else None)
+                     for (i, j), (st, p), pa in zip(pairs, raw, adj))
+    cd = nemenyi_cd(k, n, alpha)
+    # Demsar: two solvers differ when their mean ranks differ by at least the CD
+    separated = {frozenset((solvers[i], solvers[j])) for i, j in pairs if abs(ranks[i] - ranks[j]) >= cd}
+    order = sorted(solvers, key=lambda s: (mean_ranks[s], s))
+    limits = {"wilcoxon": smallest_p("wilcoxon", n), "wilcoxon_holm": smallest_p("wilcoxon", n, n_tests=len(pairs))}
+    if k >= 3:
+        limits["friedman"] = smallest_p("friedman", n, k)
+    return BlockComparison(value, value_name(value, targets, level), alpha, solvers, problems, dropped,
+                           {s: table[:, j].tolist() for j, s in enumerate(solvers)}, mean_ranks, fs, fp, pairwise,
+                           cd, "nemenyi", _cliques(order, separated), limits)
+
+
+# -- per-problem tests on unpaired runs ------------------------------------------------------
+
+@dataclass(frozen=True)
+class ProblemPair:
+    """Mann-Whitney U test of solvers a and b on one problem's runs (unpaired): U of a, raw p,
+    p after Holm over every pair and problem, and the better solver when p_holm <= alpha."""
+
+    problem: str
+    a: str
+    b: str
+    n_a: int
+    n_b: int
+    statistic: float
+    p: float
+    p_holm: float
+    better: str | None
+
+    def to_dict(self) -> dict:
+        return _dict(self)
+
+
+@dataclass(frozen=True)
+class ProblemTests:
+    """Every per-problem pairwise test (`ProblemPair`) of one run score (`metric`), Holm over
+    all of them, and the smallest p-value each and all together can reach."""
+
+    metric: str
+    alpha: float
+    pairs: tuple[ProblemPair, ...]
+    smallest_p: float
+    smallest_p_holm: float
+
+    def to_dict(self) -> dict:
+        return _dict(self)
+
+
+def _mannwhitney(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
+    if np.all(x == x[0]) and np.all(y == x[0]):  # every value tied: no evidence either way
+        return len(x) * len(y) / 2.0, 1.0
+    res = sps.mannwhitneyu(x, y, alternative="two-sided")
+    return float(res.statistic), float(res.pvalue)
+
+
+def per_problem_tests(runs: list[RunTrace], targets: dict[str, Targets], metric: str = "final",
+                      alpha: float = 0.05) -> ProblemTests:
+    """Mann-Whitney U tests of every pair of solvers on every problem both ran, on the runs'
+    scores (`run_scores`: ties below the last target), Holm over all pairs and problems."""
+    scores = run_scores(runs, targets, metric)
+    cells: dict = {}
+    for r, s in zip(runs, scores):
+        cells.setdefault((r.problem, r.solver), []).append(s)
+    found = []
+    for problem in sorted({r.problem for r in runs}):
+        solvers = sorted(s for p, s in cells if p == problem)
+        for a, b in combinations(solvers, 2):
+            x, y = np.array(cells[(problem, a)]), np.array(cells[(problem, b)])
+            u, p = _mannwhitney(x, y)
+            found.append((problem, a, b, len(x), len(y), u, p))
+    adj = _holm([f[-1] for f in found])
+    pairs = tuple(ProblemPair(pr, a, b, na, nb, u, p, float(pa),
+                              (a if u < na * nb / 2.0 else b) if pa <= alpha and u != na * nb / 2.0 else None)
+                  for (pr, a, b, na, nb, u, p), pa in zip(found, adj))
+    least = min((smallest_p("mannwhitneyu", f[3], f[4]) for f in found), default=1.0)
+    return ProblemTests(metric, alpha, pairs, least, min(1.0, least * len(found)))
+
+
+def seeds_can_separate(n_seeds: int, n_solvers: int, n_problems: int, alpha: float = 0.05) -> bool:
+    """Whether a study of n_solvers x n_problems with n_seeds runs each can separate any pair
+    on a problem: the smallest Mann-Whitney p after Holm over every pair and problem <= alpha."""
+    m = math.comb(n_solvers, 2) * n_problems
+    return m == 0 or smallest_p("mannwhitneyu", n_seeds, n_seeds, n_tests=m) <= alpha
+
+
+# -- ERT intervals (COCO) --------------------------------------------------------------------
+
+def simulated_runlengths(times, n_evals, samples: int = 1000, seed: int = 0) -> np.ndarray:
+    """COCO's bootstrap of run lengths with simulated restarts (cocopp.toolsstats.drawSP) for one
+    target: each sample adds the lengths of runs drawn uniformly with replacement (a failed run
+    counts its evaluations) up to and including the first run that hit. Their mean estimates the
+    ERT. Sorted, (samples,); all inf when no run hit."""
+    times = np.asarray(times, dtype=float)
+    success = np.isfinite(times)
+    if not success.any():
+        return np.full(samples, np.inf)
+    lengths = np.where(success, times, np.asarray(n_evals, dtype=float))
+    rng = np.random.default_rng(seed)
+    total, open_ = np.zeros(samples), np.ones(samples, dtype=bool)
+    while open_.any():  # one draw per still-restarting sample, vectorised over samples
+        idx = rng.integers(0, len(times), size=int(open_.sum()))
+        total[open_] += lengths[idx]
+        done = success[idx]
+        open_[np.flatnonzero(open_)[done]] = False
+    return np.sort(total)
+
+
+def ert_interval(times, n_evals, percentiles=(10, 90), samples: int = 1000, seed: int = 0) -> tuple[float, float]:
+    """The `percentiles` of COCO's simulated run lengths (`simulated_runlengths`): the 10-90 %
+    range COCO prints beside an ERT; (inf, inf) when no run hit."""
+    if not np.isfinite(np.asarray(times, dtype=float)).any():
+        return math.inf, math.inf
+    lo, hi = np.percentile(simulated_runlengths(times, n_evals, samples, seed), percentiles)
+    return float(lo), float(hi)
+
+
+# -- aggregates over problems (COCO, IOHanalyzer) ----------------------------------------------
+
+@dataclass(frozen=True)
+class AggregateEcdf:
+    """Per solver, the ECDF over every (problem, target) pair (problems weighted equally, runs
+    averaged within a problem) against FE evaluations / dimension, and its area: the mean of the
+    ECDF over log10(evaluations / dimension) from `lower` to `upper` (0: nothing hit, 1: every
+    target at the first point)."""
+
+    budgets_per_dim: tuple[float, ...]
+    fraction: dict
+    area: dict
+    lower: float
+    upper: float
+
+    def to_dict(self) -> dict:
+        return _dict(self)
+
+
+def aggregate_ecdf(runs: list[RunTrace], targets: dict[str, Targets], n_var: dict[str, int],
+                   points: int = 60) -> AggregateEcdf:
+    """The aggregated ECDF and its area for every solver (`AggregateEcdf`); the range is fixed
+    by the problems and budgets: from 1 / the largest dimension to the largest n_evals / the
+    smallest dimension."""
+    _check(runs, targets)
+    lower = 1.0 / max(n_var[r.problem] for r in runs)
+    upper = max(r.n_evals / n_var[r.problem] for r in runs)
+    grid = np.logspace(math.log10(lower), math.log10(upper), points)
+    span = math.log10(upper) - math.log10(lower)
+    frac, area = {}, {}
+    for solver, rs in by_key(runs, lambda r: r.solver).items():
+        f_p, a_p = [], []
+        for problem, prs in by_key(rs, lambda r: r.problem).items():
+            t = np.concatenate([hitting_times(r, targets[problem]) for r in prs]) / n_var[problem]
+            f_p.append((t[None, :] <= grid[:, None]).mean(axis=1))
+            with np.errstate(divide="ignore"):
+                left = np.log10(np.clip(t, lower, None))
+            a_p.append(np.where(np.isfinite(t), np.clip(math.log10(upper) - left, 0.0, None) / span, 0.0).mean())
+        frac[solver] = np.mean(f_p, axis=0).tolist()
+        area[solver] = float(np.mean(a_p))
+    return AggregateEcdf(tuple(grid.tolist()), frac, area, lower, upper)
+
+
+#: Moré and Wild's (2009) convergence tolerances tau: solved when J <= f_opt + tau (J(x0) - f_opt).
+TOLERANCES = (1e-1, 1e-3, 1e-5, 1e-7)
+
+
+@dataclass(frozen=True)
+class Profiles:
+    """Data profiles (Moré-Wild 2009: the fraction of problems solved within alpha (n_var + 1)
+    evaluations) and performance profiles (Dolan-Moré 2002: the fraction of problems on which
+    a solver's cost is within a ratio of the best solver's) at one tolerance tau; the cost of a
+    solver on a problem is its ERT to J <= f_opt + tau (J(x0) - f_opt) over its runs."""
+
+    tolerance: float
+    cost: dict           # {solver: [ERT per problem]} (inf: never solved)
+    problems: tuple[str, ...]
+    alpha: tuple[float, ...]
+    data: dict           # {solver: [fraction per alpha]}
+    ratio: tuple[float, ...]
+    performance: dict    # {solver: [fraction per ratio]}
+
+    def to_dict(self) -> dict:
+        return _dict(self)
+
+
+def profiles(runs: list[RunTrace], targets: dict[str, Targets], n_var: dict[str, int],
+             tolerances=TOLERANCES, points: int = 60) -> list[Profiles]:
+    """Data and performance profiles at each tolerance, on the problems every solver ran."""
+    _check(runs, targets)
+    solvers = sorted({r.solver for r in runs})
+    cells = by_key(runs, lambda r: (r.problem, r.solver))
+    problems = tuple(p for p in sorted({r.problem for r in runs}) if all((p, s) in cells for s in solvers))
+    out = []
+    alpha_hi = max(r.n_evals / (n_var[r.problem] + 1) for r in runs)
+    for tau in tolerances:
+        cost = np.full((len(problems), len(solvers)), np.inf)
+        for i, p in enumerate(problems):
+            t = targets[p]
+            goal = Targets(p, t.f_opt, t.f_start, (tau * (t.f_start - t.f_opt),))
+            for j, s in enumerate(solvers):
+                rs = cells[(p, s)]
+                times = np.array([hitting_times(r, goal) for r in rs])
+                cost[i, j] = ert(times, np.array([r.n_evals for r in rs]))[0]
+        per_simplex = cost / np.array([n_var[p] + 1 for p in problems])[:, None]
+        alpha = np.logspace(-1, math.log10(max(alpha_hi, 1.0)), points)
+        data = {s: (per_simplex[:, j][None, :] <= alpha[:, None]).mean(axis=1).tolist() for j, s in enumerate(solvers)}
+        best = cost.min(axis=1, keepdims=True)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            r = np.where(np.isfinite(cost), cost / best, np.inf)
+        finite = r[np.isfinite(r)]
+        ratio = np.logspace(0, math.log10(max(2.0, finite.max() * 1.1 if finite.size else 2.0)), points)
+        perf = {s: (r[:, j][None, :] <= ratio[:, None]).mean(axis=1).tolist() for j, s in enumerate(solvers)}
+        out.append(Profiles(float(tau), {s: cost[:, j].tolist() for j, s in enumerate(solvers)}, problems,
+                            tuple(alpha.tolist()), data, tuple(ratio.tolist()), perf))
+    return out

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from .render import figure, save_figure, solver_colors
-from .stats import Comparison, Ecdf, ErtTable, FixedBudget
+from .stats import AggregateEcdf, BlockComparison, Comparison, Ecdf, ErtTable, FixedBudget, Profiles
 
 #: Panels per row of a multi-group figure.
 COLUMNS = 3
@@ -68,6 +68,13 @@ def plot_ert(table: ErtTable, path) -> Path:
             v = np.asarray(values, dtype=float)
             ok = np.isfinite(v)
             axes[g].plot(x[ok], v[ok], color=colors[solver], lw=1.8, marker="o", ms=2.5)
+            if table.lower:  # COCO's bootstrapped 10-90 % range of the run lengths
+                lo = np.asarray(table.lower[solver][g], dtype=float)
+                hi = np.asarray(table.upper[solver][g], dtype=float)
+                axes[g].fill_between(x[ok], lo[ok], hi[ok], color=colors[solver], alpha=0.15, lw=0)
+            if table.beyond_budget:  # an ERT past every run's budget: an open marker
+                far = np.asarray(table.beyond_budget[solver][g], dtype=bool) & ok
+                axes[g].plot(x[far], v[far], ls="none", marker="o", ms=6, mfc="white", color=colors[solver])
             if not ok.all():  # the first target level none of the runs reached
                 axes[g].plot(x[np.argmin(ok)], 1.0, marker="x", color=colors[solver], ms=7, mew=2,
                              transform=axes[g].get_xaxis_transform(), clip_on=False)
@@ -75,8 +82,8 @@ def plot_ert(table: ErtTable, path) -> Path:
         ax.set(yscale="log", title=g, xlabel="target: decades below the top (log10 of Delta_top / Delta)",
                ylabel="ERT (FE evaluations)")
         ax.grid(True, which="both", alpha=0.25)
-    fig.suptitle("Expected running time (COCO ERT) per target; x on the top edge: first target never reached",
-                 fontsize=11)
+    fig.suptitle("Expected running time (COCO ERT) per target\nband: bootstrapped 10-90 %; open marker: beyond the "
+                 "budget; x on the top edge: first target never reached", fontsize=10)
     _legend(fig, colors)
     return save_figure(fig, path)
 
@@ -110,9 +117,11 @@ def plot_fixed_budget(results: list[FixedBudget], group: str, path) -> Path:
     return save_figure(fig, path)
 
 
-def plot_cd(c: Comparison, path) -> Path:
+def plot_cd(c: BlockComparison | Comparison, path) -> Path:
     """Critical-difference diagram: mean ranks on an axis (1 = best, on the left), the Nemenyi
-    CD as a scale bar, and a thick bar joining solvers no Holm-corrected Wilcoxon test separates."""
+    CD as a scale bar, and a thick bar joining the solvers of each clique. For a
+    `BlockComparison` the cliques are Nemenyi's (mean ranks closer than the CD): bars and scale
+    from one test, said in the title; for the older `Comparison`, Wilcoxon-Holm's."""
     order = sorted(c.solvers, key=lambda s: (c.mean_ranks[s], s))
     k, half, n_bars = len(order), math.ceil(len(order) / 2), len(c.cliques)
     top = 0.35 + 0.3 * n_bars                      # the clique bars sit between the axis and the labels
@@ -138,9 +147,55 @@ def plot_cd(c: Comparison, path) -> Path:
     for j, clique in enumerate(c.cliques):
         lo, hi = c.mean_ranks[clique[0]], c.mean_ranks[clique[-1]]
         ax.hlines(-0.25 - 0.3 * j, lo - 0.05, hi + 0.05, color="tab:red", lw=4, alpha=0.8)
-    ax.set_title(f"Mean ranks on {c.n_blocks} (problem, seed) blocks, metric '{c.metric}'"
+    if isinstance(c, BlockComparison):
+        title = (f"Mean ranks on {c.n_blocks} problems as blocks, value '{c.value}'"
                  + (f", Friedman p = {c.friedman_p:.2g}" if c.friedman_p is not None else "")
-                 + f"\nred: not separated (Wilcoxon-Holm, alpha {c.alpha})", fontsize=9)
+                 + f"\nred: cliques of the Nemenyi test (mean ranks closer than the CD, alpha {c.alpha})")
+    else:
+        title = (f"Mean ranks on {c.n_blocks} (problem, seed) blocks, metric '{c.metric}'"
+                 + (f", Friedman p = {c.friedman_p:.2g}" if c.friedman_p is not None else "")
+                 + f"\nred: not separated (Wilcoxon-Holm, alpha {c.alpha})")
+    ax.set_title(title, fontsize=9)
+    return save_figure(fig, path)
+
+
+def plot_aggregate(a: AggregateEcdf, path) -> Path:
+    """The ECDF over every (problem, target) pair against evaluations / dimension, one line per
+    solver, its area in the legend."""
+    colors = solver_colors(sorted(a.fraction))
+    fig, axes = figure(width=7.5, height=4.2)
+    ax = axes[0, 0]
+    for solver, frac in a.fraction.items():
+        ax.step(a.budgets_per_dim, frac, where="post", color=colors[solver], lw=1.8,
+                label=f"{solver} (area {a.area[solver]:.3f})")
+    ax.set(xscale="log", ylim=(-0.02, 1.02), xlim=(a.lower, a.upper), xlabel="FE evaluations / dimension",
+           ylabel="fraction of (problem, target) pairs")
+    ax.grid(True, which="both", alpha=0.25)
+    ax.legend(fontsize=8, frameon=False, loc="upper left")
+    ax.set_title("ECDF aggregated over all problems and targets (problems weighted equally)", fontsize=10)
+    return save_figure(fig, path)
+
+
+def plot_profiles(profiles: list[Profiles], path) -> Path:
+    """Data profiles (top row) and performance profiles (bottom row), one column per tolerance."""
+    solvers = sorted({s for p in profiles for s in p.data})
+    colors = solver_colors(solvers)
+    n = len(profiles)
+    fig, axes = figure(width=3.4 * n + 1.6, height=6.6, nrows=2, ncols=n)
+    for j, p in enumerate(profiles):
+        top, bottom = axes[0, j], axes[1, j]
+        for s in solvers:
+            top.step(p.alpha, p.data[s], where="post", color=colors[s], lw=1.8)
+            bottom.step(p.ratio, p.performance[s], where="post", color=colors[s], lw=1.8)
+        top.set(xscale="log", ylim=(-0.02, 1.02), title=f"data profile, tau = {p.tolerance:g}",
+                xlabel="alpha: evaluations / (n_var + 1)", ylabel="fraction of problems")
+        bottom.set(xscale="log", ylim=(-0.02, 1.02), title=f"performance profile, tau = {p.tolerance:g}",
+                   xlabel="ratio to the best solver's ERT", ylabel="fraction of problems")
+        for ax in (top, bottom):
+            ax.grid(True, which="both", alpha=0.25)
+    fig.suptitle(f"Moré-Wild data and Dolan-Moré performance profiles on {len(profiles[0].problems)} problems",
+                 fontsize=11)
+    _legend(fig, colors)
     return save_figure(fig, path)
 
 

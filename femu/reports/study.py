@@ -3,9 +3,11 @@ Markdown (femu.reports.markdown) and PNG figures (femu.reports.figures), all wri
 femu.reports.render. A report renders records and computes nothing new.
 
 `write_report(store_or_runs, out_dir)` writes DIR/report.md, DIR/summary.json and the figures
-(convergence, ECDF, overhead, mean error vs the paper); with ``ioh`` also DIR/ioh. Runs on suite
+(convergence, ECDF, overhead, mean error vs the paper, updated parameters, the frame in its
+first modes, MAC matrices); with ``ioh`` also DIR/ioh. Runs on suite
 problems (`femu study --suite`) get the benchmark report instead (femu.reports.benchmark:
-DIR/report.md, DIR/stats.json), and runs on variants beside them DIR/variants.md.
+DIR/report.md, DIR/stats.json), and runs on variants beside them DIR/variants.md; a study of
+variants only where two solvers share a problem gets the benchmark report as DIR/benchmark.md.
 """
 
 from __future__ import annotations
@@ -19,7 +21,8 @@ from femu.studies.store import Store
 from femu.studies.tasks import is_suite_id
 
 from .benchmark import write_benchmark
-from .figures import plot_convergence, plot_ecdf, plot_errors, plot_overhead
+from .figures import (plot_convergence, plot_ecdf, plot_errors, plot_mac, plot_mode_shapes, plot_overhead,
+                      plot_parameters)
 from .markdown import render_markdown
 from .records import GroupSummary
 from .render import make_out_dir
@@ -52,6 +55,11 @@ def write_report(store_or_runs, out_dir, ioh: bool = False, source: str | None =
                 f.write(f"\nThe runs on problem variants (not suite problems) are reported in [{other.name}]({other.name}).\n")
     else:
         path = render_files(summarize(runs), out_dir, source)
+        if shared_problem(runs):  # the benchmark statistics of any study with a comparison to make
+            other = write_benchmark(runs, out_dir, source, name="benchmark.md")
+            with path.open("a") as f:
+                f.write(f"\nThe benchmark statistics of these runs (targets, ERT, comparisons, aggregated ECDF, "
+                        f"profiles) are in [{other.name}]({other.name}).\n")
     if notes:
         with path.open("a") as f:
             f.write("\n## Notes on the runs\n\n" + "".join(f"- {n}\n" for n in notes))
@@ -59,6 +67,14 @@ def write_report(store_or_runs, out_dir, ioh: bool = False, source: str | None =
         from .ioh import export_runs
         export_runs(runs, Path(out_dir) / "ioh")
     return path
+
+
+def shared_problem(runs) -> bool:
+    """Whether at least two solvers ran a common problem (a comparison can be made)."""
+    solvers: dict = {}
+    for r in runs:
+        solvers.setdefault(r.variant, set()).add(r.optimizer)
+    return any(len(v) >= 2 for v in solvers.values())
 
 
 def _settings(r) -> tuple:
@@ -107,6 +123,11 @@ def render_files(groups: list[GroupSummary], out_dir, source: str, name: str = "
                 "overhead": plot_overhead(g, out / f"overhead_{stem}.png")}
         if len(g.targets):
             made["ecdf"] = plot_ecdf(g, out / f"ecdf_{stem}.png")
+        if g.parameters is not None and any(s.best_x is not None for s in g.solvers):
+            made["parameters"] = plot_parameters(g, out / f"parameters_{stem}.png")
+        if g.modes is not None:
+            made["modes"] = plot_mode_shapes(g, out / f"modes_{stem}.png")
+            made["mac"] = plot_mac(g, out / f"mac_{stem}.png")
         figures[(g.variant, g.budget)] = {k: p.name for k, p in made.items()}
     write_text(out / "summary.json", dumps([g.to_dict() for g in groups]))
     path = out / name

@@ -4,7 +4,10 @@ quartiles over seeds of best_f, of the updated frequencies (from the problem's
 `correlation(best_x)`, a post-processing solve, not a counted FE evaluation), of the signed and
 absolute frequency errors (%), MAC and COMAC where the data have shapes, evaluations,
 wall/CPU/FE seconds, the solver overhead, failures, the best-so-far curves and the
-fixed-target ECDF; for the 'paper' variant also the paper's own Table 1 numbers.
+fixed-target ECDF, and each optimizer's best run (its seed and updated parameters); per group the
+parameters' initial values and bounds, the best J known (a line on the convergence plots), the
+first modes of the initial and the updated model (the group's best run) with their MAC matrices;
+for the 'paper' variant also the paper's own Table 1 numbers.
 """
 
 from __future__ import annotations
@@ -18,8 +21,8 @@ import numpy as np
 from adapters.harness import RunResult
 from adapters.registry import BUILTINS
 
-from .records import (FAILED, ArraySpread, Curve, GroupSummary, PaperComparison,  # noqa: F401
-                      SolverSummary, Spread)
+from .records import (FAILED, ArraySpread, Curve, GroupSummary, ModeComparison, PaperComparison,  # noqa: F401
+                      Parameters, SolverSummary, Spread)
 
 #: How many fixed targets the ECDF uses (log-spaced).
 N_TARGETS = 51
@@ -88,6 +91,8 @@ def _solver_summary(name, variant, budget, runs, problem, grid) -> SolverSummary
         with np.errstate(invalid="ignore"):
             q1, med, q3 = np.quantile(b, [0.25, 0.5, 0.75], axis=0)
         curve = Curve(grid, med, q1, q3)
+    usable = [r for r in runs if len(r.best_x) == problem.n_var and math.isfinite(r.best_f)]
+    best = min(usable, key=lambda r: (r.best_f, r.seed)) if usable else None
     n = np.array([r.n_evals for r in runs], float)
     over = np.array([r.wall_s - r.fe_s for r in runs], float)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -100,7 +105,54 @@ def _solver_summary(name, variant, budget, runs, problem, grid) -> SolverSummary
         mean_abs_error_pct=Spread.of(np.mean(np.abs(c.error_pct)) for c in corr), mac=mac, mean_comac=comac,
         n_evals=Spread.of(n), wall_s=Spread.of(r.wall_s for r in runs), cpu_s=Spread.of(r.cpu_s for r in runs),
         fe_s=Spread.of(r.fe_s for r in runs), overhead_s=Spread.of(over), overhead_ms_per_eval=Spread.of(per_eval),
-        curve=curve)
+        curve=curve, best_seed=None if best is None else best.seed,
+        best_run_f=math.nan if best is None else float(best.best_f),
+        best_x=None if best is None else np.asarray(best.best_x, dtype=float))
+
+
+def _parameters(problem) -> Parameters:
+    return Parameters(tuple(p.label for p in problem.parameters), tuple(p.kind for p in problem.parameters),
+                      np.asarray(problem.x0, float), np.asarray(problem.xl, float), np.asarray(problem.xu, float))
+
+
+def _best_known(variant: str, solvers) -> tuple[float | None, str]:
+    """The lowest J known for the group's problem and where it comes from."""
+    lowest = min((float(s.best_run_f) for s in solvers if math.isfinite(s.best_run_f)), default=None)
+    if variant == "paper":
+        from fe_problem.suite import PAPER_F_OPT
+
+        if lowest is not None and lowest < PAPER_F_OPT:
+            return lowest, "the lowest J of the runs here, below the best known before (fe_problem.suite.PAPER_F_OPT)"
+        return PAPER_F_OPT, "the best J known for the paper's problem (fe_problem.suite.PAPER_F_OPT)"
+    return lowest, "the lowest J of the runs here"
+
+
+#: How many modes the frame drawing shows at most.
+N_DRAWN_MODES = 4
+
+
+def _modes(problem, solvers) -> ModeComparison | None:
+    """The first modes of the initial model and of the model at the group's best point."""
+    from fe_problem import mac
+
+    best = [s for s in solvers if s.best_x is not None]
+    if not best:
+        return None
+    s = min(best, key=lambda s: (s.best_run_f, s.optimizer))
+    k = len(problem.data.frequencies_hz)
+    init, upd = problem.modal(None, k), problem.modal(s.best_x, k)
+    sign = np.where(np.sum(init.shapes * upd.shapes, axis=0) < 0, -1.0, 1.0)
+    model = problem.model
+    moving = [(n.id, d) for n in model.nodes for d in model.layout.translations]
+    mac_iu = mac(init.at(moving), upd.at(moving))
+    data = problem.data
+    mac_mu = None
+    if data.has_shape.any():
+        rows = np.flatnonzero(data.has_shape)
+        mac_mu = np.full((k, k), np.nan)
+        mac_mu[rows] = mac(data.shapes[:, rows], upd.at(data.dofs))
+    return ModeComparison(model, s.optimizer, int(s.best_seed), float(s.best_run_f), init.frequencies_hz,
+                          upd.frequencies_hz, init.shapes, upd.shapes * sign, mac_iu, mac_mu)
 
 
 def _ecdf(runs_by_opt, grid) -> tuple[np.ndarray, dict]:
@@ -145,10 +197,13 @@ def summarize(runs: list[RunResult]) -> list[GroupSummary]:
             solvers.append(replace(s, ecdf=ecdf.get(name)))
         init = problem.correlation()
         has_shapes = bool(problem.has_shape.any())
+        best_f, how = _best_known(variant, solvers)
         out.append(GroupSummary(
             variant=variant, budget=budget, measured_hz=init.measured_hz, initial_hz=init.model_hz,
             initial_error_pct=init.error_pct, initial_mac=init.mac if has_shapes else None,
             initial_mean_comac=float(np.mean(init.comac)) if has_shapes else None, has_shapes=has_shapes,
-            solvers=tuple(solvers), grid=grid, targets=targets, paper=paper if variant == "paper" else None))
+            solvers=tuple(solvers), grid=grid, targets=targets, paper=paper if variant == "paper" else None,
+            parameters=_parameters(problem), best_known_f=best_f, best_known_how=how,
+            modes=_modes(problem, solvers)))
     return out
 

@@ -56,6 +56,11 @@ def _is_num(v) -> bool:
     return is_number(v)  # a finite int or float, not a bool; an int too large for a float is not
 
 
+#: How far below 0 a stored best J may be: the rounding of 1 - MAC in records made before J was
+#: clamped at 0 (down to -3e-15 was seen); anything further below is not a J.
+J_ROUNDING = 1e-12
+
+
 def check_record(d, key: str) -> str | None:
     """What is wrong with the run record `d` stored under `key` (None if nothing): every field
     of format femu.run/1 with its type and range, and the key it must be stored under."""
@@ -70,8 +75,8 @@ def check_record(d, key: str) -> str | None:
               ("budget", _is_int(d.get("budget")) and d.get("budget", 0) >= 1, "an integer >= 1"),
               ("n_evals", _is_int(d.get("n_evals")) and 0 <= d.get("n_evals", -1) <= max(d["budget"], 0)
                if _is_int(d.get("budget")) else False, "an integer from 0 to the budget"),
-              ("best_f", d.get("best_f") is None or (_is_num(d["best_f"]) and d["best_f"] >= 0),
-               "a finite number >= 0 (J is a sum of squares) or null"),
+              ("best_f", d.get("best_f") is None or (_is_num(d["best_f"]) and d["best_f"] >= -J_ROUNDING),
+               f"a finite number >= 0 (J is a sum of squares; -{J_ROUNDING:g} allowed for rounding) or null"),
               ("status", d.get("status") in STATUSES, f"one of {', '.join(STATUSES)}"),
               ("options", isinstance(d.get("options", {}), dict), "an object"),
               ("best_x", isinstance(d.get("best_x", []), list) and all(_is_num(v) for v in d.get("best_x", [])),

@@ -31,8 +31,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from adapters.budget import check_budget, check_budget_covers, check_x0_mode
+from adapters.capabilities import check_options
 from adapters.harness import RunResult
-from adapters.registry import check_name, module_of
+from adapters.registry import BUILTINS, check_name, get, module_of
 from adapters.sandbox import optimizer_facts, server_address
 from adapters.variants import VARIANTS
 from fe_problem.suite import select_suite
@@ -66,6 +67,9 @@ def _check_options(options, optimizers: list[str]) -> dict[str, dict]:
     if extra:
         raise ValueError(f"options given for {extra[0]!r}, which is not among the study's optimizers "
                          f"({', '.join(optimizers)})")
+    for name, opts in options.items():  # a plugin's options are checked in its worker (optimizer_facts)
+        if name in BUILTINS:
+            check_options(name, get(name), opts)
     try:  # records are JSON: the options must survive the round trip unchanged
         return json.loads(dumps(options, indent=None))
     except (TypeError, ValueError) as exc:

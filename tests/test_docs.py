@@ -1,0 +1,100 @@
+"""Every `bash` and `python` block of README.md and docs/*.md runs (tests/docs_blocks.py).
+
+Each page runs in order in a fresh copy of the repository, each block in its own process. A
+long block runs in the shorter form its `docs-test: ci:` marker states (FEMU_DOCS_FULL=1 runs it
+as written). A failure names the page and the line of the block.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).parent))
+import docs_blocks as db  # noqa: E402
+
+FULL = os.environ.get("FEMU_DOCS_FULL", "") == "1"
+
+
+def _ids(pages):
+    return [str(p.relative_to(db.ROOT)) for p in pages]
+
+
+@pytest.mark.parametrize("page", db.pages(), ids=_ids(db.pages()))
+def test_the_blocks_of_a_page_run_in_order(page, tmp_path):
+    try:
+        db.run_page(page, tmp_path, full=FULL)
+    except db.DocsError as exc:
+        pytest.fail(str(exc), pytrace=False)
+
+
+def test_every_block_has_a_language_and_every_marker_applies():
+    problems = []
+    for page in db.pages():
+        try:
+            db.blocks(page)
+        except db.DocsError as exc:
+            problems.append(str(exc))
+    assert not problems, "\n".join(problems)
+
+
+def test_the_pages_have_runnable_blocks_and_the_readme_fits_a_screen_budget():
+    """The runner is not vacuous: the README's examples are among the blocks it runs."""
+    readme = db.blocks(db.ROOT / "README.md")
+    run = [b for b in readme if b.lang in db.RUN]
+    assert len(run) >= 6
+    assert any("femu diagnose" in b.text for b in run) and any("femu identify" in b.text for b in run)
+    assert any("adapters.run" in b.text for b in run) and any("femu study" in b.text for b in run)
+    assert (db.ROOT / "README.md").stat().st_size <= 16 * 1024
+    for page in db.pages()[1:]:  # each page opens with its title, then a sentence on what it is for
+        lines = page.read_text().split("\n")
+        first = [s for s in lines[1:] if s.strip()][0]
+        assert lines[0].startswith("# ") and first[0] not in "#`|<!-", f"{page.name}: open with what the page is for"
+
+
+def _page(tmp_path: Path, text: str) -> Path:
+    page = tmp_path / "page.md"
+    page.write_text(text)
+    return page
+
+
+def test_a_failing_block_is_named_by_page_and_line(tmp_path):
+    page = _page(tmp_path, "# t\n\n```bash\ntrue\n```\n\ntext\n\n```python\nimport nonexistent_module_xyz\n```\n")
+    with pytest.raises(db.DocsError, match=r"page.md:9: the python block failed \(exit 1\)"):
+        db.run_page(page, tmp_path / "w")
+
+
+def test_a_block_without_language_and_a_stale_ci_replacement_are_refused(tmp_path):
+    with pytest.raises(db.DocsError, match=r"page.md:3: a code block without a language"):
+        db.blocks(_page(tmp_path, "# t\n\n```\nfemu x\n```\n"))
+    with pytest.raises(db.DocsError, match=r"page.md:3: the CI replacement's '--seeds 0-9' is not in the block"):
+        db.blocks(_page(tmp_path, "# t\n\n<!-- docs-test: ci: --seeds 0-9 => --seeds 0 -->\n```bash\nfemu x\n```\n"))
+
+
+def test_blocks_share_files_but_not_variables_and_the_ci_form_applies(tmp_path):
+    page = _page(tmp_path, "# t\n\n<!-- docs-test: file a.json -->\n```json\n{\"a\": 1}\n```\n\n"
+                           "<!-- docs-test: ci: 41 => 42 -->\n```python\nimport json\nx = json.load(open('a.json'))['a'] + 41\n"
+                           "open('b.txt', 'w').write(str(x))\n```\n\n```bash\ntest \"$(cat b.txt)\" = 43\n```\n")
+    db.run_page(page, tmp_path / "w1")  # the CI form: 1 + 42
+    with pytest.raises(db.DocsError, match=r"page.md:15: the bash block failed"):
+        db.run_page(page, tmp_path / "w2", full=True)  # as written: 1 + 41
+    page2 = _page(tmp_path, "# t\n\n```python\nx = 1\n```\n\n```python\nprint(x)\n```\n")
+    with pytest.raises(db.DocsError, match=r"(?s)page.md:7: .*NameError"):
+        db.run_page(page2, tmp_path / "w3")
+
+
+def test_samples_are_regenerated_from_their_command(tmp_path):
+    page = _page(tmp_path, "# t\n\n<!-- docs-sample: echo hello; echo world -->\n```console\nold\n```\n\nend\n")
+    db.run_page(page, tmp_path / "w", regenerate=True)
+    assert page.read_text() == ("# t\n\n<!-- docs-sample: echo hello; echo world -->\n```console\n"
+                                "$ echo hello; echo world\nhello\nworld\n```\n\nend\n")
+
+
+def test_the_script_lists_the_blocks():
+    out = subprocess.run([sys.executable, str(Path(db.__file__)), "--list", str(db.ROOT / "README.md")],
+                         capture_output=True, text=True, check=True).stdout
+    assert "README.md:" in out and "\tpython\truns" in out
