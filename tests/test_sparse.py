@@ -104,6 +104,32 @@ def test_every_parameter_kind_on_a_frame_with_springs_releases_and_masses():
     np.testing.assert_allclose(gs / scale, gd / scale, rtol=1e-6, atol=1e-8)
 
 
+def test_dense_path_with_a_varying_mass_refines_its_eigenvalues_and_sensitivities_follow():
+    # M varies with theta: the dense path refines each eigenvalue by the Rayleigh quotient on
+    # K and M, so its eigenvalues-only answer is the vectors path's, exactly, and the
+    # sensitivities phi^T (dK - lambda dM) phi match central differences of those eigenvalues
+    m = hframe_with_everything()
+    pars = (fp.Parameter("modulus", (1, 2, 3), 6e10, 8e10, 7.1e10),
+            fp.Parameter("density", (6, 9), 2000.0, 3500.0, 2700.0),
+            fp.Parameter("mass", (5,), 0.0, 1.0, 0.15),
+            fp.Parameter("spring", (1,), 0.0, 1e5, 2e4),
+            fp.Parameter("release", (5, 3), 1e3, 1e7, 1e5))
+    dense = fp.AffineModel(m, pars, solver="dense")
+    assert not dense._solver.mass_constant
+    x = np.array([7.5e10, 3100.0, 0.4, 6e4, 8e6])  # the stiff end of the joint spring
+    lam, phi, g = dense.eigen_sensitivities(x[None], 8)
+    assert np.array_equal(dense.eigen(x[None], 8)[0], lam)
+    mm = dense.mass(x[None])[0]
+    np.testing.assert_allclose(np.einsum("im,ij,jn->mn", phi[0], mm, phi[0]), np.eye(8), atol=1e-12)
+    for k in range(len(pars)):
+        h = 1e-6 * x[k]
+        up, dn = x.copy(), x.copy()
+        up[k] += h
+        dn[k] -= h
+        fd = (dense.eigen(up[None], 8)[0] - dense.eigen(dn[None], 8)[0])[0] / (2 * h)
+        np.testing.assert_allclose(g[0, :, k], fd, rtol=1e-4, atol=1e-5 * np.abs(g[0, :, k]).max())
+
+
 def test_sparse_sensitivities_equal_finite_differences():
     m = grid_frame(3, 4)
     pars = fp.element_moduli(m, lower=1.5e11, upper=2.5e11)[:8] + (
