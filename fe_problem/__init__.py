@@ -19,14 +19,22 @@ if _os.environ.get("FEMU_OPTIMIZER_PROCESS"):
     raise ImportError("fe_problem: not available in an optimizer's process (the FE model, its data and the suite "
                       "stay with the evaluating process; an optimizer sees only its objective)", name="fe_problem")
 
-from . import _threads  # noqa: F401,E402  (one BLAS thread: before numpy loads)
+
+def _have(name: str) -> bool:
+    try:
+        return importlib.util.find_spec(name) is not None
+    except ImportError:  # an import system that refuses the name outright
+        return False
+
 
 # the two libraries every module needs, looked for (not imported: `femu --help` stays fast)
 for _name in ("numpy", "scipy"):
-    if importlib.util.find_spec(_name) is None:
+    if not _have(_name):
         raise ImportError(f"fe_problem needs {_name!r}, which this Python does not have: install femu-bench into an "
                           "environment (python3 -m venv .venv && .venv/bin/pip install -e .) and run its Python "
                           "(.venv/bin/python, or activate it: . .venv/bin/activate)", name=_name)
+
+from . import _threads  # noqa: F401,E402  (one BLAS thread: before numpy loads)
 
 #: public name -> the submodule that defines it
 _WHERE = {
