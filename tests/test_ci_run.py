@@ -51,7 +51,8 @@ def test_a_user_who_cannot_install_gets_one_line_and_no_apt_errors(tmp_path):
 def test_with_sudo_a_failing_apt_get_is_one_line_too(tmp_path):
     proc, calls = _run(tmp_path, sudo_ok=True)
     assert proc.returncode == 1 and proc.stdout == ""
-    assert proc.stderr == ".ci/run: error: apt-get could not install libblas3 liblapack3 (its output: /tmp/femu-ci-apt.log)\n"
+    assert proc.stderr == (".ci/run: error: apt-get could not install libblas3 liblapack3 libsuitesparse-dev "
+                           "(its output: /tmp/femu-ci-apt.log)\n")
     assert calls.read_text().splitlines()[0] == "update -qq"  # tried through sudo
 
 
