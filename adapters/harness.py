@@ -362,6 +362,16 @@ def run(name: str, problem, budget: int, seed: int, time_limit_s: float | None =
     wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
     if status == "stopped" and objective.n_evals >= objective.budget:
         status = "ok"
+    return record(name, problem, counted0, objective, seed, budget, options, x0, status, error, variant, wall, cpu,
+                  **described)
+
+
+def record(name: str, problem, counted0: int, objective: BudgetedObjective, seed: int, budget: int, options: dict,
+           x0: str, status: str, error: str | None, variant: str, wall: float, cpu: float, **fields) -> RunResult:
+    """The run's record, made by the evaluating side alone (in-process runs and the sandbox's):
+    counts, best point, trace and FE times from `objective`, the status failed when the problem
+    counted more points than the objective was charged (`_overrun`); `fields`: the rest
+    (verified, output, the optimizer's description)."""
     overrun = _overrun(problem, counted0, objective, budget)
     if overrun:
         status, error = "failed", overrun
@@ -371,8 +381,7 @@ def run(name: str, problem, budget: int, seed: int, time_limit_s: float | None =
         best_x=[] if objective.best_x is None else objective.best_x.tolist(), trace=objective.finish_trace(),
         wall_s=wall, cpu_s=cpu, fe_s=objective.fe_s, fe_cpu_s=objective.fe_cpu_s,
         opt_cpu_s=max(cpu - objective.fe_cpu_s, 0.0), n_jacobians=objective.n_jacobians, x0=x0, status=status,
-        error=error, variant=variant, host=platform.node(), versions=library_versions(),
-        **described)
+        error=error, variant=variant, host=platform.node(), versions=library_versions(), **fields)
 
 
 def _problem_count(problem) -> int | None:

@@ -39,9 +39,8 @@ import numpy as np
 import psutil
 
 from .budget import check_budget, check_seed, check_x0_mode, jacobian_cost
-from .harness import RunResult, BudgetedObjective, BudgetExhausted, TimeLimitExceeded, _overrun, _problem_count
+from .harness import RunResult, BudgetedObjective, BudgetExhausted, TimeLimitExceeded, _problem_count, record
 from .processes import kill_tree
-from .provenance import library_versions
 from .registry import check_name
 from .sandbox_worker import DONE, ERROR, EVAL, LSQ, STOP, VALUES
 
@@ -266,17 +265,8 @@ def run_isolated(name: str, problem, budget: int, seed: int, time_limit_s: float
     finally:
         output = worker.output()
         worker.end()
-    overrun = _overrun(problem, counted0, objective, budget)
-    if overrun:
-        status, error = "failed", overrun
-    return RunResult(
-        optimizer=name, problem=getattr(problem, "name", type(problem).__name__), seed=int(seed),
-        budget=int(budget), options=dict(options), n_evals=objective.n_evals, best_f=objective.best_f,
-        best_x=[] if objective.best_x is None else objective.best_x.tolist(), trace=objective.finish_trace(),
-        wall_s=wall, cpu_s=cpu, fe_s=objective.fe_s, fe_cpu_s=objective.fe_cpu_s,
-        opt_cpu_s=max(cpu - objective.fe_cpu_s, 0.0), n_jacobians=objective.n_jacobians, x0=x0, status=status,
-        error=error, variant=variant, host=os.uname().nodename, versions=library_versions(), verified=True,
-        output=output, **described)
+    return record(name, problem, counted0, objective, seed, budget, options, x0, status, error, variant, wall, cpu,
+                  verified=True, output=output, **described)
 
 
 def _description(answer) -> dict:
