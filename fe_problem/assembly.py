@@ -20,6 +20,7 @@ import numpy as np
 import scipy.linalg
 import scipy.sparse as sp
 
+from .limits import MAX_SPARSE_DOFS  # noqa: F401  (fe_problem.assembly.MAX_SPARSE_DOFS, as before)
 from .model import FrameModel, ModelFileError
 from .parameters import Parameter
 from .solver import ModalSolver, take_rows
@@ -74,10 +75,6 @@ def check_dense_size(model: FrameModel, n_params: int) -> None:
                          "use a coarser model or fewer parameters")
 
 
-#: The most free DOFs the sparse path takes: a model larger than this is refused up front
-#: (its factorisations could exhaust memory, and each point would take minutes). A 90,000-DOF
-#: beam solves in about 7 s and 360 MB on this project's 2-core machine.
-MAX_SPARSE_DOFS = 250_000
 
 
 def check_sparse_size(model: FrameModel, n_free: int) -> None:

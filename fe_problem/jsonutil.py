@@ -99,3 +99,17 @@ def read_json_file(path: Path, error: type[Exception] = ValueError):
         raise error(f"{path}: JSON nested too deeply to read") from None
     except ValueError as exc:  # a key given twice, an integer of more than 4300 digits
         raise error(f"{path}: not valid JSON ({exc})") from None
+
+
+def check_keys(obj: dict, allowed, where: str, error: type[Exception] = ValueError) -> None:
+    """Refuse a key of `obj` that is not in `allowed`: `error` naming `where` (the file and the
+    path to the object), the key and, when one is close, the allowed key it was probably meant
+    to be. A misspelt key ('suports', 'releas_i') would otherwise be ignored without a word."""
+    import difflib
+
+    allowed = tuple(allowed)
+    for key in obj:
+        if key not in allowed:
+            close = difflib.get_close_matches(str(key), allowed, n=1, cutoff=0.6)
+            hint = f"; did you mean {close[0]!r}?" if close else f"; the known keys are {', '.join(sorted(allowed))}"
+            raise error(f"{where}: unknown key {key!r}{hint}")

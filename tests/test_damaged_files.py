@@ -296,11 +296,11 @@ FRF_DAMAGE = [  # (maker, damage, fragment)
     (_uff58, "no last delimiter", "is never closed"), (_uff58, "type 58 damaged", "has no type number (found '5x')"),
     (_uff58, "a value NaN", "dataset 58 #3 (line"),
     (_npz, "not a zip", "not a readable .npz file"), (_npz, "real FRF", "holds real values"),
-    (_npz, "text nodes", "an array of the wrong type"), (_npz, "an object array", "Object arrays cannot be loaded"),
+    (_npz, "text nodes", "array 'response_node' must be a 1-D array of whole numbers"), (_npz, "an object array", "Object arrays cannot be loaded"),
     (_npz, "no reference node", "missing array(s) ['reference_node']"), (_npz, "NaN value", "not a finite number"),
     (_csv, "latin-1", "not UTF-8 text"), (_csv, "header only", "no frequency lines after the header"),
     (_csv, "model the root", "field 'model' '/': /: is a directory"), (_csv, "node a word", "node 'one' is not"),
-    (_csv, "reference a word", "bad '# reference: five x'"), (_csv, "a ragged row", "not numbers"),
+    (_csv, "reference a word", "bad '# reference: five x'"), (_csv, "a ragged row", "fields, but the header has 31"),
     (_csv, "1e400", "not a finite number"),
 ]
 

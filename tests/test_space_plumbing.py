@@ -263,3 +263,55 @@ def test_femu_model_summarises_a_space_model(tmp_path, capsys):
     assert cli.main(["model", str(tmp_path / "bad.model.json")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "bad.model.json: element 1: field 'orientation' [0.0, 0.0, 1.0] is parallel" in err[0]
+
+
+# -- the diagnosis on a space model ----------------------------------------------------------
+
+@pytest.mark.parametrize("effect", ["mass", "stiffness"])
+def test_diagnosis_names_a_hidden_effect_in_a_space_model(effect):
+    """Candidates over a space model's elements, nodes and three translations: a hidden mass
+    (acting in x, y, z) or a weaker bar is named with its place and size. (Joint candidates
+    need elements with bending: the space-frame elements' tests.)"""
+    m = tower()
+    if effect == "mass":
+        truth, kind, place = fp.add_mass(m, 11, 6.0), "added_mass", {"node": 11}
+    else:
+        truth, kind, place = m.with_element_moduli({7: 0.7 * 2e11}), "stiffness_loss", {"element": 7}
+    data = fp.synthetic_measurement(truth, 8, freq_noise=0.002, shape_noise=0.02, seed=3, model_name=m.name)
+    d = fp.diagnose(m, data, kinds=("stiffness_loss", "added_mass", "boundary_stiffness"))
+    assert (d.cause.kind, d.cause.location) == (kind, place)
+    if effect == "mass":
+        assert d.cause.estimate["mass_kg"] == pytest.approx(6.0, rel=0.1)
+    else:
+        assert d.cause.estimate["stiffness_loss_pct"] == pytest.approx(30.0, abs=5.0)
+    assert any(c.location == {"node": 12, "direction": "z"} for c in d.candidates if c.kind == "boundary_stiffness")
+
+
+def test_a_space_model_is_drawn_in_isometric_projection(tmp_path, monkeypatch):
+    import femu.reports.diagnosis as report
+
+    m = tower()
+    at = report.projected(m, m.coordinates)
+    c = np.cos(np.pi / 6)
+    np.testing.assert_allclose(at, np.column_stack([(m.coordinates[:, 0] - m.coordinates[:, 1]) * c,
+                                                    m.coordinates[:, 2] + 0.5 * (m.coordinates[:, 0] + m.coordinates[:, 1])]))
+    planar = fp.load_model("hframe")
+    np.testing.assert_array_equal(report.projected(planar, planar.coordinates), planar.coordinates)
+    # the drawn undeformed frame (scale 0) is the projected element ends, joined straight
+    u = fp.modal_analysis(m, 1).shapes[:, 0]
+    curves = report.deformed_frame(m, u, 0.0, n_points=3)
+    ends = np.array([[at[m.node_position(e.node_i)], at[m.node_position(e.node_j)]] for e in m.elements])
+    np.testing.assert_allclose(curves[:, [0, 2]], ends, atol=1e-12)
+    truth = fp.add_mass(m, 11, 6.0)
+    data = fp.synthetic_measurement(truth, 4, freq_noise=0.002, shape_noise=0.02, seed=3, model_name=m.name)
+    diag = fp.diagnose(m, data, kinds=("added_mass",))
+    drawn = []
+    monkeypatch.setattr(report, "save_figure", lambda fig, path: drawn.append(fig))
+    report.plot_shapes(diag, m, diag.extended_model, data, tmp_path / "shapes.png")
+    panel = drawn[0].axes[0]
+    assert panel.get_ylabel() == "isometric view, z up (m)"
+    nodes = next(line for line in panel.get_lines() if line.get_marker() == "o" and len(line.get_xdata()) == 12)
+    np.testing.assert_allclose(np.column_stack([nodes.get_xdata(), nodes.get_ydata()]), at)
+    monkeypatch.undo()
+    written = report.write_report(diag, m, data, tmp_path)
+    assert all(p.exists() and p.stat().st_size > 0 for p in written)

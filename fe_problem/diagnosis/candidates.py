@@ -41,7 +41,7 @@ from ..modal import frequencies_hz
 from ..model import FrameModel, Spring, add_mass, release_element_end, with_formulation
 from ..model.edits import bending_hinges
 from ..assembly import AffineModel
-from ..elements import formulation
+from ..elements import formulation, formulations
 from ..parameters import Parameter
 from ..terms import release_rotation
 from . import zones
@@ -258,7 +258,10 @@ def joint_flexibility(st: Setting) -> Iterator[Candidate]:
     for node in joint_nodes(st.model):
         ends = [e for e in st.model.elements if node in (e.node_i, e.node_j)]
         for e, local in ((e, r) for e in (ends[:1] if len(ends) == 2 else ends) for r in bending_hinges(st.model)):
-            rot = release_rotation(st.model, e, local)
+            try:
+                rot = release_rotation(st.model, e, local)
+            except ValueError:  # a skew member's end: a release there is not modelled (terms.py)
+                continue
             if _released(st.model, e, node, rot) or _last_rigid_end(st.model, node, rot):
                 continue
             ref = _bending_compliance_ref(st.model, e.id, local)
@@ -292,6 +295,8 @@ def joint_flexibility(st: Setting) -> Iterator[Candidate]:
 
 def shear_deformation(st: Setting) -> Iterator[Candidate]:
     if all(e.formulation == "timoshenko" for e in st.model.elements):
+        return
+    if "timoshenko" not in formulations(st.model.layout):  # no shear-deformable element of this layout
         return
     baseline = lazy_system(lambda: AffineModel(st.model))
 

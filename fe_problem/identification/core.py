@@ -108,7 +108,8 @@ def _uncertainty(chart: P.Chart, lab: int, shape: np.ndarray) -> dict:
     """Spread of one chosen cluster over its stable orders."""
     m = chart.cluster == lab
     f, z = chart.frequency_hz[m], chart.damping[m]
-    macs = P.mac_complex(chart.residues[m], shape[None, :].astype(complex))[:, 0]
+    unit = shape / np.abs(shape).max()  # MAC is scale-free; shapes of 1e100 would overflow its products
+    macs = P.mac_complex(chart.residues[m], unit[None, :].astype(complex))[:, 0]
     return {"frequency_std_hz": float(f.std(ddof=1)), "frequency_std_pct": float(100 * f.std(ddof=1) / np.median(f)),
             "damping_std": float(z.std(ddof=1)), "mac_min": float(macs.min()), "n_orders": int(m.sum()),
             "orders": [int(chart.order[m].min()), int(chart.order[m].max())]}
@@ -146,10 +147,18 @@ def identify(frfs: FRFSet, model=None, band_hz=None, n_modes: int | None = None,
         raise FRFFileError(f"{frfs.sources[0]}: field 'model' {model_ref!r}: {exc}") from None
     check_coordinates(frfs, model)
     (lo, hi), keep = _band(frfs, band_hz, n_modes)
-    freq, frf = frfs.frequency_hz[keep], frfs.frf[:, keep]
-    per_order = P.lscf_poles(frfs.frequency_hz, frfs.frf, (lo, hi), frfs.form, max_order)
-    chart = P.select(P.stabilisation(freq, frf, frfs.form, per_order, progress, max_damping=max_damping),
-                     max_damping=max_damping)
+    # The fits run on FRFs scaled by a power of two to a largest magnitude near 1 (exact, and
+    # undone on the residues): FRFs of 1e-200 or 1e200 m/s^2/N would otherwise underflow or
+    # overflow the least-squares systems.
+    scale = 2.0 ** -np.round(np.log2(np.abs(frfs.frf).max()))
+    freq, frf = frfs.frequency_hz[keep], frfs.frf[:, keep] * scale
+    try:
+        per_order = P.lscf_poles(frfs.frequency_hz, frfs.frf * scale, (lo, hi), frfs.form, max_order)
+        chart = P.select(P.stabilisation(freq, frf, frfs.form, per_order, progress, max_damping=max_damping),
+                         max_damping=max_damping)
+    except (np.linalg.LinAlgError, FloatingPointError) as exc:
+        raise FRFFileError(f"{', '.join(frfs.sources)}: the pole fit failed ({exc}) in {lo:g}-{hi:g} Hz: the FRFs "
+                           "hold no resonance there, or a channel is constant or pure noise") from None
     labels, warn = _inside(chart, lo, hi)
     if n_modes is not None and len(labels) < n_modes:
         warn.append(f"asked for {n_modes} modes, found {len(labels)} stable physical modes in {lo:g}-{hi:g} Hz")
@@ -162,10 +171,13 @@ def identify(frfs: FRFSet, model=None, band_hz=None, n_modes: int | None = None,
     fr = np.array([np.median(chart.frequency_hz[chart.cluster == lab]) for lab in labels])
     zr = np.array([np.median(chart.damping[chart.cluster == lab]) for lab in labels])
     modal_poles = P.complex_pole(fr, zr)
-    fit = P.lsfd(modal_poles, freq, frf, frfs.form)[1]
-    residues = windowed_residues(modal_poles, freq, frf, frfs.form)
+    fit = P.lsfd(modal_poles, freq, frf, frfs.form)[1] / scale
+    scaled_residues = windowed_residues(modal_poles, freq, frf, frfs.form)
+    residues, frf = scaled_residues / scale, frf / scale
     driving = frfs.coordinates.index(frfs.reference) if frfs.reference in frfs.coordinates else None
-    shapes, scaling = normal_shapes(residues, modal_poles, driving)
+    shapes, scaling = normal_shapes(scaled_residues, modal_poles, driving)
+    if driving is not None:  # mass-normalised shapes go with the square root of the FRFs' scale
+        shapes = shapes / np.sqrt(scale)
     df = freq[1] - freq[0]
     for k in np.flatnonzero(2 * zr * fr / df < MIN_HALF_POWER_LINES):
         warn.append(f"mode {k + 1} ({fr[k]:.4g} Hz): its half-power bandwidth spans {2 * zr[k] * fr[k] / df:.2g} "
@@ -174,7 +186,7 @@ def identify(frfs: FRFSet, model=None, band_hz=None, n_modes: int | None = None,
     meta = {"source": "femu identify (LSCF poles, LSFD residues; sdypy-EMA) of " + ", ".join(frfs.sources),
             "frf_files": list(frfs.sources), "reference": list(frfs.reference), "band_hz": [lo, hi],
             "form": frfs.form, "units": frfs.units, "n_lines": int(freq.size), "resolution_hz": float(df),
-            "max_order": int(max_order), "damping_ratio": zr.tolist(), "mpc": P.mpc(residues.T).tolist(),
+            "max_order": int(max_order), "damping_ratio": zr.tolist(), "mpc": P.mpc(scaled_residues.T).tolist(),
             "scaling": scaling, "uncertainty": unc, "warnings": warn}
     data = ModalData(model_ref, frfs.coordinates, fr, shapes, meta, source=frfs.sources[0])
-    return Identification(data, chart, freq, frf, fit, residues, P.mpc(residues.T), tuple(warn))
+    return Identification(data, chart, freq, frf, fit, residues, P.mpc(scaled_residues.T), tuple(warn))

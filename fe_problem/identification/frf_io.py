@@ -31,6 +31,9 @@ from pathlib import Path
 import numpy as np
 
 from ..dofs import SPATIAL
+from ..jsonutil import check_keys
+from ..safe_files import open_for_writing, refuse_link
+from .units import SI_UNITS, abscissa_factor, ordinate_factor
 
 #: UFF direction codes (1..6 for x, y, z, rx, ry, rz) of nodal DOFs, and back; which of them a
 #: model's nodes have is its layout's (checked by `identification.core.check_coordinates`)
@@ -41,7 +44,16 @@ _NAMES_TEXT = ", ".join(UFF_DIRECTION)
 #: FRF form by UFF ordinate specific data type (over force, type 13)
 FORM_OF_ORDINATE = {12: "accelerance", 11: "mobility", 8: "receptance"}
 ORDINATE_OF_FORM = {v: k for k, v in FORM_OF_ORDINATE.items()}
-DEFAULT_UNITS = {"accelerance": "m/s^2/N", "mobility": "m/s/N", "receptance": "m/N"}
+DEFAULT_UNITS = SI_UNITS
+#: The arrays of the `.npz` layout: required, then optional
+NPZ_REQUIRED = ("frequency_hz", "frf", "response_node", "response_dir", "reference_node", "reference_dir")
+NPZ_OPTIONAL = ("form", "units", "model")
+#: The largest decompressed size of an `.npz` file's arrays (bytes), read from the arrays' own
+#: headers before any is loaded: 1000 channels of 100,000 complex lines are 1.6 GB
+MAX_NPZ_BYTES = 2 * 2**30
+#: The largest CSV or UFF file read (bytes): a UFF 58 text file of 1000 channels of 100,000 lines
+#: is about 5 GB; larger tests are split into several files
+MAX_TEXT_FRF_BYTES = 8 * 2**30
 _MODEL_TAG = "model:"
 
 
@@ -86,7 +98,7 @@ def write_uff58(frfs: FRFSet, path: str | Path, test: str = "roving-hammer") -> 
         raise ValueError(f"test must be 'roving-hammer' or 'shaker', got {test!r}")
     import pyuff
 
-    path = Path(path)
+    path = refuse_link(path)
     ordinate = ORDINATE_OF_FORM[frfs.form]
     id1 = f"{_MODEL_TAG} {frfs.model}" if frfs.model else "NONE"
     if len(id1) > 80:
@@ -127,12 +139,15 @@ def _uff_channel(ds: dict, where: str):
         raise FRFFileError(f"{where}: ordinate type {ordinate} over {ds.get('orddenom_spec_data_type')} is not "
                            "acceleration (12), velocity (11) or displacement (8) over force (13)")
     form = FORM_OF_ORDINATE[ordinate]
-    units = str(ds.get("ordinate_axis_units_lab", "") or "").strip() or DEFAULT_UNITS[form]
+    scale = ordinate_factor(ds.get("ordinate_axis_units_lab", ""), form, where, FRFFileError)
+    to_hz = abscissa_factor(ds.get("abscissa_axis_units_lab", ""), where, FRFFileError,
+                            uff_type=int(ds.get("abscissa_spec_data_type", 18)))
     data = np.asarray(ds["data"])
     if not np.iscomplexobj(data):
         raise FRFFileError(f"{where}: real ordinate data; an FRF needs complex values")
     sign = coords[0][2] * coords[1][2]
-    return coords[0][:2], coords[1][:2], form, units, np.asarray(ds["x"], float), sign * data
+    return (coords[0][:2], coords[1][:2], form, DEFAULT_UNITS[form], to_hz * np.asarray(ds["x"], float),
+            (sign * scale) * data)
 
 
 def uff_datasets(path: str | Path, dataset_type: int, what: str, error=FRFFileError):
@@ -206,6 +221,11 @@ def _checked(frfs: FRFSet) -> FRFSet:
     src = frfs.sources[0]
     if f.ndim != 1 or f.size < 3:
         raise FRFFileError(f"{src}: needs at least 3 frequency lines, got {f.size}")
+    if not np.all(np.isfinite(f)):
+        raise FRFFileError(f"{src}: a frequency line is not a finite number")
+    if f[0] < 0:
+        raise FRFFileError(f"{src}: the frequency lines start at {f[0]:g} Hz, below 0 Hz: the abscissa is not "
+                           "a frequency axis in Hz (a shifted or two-sided axis?)")
     df = np.diff(f)
     if not (np.all(df > 0) and np.allclose(df, df[0], rtol=1e-6, atol=0)):
         raise FRFFileError(f"{src}: the frequency lines must be evenly spaced and ascending")
@@ -216,6 +236,9 @@ def _checked(frfs: FRFSet) -> FRFSet:
     for k, c in enumerate(frfs.coordinates):
         if not np.all(np.isfinite(frfs.frf[k])):
             raise FRFFileError(f"{frfs.channel_label(k)}: a value is not a finite number")
+        if not np.any(frfs.frf[k]):
+            raise FRFFileError(f"{frfs.channel_label(k)}: every value is zero: the channel measured nothing "
+                               "(a disconnected sensor?); leave it out of the file")
         if c in seen:
             raise FRFFileError(f"{frfs.channel_label(k)}: the coordinate is measured twice "
                                f"(also channel {seen[c] + 1})")
@@ -226,7 +249,7 @@ def _checked(frfs: FRFSet) -> FRFSet:
 # == .npz and CSV =============================================================================
 def write_npz(frfs: FRFSet, path: str | Path) -> Path:
     """Write the `.npz` layout of the module docstring; returns the path."""
-    path = Path(path)
+    path = refuse_link(path)
     np.savez(path, frequency_hz=frfs.frequency_hz, frf=frfs.frf,
              response_node=np.array([c[0] for c in frfs.coordinates]),
              response_dir=np.array([c[1] for c in frfs.coordinates]), reference_node=frfs.reference[0],
@@ -234,9 +257,36 @@ def write_npz(frfs: FRFSet, path: str | Path) -> Path:
     return path
 
 
+def _npz_sizes(path: Path) -> None:
+    """Refuse an `.npz` whose arrays, as their own headers declare them, are larger than
+    MAX_NPZ_BYTES, before any is decompressed (a small zip can expand to many gigabytes)."""
+    import zipfile
+
+    try:
+        with zipfile.ZipFile(path) as zf:
+            total = 0
+            for info in zf.infolist():
+                with zf.open(info) as fh:
+                    fmt = np.lib.format
+                    read_header = {(1, 0): fmt.read_array_header_1_0,
+                                   (2, 0): fmt.read_array_header_2_0}[fmt.read_magic(fh)]
+                    shape, _, dtype = read_header(fh)
+                total += int(np.prod(shape, dtype=object)) * dtype.itemsize
+                if total > MAX_NPZ_BYTES:
+                    raise FRFFileError(f"{path}: its arrays would take more than {MAX_NPZ_BYTES} bytes when "
+                                       f"decompressed (array {info.filename!r}: shape {shape} of {dtype}); "
+                                       "split the test into several files")
+    except FRFFileError:
+        raise
+    except Exception:
+        raise FRFFileError(f"{path}: not a readable .npz file (a zip archive of numpy arrays without objects, "
+                           "as numpy.savez writes)") from None
+
+
 def read_npz(path: str | Path) -> FRFSet:
     """The FRFs of an `.npz` file in the layout of the module docstring."""
     path = Path(path)
+    _npz_sizes(path)
     try:
         z = np.load(path, allow_pickle=False)
     except Exception:
@@ -253,26 +303,46 @@ def read_npz(path: str | Path) -> FRFSet:
         raise FRFFileError(f"{path}: an array of the wrong type or shape ({exc}); see docs/identify.md") from None
 
 
+def _npz_array(z, path: Path, key: str, kinds: str, ndim: int, what: str) -> np.ndarray:
+    """Array `key` checked for its dtype kind (numpy's kind letters) and number of dimensions
+    (0 also admits a one-element array); FRFFileError naming the file, the array and the problem."""
+    a = z[key]
+    if a.dtype.kind not in kinds or (a.ndim != ndim and not (ndim == 0 and a.size == 1)):
+        shape = "a single value" if ndim == 0 else f"a {ndim}-D array"
+        raise FRFFileError(f"{path}: array {key!r} must be {shape} of {what}; it is {a.dtype} of shape {a.shape}")
+    return a.reshape(()) if ndim == 0 else a
+
+
 def _npz_set(z, path: Path) -> FRFSet:
     """The FRFSet of the arrays of an open .npz file (not yet checked)."""
-    need = ("frequency_hz", "frf", "response_node", "response_dir", "reference_node", "reference_dir")
-    missing = [k for k in need if k not in z.files]
+    missing = [k for k in NPZ_REQUIRED if k not in z.files]
     if missing:
         raise FRFFileError(f"{path}: missing array(s) {missing} (see docs/identify.md)")
-    form = str(z["form"]) if "form" in z.files else "accelerance"
+    check_keys(z.files, NPZ_REQUIRED + NPZ_OPTIONAL, f"{path}: array names", FRFFileError)
+    text = {k: str(_npz_array(z, path, k, "U", 0, "text")) for k in ("reference_dir",) + NPZ_OPTIONAL
+            if k in z.files}
+    form = text.get("form", "accelerance")
     if form not in DEFAULT_UNITS:
         raise FRFFileError(f"{path}: field 'form' {form!r} is not accelerance, mobility or receptance")
-    dirs = [str(d) for d in z["response_dir"]]
+    f = _npz_array(z, path, "frequency_hz", "iuf", 1, "real numbers (Hz)")
+    if z["frf"].dtype.kind in "iuf":
+        raise FRFFileError(f"{path}: array 'frf' holds real values; an FRF needs complex values")
+    frf = _npz_array(z, path, "frf", "c", 2, "complex numbers (channels x lines)")
+    nodes = _npz_array(z, path, "response_node", "iu", 1, "whole numbers (node ids)")
+    dirs = [str(d) for d in _npz_array(z, path, "response_dir", "U", 1, "text (directions)")]
+    ref_node = _npz_array(z, path, "reference_node", "iu", 0, "a whole number (node id)")
+    if len(nodes) != len(dirs):
+        raise FRFFileError(f"{path}: {len(nodes)} response nodes but {len(dirs)} response directions")
     for k, d in enumerate(dirs):
         if d not in UFF_DIRECTION:
             raise FRFFileError(f"{path}: channel {k + 1}: direction {d!r} is not one of {_NAMES_TEXT}")
-    if not np.iscomplexobj(z["frf"]):
-        raise FRFFileError(f"{path}: array 'frf' holds real values; an FRF needs complex values")
-    ref = (int(z["reference_node"]), str(z["reference_dir"]))
-    return FRFSet(np.asarray(z["frequency_hz"], float), np.asarray(z["frf"], complex),
-                  tuple((int(n), d) for n, d in zip(z["response_node"], dirs)), ref, form,
-                  str(z["units"]) if "units" in z.files else DEFAULT_UNITS[form],
-                  (str(z["model"]) or None) if "model" in z.files else None, (str(path),))
+    if text["reference_dir"] not in UFF_DIRECTION:
+        raise FRFFileError(f"{path}: array 'reference_dir': direction {text['reference_dir']!r} is not one of "
+                           f"{_NAMES_TEXT}")
+    scale = ordinate_factor(text.get("units", ""), form, f"{path}: field 'units'", FRFFileError)
+    return FRFSet(np.asarray(f, float), scale * np.asarray(frf, complex),
+                  tuple((int(n), d) for n, d in zip(nodes, dirs)), (int(ref_node), text["reference_dir"]), form,
+                  DEFAULT_UNITS[form], text.get("model") or None, (str(path),))
 
 
 def write_csv(frfs: FRFSet, path: str | Path) -> Path:
@@ -284,28 +354,50 @@ def write_csv(frfs: FRFSet, path: str | Path) -> Path:
     table = np.empty((frfs.frequency_hz.size, 1 + 2 * frfs.n_channels))
     table[:, 0] = frfs.frequency_hz
     table[:, 1::2], table[:, 2::2] = frfs.frf.real.T, frfs.frf.imag.T
-    with path.open("w", newline="") as fh:
+    with open_for_writing(path, newline="") as fh:
         fh.write("\n".join(head) + "\n" + ",".join(cols) + "\n")
         np.savetxt(fh, table, delimiter=",", fmt="%.10g")
     return path
 
 
+#: The keys of a CSV file's metadata comment lines (``# key: value``)
+CSV_KEYS = ("model", "form", "units", "reference")
+
+
 def read_csv(path: str | Path) -> FRFSet:
-    """The FRFs of a CSV file in the layout of the module docstring."""
+    """The FRFs of a CSV file in the layout of the module docstring.
+
+    The one rule for lines: a line whose first non-blank character is ``#`` is a comment wherever
+    it stands, and a blank line is skipped; a comment ``# key: value`` with a key of `CSV_KEYS`
+    is metadata (each key once; a key close to one of them, such as ``# refrence:``, is refused
+    as a misspelling), any other comment is free text. The first other line is the header; every
+    line after it is one frequency line with exactly the header's number of fields."""
     path = Path(path)
+    _bounded_size(path)
     try:
         lines = path.read_bytes().decode("utf-8-sig").splitlines()
     except UnicodeDecodeError as exc:
         raise FRFFileError(f"{path}: not UTF-8 text (byte at offset {exc.start}); save the file as UTF-8") from None
-    meta = {}
-    for line in lines:
-        if line.startswith("#") and ":" in line:
-            key, _, value = line[1:].partition(":")
-            meta[key.strip().lower()] = value.strip()
-    header = next((ln for ln in lines if ln and not ln.startswith("#")), None)
-    if header is None or not header.startswith("frequency_hz"):
+    meta, rows = {}, []
+    for number, line in enumerate(lines, 1):
+        text = line.strip()
+        if text.startswith("#"):
+            key, colon, value = text[1:].partition(":")
+            key = key.strip().lower()
+            if colon and key in CSV_KEYS:
+                if key in meta:
+                    raise FRFFileError(f"{path}: line {number}: '# {key}:' is given twice")
+                meta[key] = value.strip()
+            elif colon and " " not in key:
+                import difflib
+                close = difflib.get_close_matches(key, CSV_KEYS, n=1, cutoff=0.75)
+                if close:
+                    raise FRFFileError(f"{path}: line {number}: unknown key '# {key}:'; did you mean '# {close[0]}:'?")
+        elif text:
+            rows.append((number, text))
+    if not rows or not rows[0][1].startswith("frequency_hz"):
         raise FRFFileError(f"{path}: no header line starting with 'frequency_hz'")
-    cols = next(csv.reader([header]))[1:]
+    cols = [c.strip() for c in next(csv.reader([rows[0][1]]))[1:]]
     if len(cols) % 2 or "reference" not in meta:
         raise FRFFileError(f"{path}: {'missing reference (a line # reference: NODE DIR)' if 'reference' not in meta else 'columns must come in re/im pairs'}")
     coords = []
@@ -321,17 +413,41 @@ def read_csv(path: str | Path) -> FRFSet:
     form = meta.get("form", "accelerance")
     if len(ref) != 2 or not ref[0].isdigit() or ref[1] not in UFF_DIRECTION or form not in DEFAULT_UNITS:
         raise FRFFileError(f"{path}: bad '# reference: {meta['reference']}' or '# form: {form}'")
-    if not any(ln.strip() and not ln.startswith("#") for ln in lines[lines.index(header) + 1:]):
+    if len(rows) < 2:
         raise FRFFileError(f"{path}: no frequency lines after the header")
-    try:
-        table = np.loadtxt(path, delimiter=",", comments="#", skiprows=1 + sum(ln.startswith("#") for ln in lines),
-                           ndmin=2)
-    except ValueError as exc:
-        raise FRFFileError(f"{path}: not numbers ({exc})") from None
+    width = 1 + len(cols)
+    table = np.empty((len(rows) - 1, width))
+    for r, (number, text) in enumerate(rows[1:]):
+        fields = text.split(",")
+        if len(fields) != width:
+            raise FRFFileError(f"{path}: line {number}: {len(fields)} fields, but the header has {width} "
+                               "(frequency_hz and a re/im pair per channel)")
+        try:
+            table[r] = [float(v) for v in fields]
+        except ValueError:
+            bad = next(v for v in fields if not _is_number(v))
+            raise FRFFileError(f"{path}: line {number}: {bad.strip()!r} is not a number") from None
+    scale = ordinate_factor(meta.get("units", ""), form, f"{path}: '# units:'", FRFFileError)
     model = meta.get("model")
-    return _checked(FRFSet(table[:, 0], (table[:, 1::2] + 1j * table[:, 2::2]).T, tuple(coords),
-                           (int(ref[0]), ref[1]), form, meta.get("units", DEFAULT_UNITS[form]),
+    return _checked(FRFSet(table[:, 0], scale * (table[:, 1::2] + 1j * table[:, 2::2]).T, tuple(coords),
+                           (int(ref[0]), ref[1]), form, DEFAULT_UNITS[form],
                            None if model in (None, "", "NONE") else model, (str(path),)))
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _bounded_size(path: Path) -> None:
+    """Refuse a text FRF file larger than MAX_TEXT_FRF_BYTES before reading it."""
+    size = path.stat().st_size
+    if size > MAX_TEXT_FRF_BYTES:
+        raise FRFFileError(f"{path}: {size} bytes, more than the {MAX_TEXT_FRF_BYTES} an FRF file may have; "
+                           "split the test into several files")
 
 
 # == one entry point ==========================================================================
@@ -350,6 +466,8 @@ def read_frf(*paths: str | Path) -> FRFSet:
         if not p.is_file():
             raise FRFFileError(f"{p}: not a regular file (a directory, a device or a pipe); name an FRF file")
         suffix = p.suffix.lower()
+        if suffix != ".npz":
+            _bounded_size(p)
         reader = {".npz": read_npz, ".csv": read_csv}.get(suffix, read_uff58)
         sets.append(reader(p))
     return merge(sets)

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from ..safe_files import write_text
 from ..jsonutil import dumps, read_json_file
 from ..shipped import resolve, shipped_names
 from .json_format import modal_data_from_dict, modal_data_to_dict
@@ -44,7 +45,7 @@ def save_modal_data(data: ModalData, path: str | Path) -> Path:
     if path.suffix.lower() in UFF_SUFFIXES:
         write_uff55(data, path)
     else:
-        path.write_text(dumps(modal_data_to_dict(data)) + "\n")
+        write_text(path, dumps(modal_data_to_dict(data)) + "\n")
     return path
 
 

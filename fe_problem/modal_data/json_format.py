@@ -3,11 +3,13 @@ of its parsed content and the dictionary written back."""
 
 from __future__ import annotations
 
+import warnings
 from typing import Any
 
 import numpy as np
 
 from ..dofs import SPATIAL
+from ..jsonutil import check_keys
 from ..model.validate import is_number, shown
 from .types import DATA_FORMAT, DataFileError, ModalData
 
@@ -16,6 +18,9 @@ from .types import DATA_FORMAT, DataFileError, ModalData
 FREQUENCY_RANGE_HZ = (1e-6, 1e9)
 #: The most modes and measured coordinates a data file may hold (a modal test has far fewer).
 MAX_MODES, MAX_DOFS = 10_000, 100_000
+#: The keys of the file and of one mode (shared/formats/modal-data.md); any other is refused
+DATA_KEYS = ("format", "model", "dofs", "modes", "meta")
+MODE_KEYS = ("frequency_hz", "shape")
 
 
 def _err(source: str, msg: str) -> DataFileError:
@@ -26,6 +31,7 @@ def modal_data_from_dict(d: Any, source: str = "<memory>") -> ModalData:
     """Validate the parsed JSON of a modal-data file; errors name the file and the field."""
     if not isinstance(d, dict):
         raise _err(source, "the file must hold a JSON object")
+    check_keys(d, DATA_KEYS, source, DataFileError)
     for key in ("format", "model", "dofs", "modes"):
         if key not in d:
             raise _err(source, f"missing field '{key}'")
@@ -57,6 +63,7 @@ def modal_data_from_dict(d: Any, source: str = "<memory>") -> ModalData:
         where = f"field 'modes'[{k}]"
         if not isinstance(mode, dict) or "frequency_hz" not in mode:
             raise _err(source, f"{where}: missing 'frequency_hz'")
+        check_keys(mode, MODE_KEYS, f"{source}: {where}", DataFileError)
         f = mode["frequency_hz"]
         if not is_number(f) or f <= 0:
             raise _err(source, f"{where}.frequency_hz: must be a finite number > 0, got {shown(f)}")
@@ -80,6 +87,11 @@ def modal_data_from_dict(d: Any, source: str = "<memory>") -> ModalData:
         k = int(np.argmax(np.diff(freqs) < 0))
         raise _err(source, f"field 'modes': frequencies must ascend, mode {k + 1} ({freqs[k + 1]} Hz) "
                            f"comes after {freqs[k]} Hz")
+    for k in range(1, len(modes)):
+        same_shape = np.array_equal(shapes[:, k], shapes[:, k - 1], equal_nan=True)
+        if freqs[k] == freqs[k - 1] and same_shape:
+            warnings.warn(f"{source}: field 'modes'[{k - 1}] and [{k}] are the same mode given twice (equal "
+                          "frequency and shape)")
     meta = d.get("meta", {})
     if not isinstance(meta, dict):
         raise _err(source, "field 'meta' must be an object")

@@ -9,6 +9,7 @@ import dataclasses
 import numpy as np
 
 from ..dofs import PLANAR_FRAME, SPACE_FRAME
+from ..limits import MAX_SPARSE_DOFS
 from .edits import part_fields
 from .types import Element, FrameModel, LumpedMass, Material, Node, Section, Support
 
@@ -30,6 +31,9 @@ def split_elements(model: FrameModel, parts: int) -> FrameModel:
     parts = int(parts)
     if parts == 1:
         return model
+    n_nodes = len(model.nodes) + len(model.elements) * (parts - 1)
+    _check_size(n_nodes * model.layout.per_node - sum(len(s.directions) for s in model.supports),
+                f"{model.name} with every element in {parts} parts: {n_nodes} nodes")
     at = model.coordinates
     a = np.array([at[model.node_position(e.node_i)] for e in model.elements], dtype=float)
     b = np.array([at[model.node_position(e.node_j)] for e in model.elements], dtype=float)
@@ -76,6 +80,8 @@ def regular_frame(bays: int, storeys: int, bay_width_m: float = 6.0, storey_heig
     if not np.isfinite(floor_mass_kg) or floor_mass_kg < 0:
         raise ValueError(f"floor mass must be a number of kg >= 0, got {floor_mass_kg!r}")
     per = bays + 1
+    _check_size(per * storeys * PLANAR_FRAME.per_node, f"a frame of {bays} bays and {storeys} storeys: "
+                f"{per * (storeys + 1)} nodes")
     nodes = tuple(Node(s * per + c + 1, c * bay_width_m, s * storey_height_m)
                   for s in range(storeys + 1) for c in range(per))
     elements, eid = [], 1
@@ -139,6 +145,8 @@ def regular_frame_3d(bays_x: int, bays_y: int, storeys: int, bay_width_x_m: floa
         raise ValueError(f"floor mass must be a number of kg >= 0, got {floor_mass_kg!r}")
     nx, ny = bays_x + 1, bays_y + 1
     per = nx * ny
+    _check_size(per * storeys * SPACE_FRAME.per_node, f"a space frame of {bays_x} x {bays_y} bays and {storeys} "
+                f"storeys: {per * (storeys + 1)} nodes")
 
     def node_id(s: int, r: int, c: int) -> int:
         return s * per + r * nx + c + 1
@@ -165,6 +173,13 @@ def regular_frame_3d(bays_x: int, bays_y: int, storeys: int, bay_width_x_m: floa
         f"regular {bays_x} x {bays_y}-bay {storeys}-storey space frame, {bay_width_x_m:g} m x {bay_width_y_m:g} m "
         f"bays, {storey_height_m:g} m storeys, {base} base",
         layout=SPACE_FRAME)
+
+
+def _check_size(n_free: int, what: str) -> None:
+    """ValueError before a model is built whose free DOFs no solver path takes (`MAX_SPARSE_DOFS`)."""
+    if n_free > MAX_SPARSE_DOFS:
+        raise ValueError(f"{what}, about {n_free} free DOFs: more than the {MAX_SPARSE_DOFS} any solver path takes "
+                         "(fe_problem.limits.MAX_SPARSE_DOFS); generate a smaller model")
 
 
 __all__ = ["BASES", "BASES_3D", "HEB300", "IPE400", "STEEL_3D", "regular_frame", "regular_frame_3d", "split_elements"]

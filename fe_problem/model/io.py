@@ -8,13 +8,30 @@ from pathlib import Path
 from typing import Any
 
 from ..dofs import LAYOUTS
-from ..jsonutil import dumps, read_json_file
+from ..jsonutil import check_keys, dumps, read_json_file
+from ..safe_files import write_text
 from ..shipped import resolve, shipped_names
 from .types import Element, FrameModel, LumpedMass, Material, Node, Section, Spring, Support
 from .validate import ModelFileError, is_number, shown
 
 MODEL_FORMAT = "femu.model/1"
 MODEL_SUFFIX = ".model.json"
+
+#: The keys a model file's objects may have (docs/model-format.md); any other key is refused with
+#: the file, the path to it and the closest known key, never ignored (a 'suports' list would
+#: otherwise leave a free-free structure without a word)
+KEYS = {
+    "model": ("format", "name", "dimension", "description", "materials", "sections", "nodes", "elements", "masses",
+              "springs", "supports", "measured_dofs", "excitation"),
+    "node": ("id", "x", "y", "z"),
+    "element": ("id", "nodes", "section", "material", "formulation", "release_i", "release_j", "youngs_modulus_pa",
+                "crack_position", "crack_stiffness", "weak_zone", "orientation", "releases_i", "releases_j"),
+    "mass": tuple(f.name for f in dataclasses.fields(LumpedMass)),
+    "spring": ("id", "dofs", "stiffness"),
+    "support": ("node", "directions"),
+    "materials": tuple(f.name for f in dataclasses.fields(Material)),
+    "sections": tuple(f.name for f in dataclasses.fields(Section)),
+}
 
 
 def _dof(value: Any, where: str) -> tuple[int, str]:
@@ -46,6 +63,7 @@ def _objects(d: dict, key: str, source: str, kind: type) -> dict:
     for name, v in table.items():
         if not isinstance(v, dict):
             raise ModelFileError(f"{source}: field '{key}' entry {name!r} must be an object")
+        check_keys(v, KEYS[key], f"{source}: {key}[{name!r}]", ModelFileError)
         try:
             out[name] = kind(**v)
         except TypeError as exc:
@@ -82,6 +100,7 @@ def model_from_dict(d: dict, source: str = "<memory>") -> FrameModel:
         raise ModelFileError(f"{source}: field 'dimension' must be 2 (a planar frame) or 3 (a space frame), "
                              f"got {shown(dimension)}")
     layout = LAYOUTS[dimension]
+    check_keys(d, KEYS["model"], source, ModelFileError)
     materials = _objects(d, "materials", source, Material)
     sections = _objects(d, "sections", source, Section)
     for key in ("nodes", "elements"):
@@ -90,10 +109,12 @@ def model_from_dict(d: dict, source: str = "<memory>") -> FrameModel:
     for key in ("masses", "springs", "supports", "measured_dofs"):
         if not isinstance(d.get(key, []), list):
             raise ModelFileError(f"{source}: field '{key}' must be a list, got {shown(d[key])}")
-    for key in ("nodes", "elements", "masses", "springs", "supports"):
+    for key, kind in (("nodes", "node"), ("elements", "element"), ("masses", "mass"), ("springs", "spring"),
+                      ("supports", "support")):
         for i, item in enumerate(d.get(key, [])):
             if not isinstance(item, dict):
                 raise ModelFileError(f"{source}: {key}[{i}] must be an object, got {shown(item)}")
+            check_keys(item, KEYS[kind], f"{source}: {key}[{i}]", ModelFileError)
     nodes = []
     for i, n in enumerate(d["nodes"]):
         where = f"{source}: nodes[{i}]"
@@ -242,5 +263,5 @@ def load_model(name_or_path: str | Path) -> FrameModel:
 def save_model(model: FrameModel, path: str | Path) -> Path:
     """Write `model` as a model file; returns the path."""
     path = Path(path)
-    path.write_text(dumps(model_to_dict(model)) + "\n")
+    write_text(path, dumps(model_to_dict(model)) + "\n")
     return path

@@ -79,8 +79,9 @@ def validate(m: FrameModel) -> None:
     _validate_tables(m)
     _check_ids(src, "elements", [e.id for e in m.elements])
     nodes = {n.id: n for n in m.nodes}
+    known = formulations(m.layout)
     for e in m.elements:
-        _validate_element(m, e, nodes)
+        _validate_element(m, e, nodes, known)
     _validate_nodal(m)
     _check_connected(m)
 
@@ -136,7 +137,7 @@ def _kind(m: FrameModel) -> str:
     return "planar" if m.layout.dimension == 2 else "space (\"dimension\": 3)"
 
 
-def _validate_element(m: FrameModel, e, nodes: dict) -> None:
+def _validate_element(m: FrameModel, e, nodes: dict, known: tuple[str, ...]) -> None:
     where = f"{m.source}: element {e.id}"
     for n in (e.node_i, e.node_j):
         if n not in nodes:
@@ -149,10 +150,10 @@ def _validate_element(m: FrameModel, e, nodes: dict) -> None:
     if e.material not in m.materials:
         raise ModelFileError(f"{where}: field 'material': unknown material {e.material!r} "
                              f"(materials: {sorted(m.materials)})")
-    if not formulations(m.layout):
+    if not known:
         raise ModelFileError(f"{where}: no element formulation is registered for {_kind(m)} models")
-    if e.formulation not in formulations(m.layout):
-        raise ModelFileError(f"{where}: 'formulation' must be one of {formulations(m.layout)}, got {e.formulation!r}")
+    if e.formulation not in known:
+        raise ModelFileError(f"{where}: 'formulation' must be one of {known}, got {e.formulation!r}")
     for r, name in ((e.release_i, "release_i"), (e.release_j, "release_j")):
         if r is not None:
             if len(m.layout.hinges) != 1:
@@ -251,6 +252,9 @@ def _validate_nodal(m: FrameModel) -> None:
         _check_dof(m, s.dof_a, f"{src}: spring {s.id}")
         if s.dof_b is not None:
             _check_dof(m, s.dof_b, f"{src}: spring {s.id}")
+            if tuple(s.dof_b) == tuple(s.dof_a):
+                raise ModelFileError(f"{src}: spring {s.id} joins DOF {list(s.dof_a)} to itself: it does nothing; "
+                                     "a spring to ground lists one DOF")
         _positive(s.stiffness, f"{src}: spring {s.id} 'stiffness'", allow_zero=True, field="stiffness")
     for sup in m.supports:
         if sup.node not in idset:

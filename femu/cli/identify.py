@@ -51,6 +51,7 @@ def run(args) -> int:
 
     from fe_problem import identify, read_frf, save_modal_data
     from fe_problem.jsonutil import jsonable
+    from fe_problem.safe_files import write_text
     from femu.reports.identify import summary_record, write_report
     from femu.reports.render import make_out_dir
 
@@ -82,7 +83,7 @@ def run(args) -> int:
     make_out_dir(out)
     record = {**summary_record(ident), "wall_s": wall_s}
     written = [save_modal_data(data, out / "modal-data.json")]
-    (out / "identification.json").write_text(json.dumps(jsonable(record), indent=1) + "\n")
+    write_text(out / "identification.json", json.dumps(jsonable(record), indent=1) + "\n")
     written += [out / "identification.json", write_report(ident, out)]
     for w in ident.warnings:
         _stderr(f"warning: {w}")

@@ -116,7 +116,10 @@ def run(args) -> int:
     if system.n_elastic == 0:
         raise ValueError(f"{model.source or model.name}: the model has no elastic mode: every motion strains "
                          "nothing (check its stiffness values and connections)")
-    lam, _ = system.eigen(system.x0[None, :], min(args.modes, system.n_elastic))
+    # with the shapes, as modal_analysis solves: LAPACK's values-only driver differs from it in
+    # the last digits (1e-11 of the first frequency of a Timoshenko H-frame), and the frequencies
+    # `femu model` prints are the ones the library gives
+    lam, _ = system.eigen(system.x0[None, :], min(args.modes, system.n_elastic), vectors=True)
     t3 = time.perf_counter()
     saved = str(save_model(model, args.save)) if args.save else None
     summary = {

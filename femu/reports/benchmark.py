@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from fe_problem.jsonutil import dumps
+from fe_problem.safe_files import write_text
 from femu.studies.tasks import is_suite_id
 
 from . import stats as st
@@ -235,9 +236,9 @@ def write_benchmark(runs, out_dir, source: str) -> Path:
     if s["comparisons"]:
         figures["cd"] = sf.plot_cd(s["comparisons"][COMPARISON_METRICS[0]] if COMPARISON_METRICS[0] in s["comparisons"]
                                    else next(iter(s["comparisons"].values())), out / "cd.png").name
-    (out / "stats.json").write_text(dumps(s) + "\n")
+    write_text(out / "stats.json", dumps(s) + "\n")
     path = out / "report.md"
-    path.write_text(render_benchmark(s, figures, source))
+    write_text(path, render_benchmark(s, figures, source))
     return path
 
 

@@ -19,6 +19,7 @@ import numpy as np
 from fe_problem import AffineModel, FrameModel, ModalData, elements, mac, modal_analysis
 from fe_problem.diagnosis import Diagnosis
 from fe_problem.jsonutil import dumps
+from fe_problem.safe_files import write_text
 
 from .diagnosis_text import (best_label, coordinate_labels, fmt, location_text, mode_ranges, render_markdown,
                              threshold_chi2_drop)
@@ -201,7 +202,7 @@ def plot_shapes(diag: Diagnosis, model: FrameModel, extended: FrameModel | None,
     for ax, i in zip(axes.ravel(), chosen):
         _draw_mode(ax, diag, model, extended, data, i, calibrated, ext, size)
     for ax in axes[:, 0]:
-        ax.set_ylabel("y (m)", fontsize=8)
+        ax.set_ylabel("y (m)" if model.layout.dimension == 2 else "isometric view, z up (m)", fontsize=8)
     handles = {}
     for ax in axes.ravel():  # every kind of line once, whichever panel drew it first
         for h, label in zip(*ax.get_legend_handles_labels()):
@@ -380,11 +381,11 @@ def write_report(diag: Diagnosis, model: FrameModel, data: ModalData, out_dir: P
             figures[role] = path.name
             written.append(path)
     report = out_dir / "report.md"
-    report.write_text(render_markdown(diag, figures, data.source, model.name, extended_file))
+    write_text(report, render_markdown(diag, figures, data.source, model.name, extended_file))
     return written + [report]
 
 
 def write_json(diag: Diagnosis, path: Path) -> Path:
     """The record (`Diagnosis.to_dict()`) as strict JSON, as `femu diagnose --json` prints it."""
-    Path(path).write_text(dumps(diag) + "\n")
+    write_text(path, dumps(diag) + "\n")
     return Path(path)

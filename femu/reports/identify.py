@@ -11,6 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
+from fe_problem.safe_files import write_text
+
 from .render import figure, markdown_table, save_figure
 
 
@@ -112,5 +114,5 @@ def write_report(ident, out: Path) -> Path:
     figures = {"stabilisation": plot_stabilisation(ident, out / "stabilisation.png").name,
                "fit": plot_fit(ident, out / "fit.png").name, "shapes": plot_shapes(ident, out / "shapes.png").name}
     path = out / "report.md"
-    path.write_text(render_markdown(summary_record(ident), figures))
+    write_text(path, render_markdown(summary_record(ident), figures))
     return path

@@ -44,6 +44,7 @@ import numpy as np
 
 from adapters.harness import RunResult
 from fe_problem.jsonutil import dumps
+from fe_problem.safe_files import write_text
 from .render import make_out_dir
 
 #: Prefix of the ioh function names: femu_paper, femu_hframe-freq, ...
@@ -285,7 +286,7 @@ def export_runs(runs, out_dir, validate: bool = True) -> Path:
             problem.reset()
             problem.detach_logger()
         logger.close()
-    (out / MARKER).write_text(dumps({
+    write_text(out / MARKER, dumps({
         "format": "femu.ioh-export/1",
         "raw_y": "(J - f_opt) / raw_y_scale; x in [0, 1]: (x - xl) / (xu - xl)",
         "problems": {v: ioh_terms(v).to_dict() for v in sorted({r.variant for r in usable})},

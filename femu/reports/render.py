@@ -8,6 +8,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from fe_problem.safe_files import open_for_writing
+
 #: Resolution of every saved figure (dots per inch).
 DPI = 110
 
@@ -41,7 +43,8 @@ def make_out_dir(path, flag: str = "--out") -> Path:
 def save_figure(fig, path) -> Path:
     """Write ``fig`` to ``path`` (PNG by its suffix) and return the path."""
     path = Path(path)
-    fig.savefig(path)
+    with open_for_writing(path, binary=True) as fh:  # never through a link standing at the name
+        fig.savefig(fh, format=path.suffix.lstrip(".") or "png")
     return path
 
 

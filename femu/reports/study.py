@@ -13,6 +13,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from fe_problem.jsonutil import dumps
+from fe_problem.safe_files import write_text
 from femu.studies.store import Store
 
 from femu.studies.tasks import is_suite_id
@@ -68,7 +69,7 @@ def render_files(groups: list[GroupSummary], out_dir, source: str, name: str = "
         if len(g.targets):
             made["ecdf"] = plot_ecdf(g, out / f"ecdf_{stem}.png")
         figures[(g.variant, g.budget)] = {k: p.name for k, p in made.items()}
-    (out / "summary.json").write_text(dumps([g.to_dict() for g in groups]))
+    write_text(out / "summary.json", dumps([g.to_dict() for g in groups]))
     path = out / name
-    path.write_text(render_markdown(groups, figures, source))
+    write_text(path, render_markdown(groups, figures, source))
     return path
