@@ -55,6 +55,7 @@ from .groups import distributed_candidates
 from .modelform import model_form_candidates
 from .plausibility import few_dof_note
 from .fit import Fit, chi2_batch, fit, look_along, profiled, screen
+from . import sparse_class
 from .record import Cause, CandidateFit, Diagnosis, Gain, Noise, PinnedParameter, Residuals, Selection
 from .verdict import profile_interval, verdict
 from .residuals import Observations
@@ -154,7 +155,10 @@ def score_classes(cal: "Calibration", found: "Screening", rounds) -> Evidence:
         fits += [(forms[i], coarse_fit(obs, forms[i]), "model_form")
                  for i in sorted(range(len(forms)), key=lambda i: -drops[i])[:N_FORM_FIT]]
     several = rounds is not None and len(rounds.sized) > 1
+    sparse = sparse_class.fit_sparse(cal.setting, obs, base.pairing)  # "every member", sparse (None: n/a)
     reduced = [base.chi2 / obs.dof(1)] + [f.chi2 / obs.dof(2) for _, f, _ in fits]
+    if sparse is not None:
+        reduced.append(sparse.chi2 / obs.dof(1 + len(sparse.members)))
     if several:
         reduced.append(rounds.final.chi2 / rounds.obs.dof(1 + len(rounds.sized)))
     d = max(1.0, min(reduced))
@@ -171,6 +175,9 @@ def score_classes(cal: "Calibration", found: "Screening", rounds) -> Evidence:
                                      c.upper, d) for c, a_j in rounds.sized)
         classes.append(ScoredClass(" + ".join(c.label for c, _ in rounds.sized), "several", len(rounds.sized),
                                    rounds.final.chi2, -(rounds.final.chi2 - base_r.chi2) / (2 * d) + occam))
+    if sparse is not None:
+        classes.append(sparse_class.with_dispersion(sparse, d).scored(base.chi2, d, sparse_class.held_out_error(
+            cal.setting, cal.data, cal.used, sparse, obs.freq_noise, obs.shape_noise)))
     ev = ranked(_one_per_answer(classes), "laplace", d)
     by_label = {c.label: c for c, _, _ in fits}
     out = []
@@ -243,9 +250,9 @@ def _evidence_notes(ev: Evidence, rounds) -> list[str]:
                                                      ("several" if len(rounds.sized) > 1 else "local"))]
     if rounds is not None and len(rounds.sized) == 1:
         chosen = [c for c in ev.classes if c.label == rounds.sized[0][0].label] or chosen
-    if best is not None and best.family == "distributed" and chosen and \
+    if best is not None and best.family in ("distributed", "sparse") and chosen and \
             best.log_evidence - chosen[0].log_evidence >= FACTOR_10:
-        notes.append(f"evidence: the distributed class {best.label} explains the data better than {answer} (log "
+        notes.append(f"evidence: the {best.family} class {best.label} explains the data better than {answer} (log "
                      f"evidence {best.log_evidence:.3g} against {chosen[0].log_evidence:.3g}): the change may be "
                      "spread over several members")
     form = [c for c in ev.classes if c.family == "model_form"]
