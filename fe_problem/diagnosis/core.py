@@ -56,6 +56,7 @@ from .modelform import model_form_candidates
 from .plausibility import few_dof_note
 from .fit import Fit, chi2_batch, fit, look_along, profiled, screen
 from . import sparse_class
+from .nested import require_dynesty, rescored
 from .record import Cause, CandidateFit, Diagnosis, Gain, Noise, PinnedParameter, Residuals, Selection
 from .verdict import profile_interval, verdict
 from .residuals import Observations
@@ -75,15 +76,21 @@ METHOD = "likelihood ratio vs the calibrated model, Bonferroni over candidates, 
 
 def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: float | None = None,
              shape_noise: float | None = None, kinds=None, n_fit: int | None = N_FIT, alpha: float = ALPHA,
-             max_causes: int = MAX_CAUSES) -> Diagnosis:
+             max_causes: int = MAX_CAUSES, evidence: str = "laplace") -> Diagnosis:
     """Diagnose what `model` misses in `data` (see the module docstring for the method).
 
     freq_noise: std of a measured frequency, relative (default 0.002 = 0.2 %); shape_noise: std
     of a measured shape entry as a fraction of the largest |entry| of its mode (default 0.02 =
     2 %). kinds: candidate kinds to try (default all); n_fit: how many screened candidates are
     fitted properly besides the ones always fitted (None: all); max_causes: at most this many
-    causes are added one after another.
+    causes are added one after another; evidence: how the model classes are scored, ``laplace``
+    (at the fitted optimum) or ``nested`` (the best by Laplace sampled with dynesty, seeded:
+    nested.py; the optional dependency ``.[nested]``).
     """
+    if evidence not in EVIDENCE_METHODS:
+        raise ValueError(f"evidence must be one of {', '.join(EVIDENCE_METHODS)}, got {evidence!r}")
+    if evidence == "nested":
+        require_dynesty()  # before the work: a missing dependency fails at once
     data = load_modal_data(data)
     model = data.load_model() if model is None else load_model(model)
     _check(model, data)
@@ -103,7 +110,7 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
         if not v.adequate:
             warnings.append(v.explanation)
         checks = checks + spurious_modes(cal.unpaired, cal.unpaired, cal.obs_all.frequencies_hz, _explained(checks))
-        ev = score_classes(cal, found, None)
+        ev = score_classes(cal, found, None, evidence)
         return Diagnosis(cause, alternatives, residuals_of(cal), gain(cal, None), tuple(sel.rows.values()),
                          sel.selection, None, tuple(warnings + _fault_notes(checks) + _evidence_notes(ev, None)), (),
                          v, noise, checks, ev)
@@ -126,7 +133,7 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
     if len(cal.unpaired):
         final_unpaired = calibrate(rounds.model, data, noise.freq_noise, noise.shape_noise, model).unpaired
         checks = checks + spurious_modes(cal.unpaired, final_unpaired, cal.obs_all.frequencies_hz, _explained(checks))
-    ev = score_classes(cal, found, rounds)
+    ev = score_classes(cal, found, rounds, evidence)
     return Diagnosis(cause, alternatives, residuals_of(cal), rounds.gain, tuple(sel.rows.values()), sel.selection,
                      extended, tuple(warnings + _fault_notes(checks) + _evidence_notes(ev, rounds)), causes, v, noise,
                      checks, ev)
@@ -137,12 +144,16 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
 N_DISTRIBUTED_FIT, N_HELD_OUT = 8, 6
 #: Model-form classes fitted (the best screened).
 N_FORM_FIT = 6
+#: How the classes' evidence is found (`diagnose(evidence=...)`, `femu diagnose --evidence`).
+EVIDENCE_METHODS = ("laplace", "nested")
 
 
-def score_classes(cal: "Calibration", found: "Screening", rounds) -> Evidence:
+def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str = "laplace") -> Evidence:
     """Every class scored by its Laplace evidence against the calibrated model: no effect, each
-    fitted local candidate, the best-screened distributed classes (groups.py) and, with several
-    causes, the model with all of them; the best few with their held-out prediction error."""
+    fitted local candidate, the best-screened distributed classes (groups.py), "every member"
+    sparse (sparse_class.py) and, with several causes, the model with all of them; the best few
+    with their held-out prediction error. evidence ``nested``: the best classes by Laplace
+    scored again by nested sampling (nested.py; the several-cause model keeps its Laplace value)."""
     obs, base = cal.obs, cal.base
     distributed = distributed_candidates(cal.setting)
     promise = [max(screen(obs, c, base), look_along(obs, c, base), key=lambda x: x[0]) for c in distributed]
@@ -185,7 +196,16 @@ def score_classes(cal: "Calibration", found: "Screening", rounds) -> Evidence:
         if k < N_HELD_OUT and (c.label in by_label or c.family == "none"):
             c = dataclasses.replace(c, held_out_error_pct=_held_out_error(cal, by_label.get(c.label)))
         out.append(c)
-    return dataclasses.replace(ev, classes=tuple(out))
+    ev = dataclasses.replace(ev, classes=tuple(out))
+    if evidence == "nested":
+        integrands = {c.label: (lambda a, c=c: chi2_batch(obs, c, np.asarray(a[:1]))[0].chi2, 0.0, c.upper, 0.0)
+                      for c, _, _ in fits}
+        if sparse is not None:
+            integrands[sparse.label] = (sparse_class.chi2_function(cal.setting, obs, sparse),
+                                        np.full(len(sparse.members), sparse_class.LOW),
+                                        np.full(len(sparse.members), sparse_class.HIGH), -sparse.support_log_penalty)
+        ev = rescored(ev, integrands, base.chi2, d)
+    return ev
 
 
 def coarse_fit(obs: Observations, cand: Candidate) -> Fit:

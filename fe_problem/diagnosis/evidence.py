@@ -52,9 +52,11 @@ def occam_log_factor(chi2_at, a_hat: float, upper: float, dispersion: float = 1.
 @dataclass(frozen=True)
 class ScoredClass:
     """One model class in the evidence table: its label, family (``none``, ``local``,
-    ``distributed``, ``several``), number of effect parameters (the global scale, shared by all,
-    not counted), chi^2, log evidence relative to the calibrated model, the estimate, and the
-    mean |frequency error| (%) it predicts on the held-out modes when refitted without them."""
+    ``distributed``, ``sparse``, ``model_form``, ``several``), number of effect parameters (the
+    global scale, shared by all, not counted), chi^2, log evidence relative to the calibrated
+    model, the estimate, the mean |frequency error| (%) it predicts on the held-out modes when
+    refitted without them, and how its log evidence was found (``laplace``; ``nested``, with
+    dynesty's error estimate; ``exact`` for the calibrated model under nested sampling)."""
 
     label: str
     family: str
@@ -63,6 +65,8 @@ class ScoredClass:
     log_evidence: float
     estimate: dict | None = None
     held_out_error_pct: float | None = None
+    log_evidence_error: float | None = None
+    method: str = "laplace"
 
     def to_dict(self) -> dict:
         return {k: getattr(self, k) for k in self.__dataclass_fields__}
@@ -70,8 +74,9 @@ class ScoredClass:
 
 @dataclass(frozen=True)
 class Evidence:
-    """The ranked classes (best first), the method, the dispersion used, and the note when the
-    next class is within a factor of 10 of the best."""
+    """The ranked classes (best first), the method (``laplace``; ``nested``: the best classes by
+    Laplace sampled with dynesty, nested.py, each row saying how it was scored), the dispersion
+    used, and the note when the next class is within a factor of 10 of the best."""
 
     method: str
     dispersion: float

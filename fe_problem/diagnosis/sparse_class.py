@@ -265,6 +265,20 @@ def refit(am: _AllMembers, obs: Observations, support: np.ndarray, start: np.nda
                      float(math.log(math.comb(n, len(support)))))
 
 
+def chi2_function(st: Setting, obs: Observations, sf: SparseFit):
+    """chi^2 (paired afresh) of the class at its members' relative changes theta (k,), the rest
+    nominal: the likelihood nested sampling integrates (nested.py)."""
+    am = _AllMembers(st)
+    support = np.array([am.ids.index(e) for e in sf.members])
+
+    def chi2_at(x):
+        theta = np.zeros(len(am.ids))
+        theta[support] = x
+        return am.residuals(obs, theta[None])[0].chi2
+
+    return chi2_at
+
+
 def with_dispersion(sf: SparseFit, dispersion: float) -> SparseFit:
     """The fit with its stds at the dispersion D (sqrt(D) x those at D = 1)."""
     from dataclasses import replace

@@ -74,10 +74,14 @@ def add_arguments(d) -> None:
                    help="std of a measured shape entry as a fraction of the largest |entry| of its mode, the "
                         "usual convention (default 0.02 = 2 %% of the peak); the record's goodness_of_fit gives "
                         "the noise the data imply")
+    d.add_argument("--evidence", choices=("laplace", "nested"), default="laplace",
+                   help="how the model classes' evidence is found: laplace (at the fitted optimum, the default) "
+                        "or nested (the best classes by Laplace sampled with dynesty, seeded; slower; needs "
+                        "pip install \"femu-bench[nested]\")")
 
 
 def run(args) -> int:
-    """Entry point of `femu diagnose` (args: data, model, out, json, freq_noise, shape_noise)."""
+    """Entry point of `femu diagnose` (args: data, model, out, json, freq_noise, shape_noise, evidence)."""
     from fe_problem import diagnose, load_modal_data, load_model, save_model
     from fe_problem.jsonutil import dumps
     from femu.reports.diagnosis import write_json, write_report
@@ -88,11 +92,16 @@ def run(args) -> int:
     data = load_modal_data(args.data)
     model = data.load_model() if args.model is None else load_model(args.model)
     out = _check_out(args.out) if args.out is not None else None  # before the work: a bad --out fails at once
+    if getattr(args, "evidence", "laplace") == "nested":
+        from fe_problem.diagnosis.nested import require_dynesty
+
+        require_dynesty()  # a missing optional dependency: one line, exit 2, before the work
     if sys.stderr.isatty():  # progress for a person waiting; logs and pipes get results and errors only
         _stderr(f"diagnosing {data.source} ({data.n_modes} modes) against model {model.name} ...")
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        diag = diagnose(model, data, freq_noise=freq_noise, shape_noise=shape_noise)
+        diag = diagnose(model, data, freq_noise=freq_noise, shape_noise=shape_noise,
+                        evidence=getattr(args, "evidence", "laplace"))
     for msg in dict.fromkeys(str(w.message) for w in caught):
         _stderr(f"warning: {msg}")
 

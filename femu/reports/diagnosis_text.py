@@ -94,12 +94,17 @@ def evidence_lines(diag: Diagnosis) -> list[str]:
         return []
     rows = ev.classes[:N_CLASSES]
     width = max(len(c.label) for c in rows)
-    lines = [f"Model classes by evidence ({ev.method}; log evidence against the calibrated model, dispersion "
+    nested = ev.method == "nested"
+    how = ("nested: the best classes by Laplace sampled with dynesty, +- its error; rows without one: Laplace"
+           if nested else ev.method)
+    lines = [f"Model classes by evidence ({how}; log evidence against the calibrated model, dispersion "
              f"{fmt(ev.dispersion, 3)}; held-out %: the held-out modes' mean error, refitted without them):",
-             f"  {'class':<{width}}  {'family':<11} params  {'chi^2':>8}  {'log ev.':>8}  held-out %"]
+             f"  {'class':<{width}}  {'family':<11} params  {'chi^2':>8}  {'log ev.':>8}"
+             + ("  +- error" if nested else "") + "  held-out %"]
     for c in rows:
+        err = "" if not nested else f"  {fmt(c.log_evidence_error, 2) if c.method == 'nested' else '-':>8}"
         lines.append(f"  {c.label:<{width}}  {c.family:<11} {c.n_parameters:>6}  {fmt(c.chi2):>8}  "
-                     f"{fmt(c.log_evidence):>8}  {fmt(c.held_out_error_pct, 3)}")
+                     f"{fmt(c.log_evidence):>8}{err}  {fmt(c.held_out_error_pct, 3)}")
     if ev.note:
         lines.append(f"  {ev.note}")
     return lines + [""]
