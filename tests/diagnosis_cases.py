@@ -436,6 +436,19 @@ def make_real(cls: str, rng: np.random.Generator, seed: int) -> Case:
                         1.0, 1e6, first)
         return Case("boundary_stiffness", {"node": nodes[0]}, target, second, seed,
                     (("boundary_stiffness", {"node": nodes[0]}), ("boundary_stiffness", {"node": nodes[1]})), cls)
+    if cls == "separated_members":
+        # 2 or 3 members, no two sharing a node, each one's section inertia times a factor in [0.7, 0.85]
+        # (the bending stiffness alone; the sparse class scales each member's modulus)
+        while True:
+            chosen = [int(e) for e in rng.choice(HFRAME.element_ids, int(rng.integers(2, 4)), replace=False)]
+            nodes = [n for e in chosen for n in (HFRAME.element(e).node_i, HFRAME.element(e).node_j)]
+            if len(set(nodes)) == len(nodes):
+                break
+        truth = HFRAME
+        for e in chosen:
+            truth = stiffer_truth(truth, e, float(rng.uniform(0.7, 0.85)))
+        return Case("stiffness_loss", {"element": chosen[0]}, max_shift_pct(truth), truth, seed,
+                    tuple(("stiffness_loss", {"element": e}) for e in chosen), cls)
     if cls in ("reversed_channel", "swapped_channels"):
         channels = [tuple(HFRAME.measured_dofs[i]) for i in rng.choice(len(HFRAME.measured_dofs), 2, replace=False)]
         fault = ("reverse", channels[0]) if cls == "reversed_channel" else ("swap", *channels)
@@ -445,7 +458,7 @@ def make_real(cls: str, rng: np.random.Generator, seed: int) -> Case:
 
 #: The classes of real structures and how many cases of each the tables use.
 REAL = {"storey_gradient": 4, "moved_node": 4, "thinner_member": 4, "two_springs": 4, "reversed_channel": 4,
-        "swapped_channels": 4}
+        "swapped_channels": 4, "separated_members": 4}
 
 
 def classify_real(case: Case, record: dict) -> str:
@@ -458,7 +471,12 @@ def classify_real(case: Case, record: dict) -> str:
     - a model-form error (a moved node, a thinner member): honest when the answer is none, not
       adequate, not identifiable, flagged implausible, or the record says a model-form class explains
       the data as well ("model form: ..."); a confident local cause without that is wrong;
-    - two springs: as `classify`."""
+    - separated members (2-3 members softer): right when the best class by evidence is the sparse
+      class with exactly those members, or the causes named are exactly those members' stiffness
+      losses; else honest when not confident; else wrong;
+    - two springs: as `classify`.
+    A storey pattern is right too when the best class is the sparse one and its members include
+    every column of the softest storey."""
     confident = record["adequate"] and record["cause"]["kind"] not in ("none", "undetermined") and all(
         c["identifiable"] and c.get("plausible", True) for c in record["causes"])
     if case.kind == "data_fault":
@@ -473,12 +491,31 @@ def classify_real(case: Case, record: dict) -> str:
             return "right"
         if best["family"] == "distributed" and best["label"].startswith("stiffness_trend@trend=linear_height+"):
             return "right"
+        if best["family"] == "sparse" and set(_softest_storey(case.nominal)) <= set(best["estimate"]["members"]):
+            return "right"
         spread = any("spread over several members" in w for w in record["warnings"])
         return "honest" if not confident or spread else "wrong"
+    if case.cls == "separated_members":
+        best = record["evidence"]["classes"][0]
+        members = sorted(loc["element"] for _, loc in case.truths)
+        if best["family"] == "sparse" and sorted(best["estimate"]["members"]) == members:
+            return "right"
+        if confident and sorted((c["location"] or {}).get("element", -1) for c in record["causes"]) == members \
+                and all(c["kind"] == "stiffness_loss" for c in record["causes"]):
+            return "right"
+        return "wrong" if confident else "honest"
     if case.kind == "model_form":
         flagged = any(w.startswith("model form:") for w in record["warnings"])
         return "wrong" if confident and record["causes"] and not flagged else "honest"
     return classify(case, record)
+
+
+def _softest_storey(model: FrameModel) -> list[int]:
+    """The columns of the bottom storey (`storey_gradient_truth`'s softest)."""
+    floors = sorted({round(model.node(e.node_i).y, 9) for e in model.elements
+                     if model.node(e.node_i).y == model.node(e.node_j).y})
+    return [e.id for e in model.elements if model.node(e.node_i).x == model.node(e.node_j).x
+            and 0.5 * (model.node(e.node_i).y + model.node(e.node_j).y) < floors[0]]
 
 
 #: How many cases of each kind the suite runs (40 with an effect, 20 without).

@@ -295,7 +295,7 @@ class Diagnosis:
     every cause found, in order of evidence (`cause` is the first); verdict: the final model's
     goodness of fit; noise: the noise model used; data_checks: faults found in the data before
     the diagnosis (`datachecks.DataCheck`), which ran on the data as given; evidence: every model
-    class (none, local, distributed, several) ranked by its Laplace evidence (`evidence.Evidence`).
+    class (none, local, distributed, sparse, model_form, several) ranked by its evidence (`evidence.Evidence`).
     """
 
     cause: Cause
