@@ -107,3 +107,22 @@ def test_cli_without_dynesty_is_one_line_and_exit_2(tmp_path, capsys, monkeypatc
     assert exc.value.code == 2
     with pytest.raises(ValueError, match="evidence must be one of laplace, nested"):
         fp.diagnose(None, path, evidence="bayes")
+
+
+def test_the_text_table_shows_dynesty_s_error_and_which_rows_are_laplace():
+    from types import SimpleNamespace
+
+    from fe_problem.diagnosis.evidence import ScoredClass, ranked
+    from femu.reports.diagnosis_text import evidence_lines
+
+    ev = ranked([ScoredClass("calibrated model (no effect)", "none", 0, 20.0, 0.0, log_evidence_error=0.0,
+                             method="exact"),
+                 ScoredClass("stiffness_loss@element=2", "local", 1, 10.0, 5.0, log_evidence_error=0.123,
+                             method="nested"),
+                 ScoredClass("a + b", "several", 2, 9.0, 4.0)], "nested", 1.0)
+    lines = evidence_lines(SimpleNamespace(evidence=ev))
+    assert "nested" in lines[0] and "Laplace" in lines[0] and "+- error" in lines[1]
+    rows = {line.split()[0]: line.split() for line in lines[2:5]}
+    assert rows["stiffness_loss@element=2"][5] == "0.12"
+    assert rows["a"][7] == "-"  # the several-cause row: Laplace, no error
+    assert "within a factor of 10" in lines[5]
