@@ -23,3 +23,27 @@ def test_diagnosis_of_8_modes_15_coordinates(benchmark, crack_data):
     result = benchmark.pedantic(fp.diagnose, args=("hframe", str(crack_data)), rounds=5, iterations=1)
     assert result.cause.kind == "stiffness_loss" and result.cause.location == {"element": 7}
     benchmark.extra_info["goal_s"] = 10.0
+
+
+def test_sparse_class_of_two_softer_members(benchmark):
+    """The "every member" sparse class alone (sparse_class.fit_sparse: Gauss-Newton + ARD, refit,
+    pruning) on data of the H-frame with members 2 and 9 of lower section inertia; beside the
+    diagnosis above, its share of a diagnosis. Checks the members it localises."""
+    import dataclasses
+
+    from fe_problem.diagnosis.core import calibrate
+    from fe_problem.diagnosis.sparse_class import fit_sparse
+
+    model = fp.load_model("hframe")
+    truth = model
+    for e, f in ((2, 0.7), (9, 0.8)):
+        sec = dataclasses.replace(truth.sections[truth.element(e).section],
+                                  inertia_m4=f * truth.sections[truth.element(e).section].inertia_m4)
+        truth = truth.replace(sections={**truth.sections, f"soft{e}": sec}, elements=tuple(
+            dataclasses.replace(x, section=f"soft{e}") if x.id == e else x for x in truth.elements))
+    data = fp.synthetic_measurement(truth, 8, dofs=model.measured_dofs, freq_noise=0.002, shape_noise=0.02, seed=1,
+                                    model_name="hframe")
+    cal = calibrate(model, data, 0.002, 0.02)
+    benchmark.group = "diagnosis"
+    sf = benchmark.pedantic(fit_sparse, args=(cal.setting, cal.obs, cal.base.pairing), rounds=5, iterations=1)
+    assert sf.members == (2, 9)
