@@ -96,6 +96,31 @@ def test_data_are_opensees_modes_of_the_hidden_truth(pid):
         assert not np.any(p.data.has_shape)
 
 
+def test_the_measured_modes_are_sway_in_x_sway_in_y_and_torsion():
+    """What makes the family three-dimensional: fitting the roof corners' x and y motion as a
+    rigid floor (translation tx, ty and rotation theta about the plan's centre), each of the 8
+    measured modes of frame3d-shape/12/1 is one kind, x sway, y sway or torsion (the other two
+    below a tenth), and each kind is measured at least twice."""
+    p = fp.suite_problem("frame3d-shape/12/1")
+    nodes = {n.id: n for n in p.model.nodes}
+    roof = sorted({n for n, _ in p.data.dofs if nodes[n].z == pytest.approx(14.0)})
+    assert len(roof) == 4
+    row = {k: i for i, k in enumerate(p.data.dofs)}
+    x = np.array([nodes[n].x - 6.0 for n in roof])
+    y = np.array([nodes[n].y - 5.0 for n in roof])
+    rigid = np.zeros((8, 3))
+    rigid[:4, 0], rigid[4:, 1], rigid[:4, 2], rigid[4:, 2] = 1.0, 1.0, -y, x
+    rigid[:, 2] /= np.hypot(6.0, 5.0)   # theta as the corners' displacement
+    kinds = []
+    for j in range(8):
+        u = np.r_[[p.data.shapes[row[(n, "x")], j] for n in roof], [p.data.shapes[row[(n, "y")], j] for n in roof]]
+        c = np.abs(np.linalg.lstsq(rigid, u, rcond=None)[0])
+        k = int(np.argmax(c))
+        assert np.delete(c, k).max() < 0.1 * c[k]
+        kinds.append(("x sway", "y sway", "torsion")[k])
+    assert all(kinds.count(k) >= 2 for k in ("x sway", "y sway", "torsion")), kinds
+
+
 @pytest.mark.parametrize("pid", ["frame3d-freq/12/4", "frame3d-freq/48/5", "frame3d-shape/12/1", "frame3d-shape/48/3"])
 def test_f_opt_is_zero_and_reached_at_the_truth(pid):
     p = fp.suite_problem(pid)
@@ -154,6 +179,9 @@ def test_femu_suite_lists_the_space_families(capsys):
     assert main(["suite", "frame3d-shape/48"]) == 0
     out = capsys.readouterr().out
     assert "frame3d-shape/48/5" in out and "864" in out and "5 problems" in out and "exact:" in out
+    assert main(["suite", "frame3d-shape/96"]) == 2    # no such size: one line, exit 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("femu suite: error: suite selection 'frame3d-shape/96' matches no problem") and "\n" not in err
 
 
 def test_ioh_function_ids_of_the_space_families_are_new_and_clear_of_bbob():
