@@ -375,3 +375,32 @@ def test_x0_is_a_study_option_given_to_every_solver_or_none(tmp_path, capsys):
         main(other + ["--x0", "some"])
     assert stop.value.code == 2
     assert "argument --x0: invalid choice: 'some'" in capsys.readouterr().err and not (tmp_path / "t").exists()
+
+
+@pytest.mark.parametrize("workers", ["0", "1"])
+def test_in_process_mode_records_unverified_runs_and_the_report_says_so(tmp_path, capsys, workers):
+    """`femu study --in-process` (debugging): the same runs as in a worker (same seed, same
+    points), each record unverified, study.json and the summary line saying so, and the report
+    naming the unverified runs."""
+    base = ["study", "--optimizers", "random-search", "--seeds", "0-1", "--budget", "30", "--workers", workers,
+            "--no-progress"]
+    assert main(base + ["--store", str(tmp_path / "iso")]) == 0
+    assert main(base + ["--store", str(tmp_path / "dbg"), "--in-process"]) == 0
+    summary = capsys.readouterr().out.strip().splitlines()[-1]
+    assert "2 unverified" in summary and "--in-process" in summary, summary
+    iso, dbg = Store(tmp_path / "iso").runs(), Store(tmp_path / "dbg").runs()
+    assert [r.verified for r in iso] == [True, True] and [r.verified for r in dbg] == [False, False]
+    assert [(r.best_f, r.best_x, r.trace) for r in iso] == [(r.best_f, r.best_x, r.trace) for r in dbg]
+    assert json.loads((tmp_path / "dbg" / "study.json").read_text())["in_process"] is True
+    assert json.loads((tmp_path / "iso" / "study.json").read_text())["in_process"] is False
+    assert main(["report", str(tmp_path / "dbg"), "--out", str(tmp_path / "r")]) == 0
+    assert "2 runs of `random-search` are **unverified**" in (tmp_path / "r" / "report.md").read_text()
+    assert main(["report", str(tmp_path / "iso"), "--out", str(tmp_path / "r2")]) == 0
+    assert "unverified" not in (tmp_path / "r2" / "report.md").read_text()
+
+
+def test_in_process_help_says_what_it_costs(capsys):
+    with pytest.raises(SystemExit):
+        main(["study", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "--in-process" in text and "recorded as unverified" in text
