@@ -205,3 +205,18 @@ def test_femu_study_refuses_an_unknown_key_in_study_json_and_touches_nothing(sto
                        "--workers", "0", "--no-progress"],
               f"femu study: error: {f}: not a study manifest ({says}", "delete or repair study.json")
     assert {p: p.read_bytes() for p in s.rglob("*") if p.is_file()} == before
+
+
+def test_a_workers_unknown_capability_flag_never_reaches_a_record():
+    """The worker is the plugin's process: what it says about itself is kept only in the record's
+    documented shape, so a patched description cannot make the record one the reader refuses."""
+    from adapters.harness import RunResult
+    from adapters.sandbox import _description
+    from femu.studies.store import check_record, run_key
+
+    said = _description({"capabilities": {"anytime": True, "evil": True, "batch": "yes"}, "distribution": "x" * 300})
+    assert said["capabilities"] == {"anytime": True} and said["distribution"] is None
+    record = RunResult(optimizer="p", problem="hframe", seed=0, budget=1, verified=True, **said).to_dict()
+    assert check_record(record, run_key("paper", "p", 1, 0)) is None
+    record["capabilities"]["evil"] = True  # as it would be stored without the cut
+    assert check_record(record, run_key("paper", "p", 1, 0)).startswith("unknown key 'capabilities.evil'")
