@@ -156,13 +156,14 @@ def test_results_and_report_refuse_an_unknown_key_in_a_run_record(store, tmp_pat
 
 
 def test_a_record_written_before_the_newer_fields_is_still_read(store, tmp_path, capsys):
-    """A record of format femu.run/1 as the first version wrote it (before f_opt, fe_cpu_s,
-    opt_cpu_s, n_jacobians, x0, host, versions, verified, output and the plugin description):
+    """A record of format femu.run/1 with the fields of RunResult's first version (before
+    fe_cpu_s, opt_cpu_s, n_jacobians, x0, versions, f_opt, verified, output and the plugin
+    description):
     read as written, the missing fields at their defaults; the report says it is unverified."""
     s, f = _copy(store, tmp_path)
     d = json.loads(f.read_text())
     old = {k: d[k] for k in ("optimizer", "problem", "seed", "budget", "options", "n_evals", "best_f", "best_x",
-                             "trace", "wall_s", "cpu_s", "fe_s", "status", "error", "variant", "format")}
+                             "trace", "wall_s", "cpu_s", "fe_s", "status", "error", "variant", "host", "format")}
     f.write_text(json.dumps(old))
     capsys.readouterr()
     assert main(["results", str(s), "--json"]) == 0
