@@ -42,7 +42,8 @@ def add_arguments(s) -> None:
                    help="debugging: run each optimizer in its run's own process (where a debugger or a breakpoint "
                         "reaches it) instead of a worker without the problem. The cost: a plugin there can reach "
                         "the problem behind its budget, so every such run is recorded as unverified and reports "
-                        "say so; what it prints is not captured")
+                        "say so; what it prints is not captured, and with --workers 0 its time limit is only checked when "
+                        "it asks for an evaluation")
     s.add_argument("--retry-failed", action="store_true",
                    help="run again the runs stored as failed or timeout (they are kept otherwise)")
 
