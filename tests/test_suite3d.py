@@ -250,3 +250,15 @@ def test_ioh_export_of_the_space_study(study, tmp_path):
         assert terms.objective(b.best_y) == pytest.approx(r.best_f, rel=1e-9)
     marker = json.loads((out / "ioh" / "femu-ioh.json").read_text())
     assert {k: v["f_opt_kind"] for k, v in marker["problems"].items()} == {pid: "exact" for pid in PROBLEMS}
+
+
+def test_a_seed_fixes_a_space_run_under_either_executor(tmp_path):
+    """The same cma-es run on frame3d-shape/12/2, in this process and in a pool of 2 worker
+    processes: identical records (best value, point and trace, bit for bit)."""
+    from femu.studies.study import run_study
+
+    a = run_study("cma-es", "0", 60, tmp_path / "a", suite="frame3d-shape/12/2", workers=0, progress=False).runs
+    b = run_study("cma-es", "0", 60, tmp_path / "b", suite="frame3d-shape/12/2", workers=2, progress=False).runs
+    assert len(a) == len(b) == 1 and a[0].status == b[0].status == "ok" and a[0].n_evals == 60
+    assert a[0].best_f == b[0].best_f and a[0].best_x == b[0].best_x and a[0].trace == b[0].trace
+    assert a[0].best_f < a[0].trace[0][1]
