@@ -167,9 +167,9 @@ def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str 
                  for i in sorted(range(len(forms)), key=lambda i: -drops[i])[:N_FORM_FIT]]
     several = rounds is not None and len(rounds.sized) > 1
     sparse = sparse_class.fit_sparse(cal.setting, obs, base.pairing)  # "every member", sparse (None: n/a)
+    # the sparse class does not set the dispersion: with many members and few data its misfit says
+    # little about the noise (it would move every other class's evidence)
     reduced = [base.chi2 / obs.dof(1)] + [f.chi2 / obs.dof(2) for _, f, _ in fits]
-    if sparse is not None:
-        reduced.append(sparse.chi2 / obs.dof(1 + len(sparse.members)))
     if several:
         reduced.append(rounds.final.chi2 / rounds.obs.dof(1 + len(rounds.sized)))
     d = max(1.0, min(reduced))

@@ -213,30 +213,41 @@ def fit_sparse(st: Setting, obs: Observations, base_pairing: np.ndarray) -> Spar
     if not len(support):
         return None
     best = refit(am, obs, support, theta[support], base_pairing, it)
-    d = max(1.0, best.chi2 / obs.dof(1 + len(support)))  # as evidence.py's dispersion, at this point
 
-    def score(f: SparseFit) -> float:
+    def free(f: SparseFit) -> int:  # residuals less the shapes' scales, the global scale, the members
+        return obs.n_residuals - obs.n_shape_modes - 1 - len(f.members)
+
+    def dispersion(f: SparseFit) -> float:  # as evidence.py's, at this point
+        return max(1.0, f.chi2 / max(free(f), 1))
+
+    def score(f: SparseFit, d: float) -> float:
         return -f.chi2 / (2 * d) + f.log_occam(d)
+
+    def determined(f: SparseFit) -> bool:  # at least one degree of freedom left, J^T J regular
+        return free(f) >= 1 and np.isfinite(f.log_occam(1.0))
 
     while len(best.members) > 1:
         # the removal that promises most, judged to second order (chi^2 rises by theta_j^2 / C_jj,
         # C = (J^T J)^-1; the others shift by the regression on j), then refitted and accepted
-        # only if the refit's evidence is higher
+        # only if the refit's evidence is higher; while the data cannot determine the members kept
+        # (more members than data, a singular J^T J: 7 members fitted 5 frequencies exactly) the
+        # removal is made whatever the evidence
         k = len(best.members)
+        d = dispersion(best)
         cov = np.linalg.pinv(best.jacobian.T @ best.jacobian)
         promise = []
         for j in range(k):
             rest = np.delete(np.arange(k), j)
-            shifted = best.theta[rest] - cov[rest, j] * best.theta[j] / cov[j, j]
-            promise.append(-(best.chi2 + best.theta[j] ** 2 / cov[j, j]) / (2 * d)
-                           + log_occam(shifted, best.jacobian[:, rest], n, d))
-        j = int(np.argmax(promise))
+            shifted = best.theta[rest] - cov[rest, j] * best.theta[j] / cov[j, j] if cov[j, j] > 0 else best.theta[rest]
+            wald = best.theta[j] ** 2 / cov[j, j] if cov[j, j] > 0 else 0.0
+            promise.append((-(best.chi2 + wald) / (2 * d) + log_occam(shifted, best.jacobian[:, rest], n, d), -wald))
+        j = max(range(k), key=lambda i: promise[i])
         rest = np.delete(np.arange(k), j)
         trial = refit(am, obs, support[rest], best.theta[rest], base_pairing, it)
-        if score(trial) <= score(best):
+        if determined(best) and score(trial, d) <= score(best, d):
             break
         best, support = trial, support[rest]
-    return best
+    return best if determined(best) else None
 
 
 def refit(am: _AllMembers, obs: Observations, support: np.ndarray, start: np.ndarray, pairing, iterations: int = 0
