@@ -313,3 +313,28 @@ def test_identify_space_frame_from_synthetic_frfs(tmp_path, capsys):
     assert mac.max(axis=1).min() > 0.97, mac.max(axis=1)
     err = data.frequencies_hz / modes.frequencies_hz[partner] - 1
     assert np.abs(err).max() < 2e-3, err
+
+
+@pytest.mark.parametrize("element_id, ratio, node, kg, seed", [(2, 0.7, 45, 1500.0, 7), (23, 0.6, 37, 1200.0, 11)])
+def test_first_round_finds_the_hidden_mass_beside_a_hidden_column_loss(element_id, ratio, node, kg, seed):
+    """A roof-corner mass and a column's loss hidden together in the shipped frame (modes from
+    OpenSees, 0.1 % / 1 % noise). The nominal frame's close modes (1.575/1.581 Hz; 4.572/4.574 Hz)
+    are turned by any asymmetry, so the measured shapes of those modes say little one mode at a
+    time; compared as their cluster (residuals.py), the first-order screen ranks the mass's node
+    among those it fits (it ranked it 118th of 724 before, from a base pairing that swapped the
+    close pair) and the best single cause is the mass: at its node, or spread over a member that
+    ends there. (The column loss is not yet named as the second cause: see docs/diagnosis.md.)"""
+    from fe_problem.diagnosis import core
+
+    model = fp.load_model("frame3d")
+    data = opensees_data(element_id=element_id, stretch=(0.0, 1.0), ratio=ratio, mass=(node, kg), seed=seed)
+    cal = core.calibrate(model, data, core.DEFAULT_FREQ_NOISE, core.DEFAULT_SHAPE_NOISE)
+    found = core.screen_and_fit(cal, None, core.N_FIT)
+    labels = [found.candidates[i].label for i in found.order]
+    screened = sorted(range(len(found.candidates)), key=lambda i: -found.screened[i][0])
+    rank = [found.candidates[i].label for i in screened].index(f"added_mass@node={node}")
+    assert rank < core.N_FIT, rank
+    best = found.candidates[min(found.fitted, key=lambda i: found.fitted[i].chi2)]
+    ends = {e.id for e in model.elements if node in (e.node_i, e.node_j)}
+    assert (best.kind, best.location) == ("added_mass", {"node": node}) or \
+        (best.kind == "distributed_mass" and best.location["element"] in ends), (best.label, labels[:5])
