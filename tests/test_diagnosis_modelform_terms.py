@@ -95,3 +95,26 @@ def test_first_order_model_form_screen_agrees_with_the_step_screen(truth):
     assert [forms[i].label for i in np.argsort(-first[:, 0])[:3]] == [forms[i].label for i in np.argsort(-step[:, 0])[:3]]
     # on the dense path (the H-frame) the diagnosis keeps the exact step screen
     assert screen_steps(cal.obs, cal.base, st, forms) == [tuple(s) for s in step.tolist()]
+
+
+def test_the_batched_first_order_screen_is_the_one_by_one_screen():
+    # screening.screen_linear_batch (every candidate of a chunk at once, the hot path) against
+    # screen_linear (one candidate, through Observations.residuals) on every candidate of the H-frame
+    from fe_problem.diagnosis.candidates import all_candidates
+    from fe_problem.diagnosis.screening import baseline, changes, screen_linear, screen_linear_batch
+
+    h = fp.load_model("hframe")
+    truth = fp.add_mass(h, 6, 0.2)
+    cal = calibrate(h, fp.synthetic_measurement(truth, 8, freq_noise=0.002, shape_noise=0.02, seed=11,
+                                                model_name=h.name), 0.002, 0.02)
+    st, base = cal.setting, cal.base
+    cands = [c for c in all_candidates(st) + model_form_candidates(st) if c.term is not None]
+    modes = np.unique(base.pairing[base.pairing >= 0])
+    first = baseline(fp.AffineModel(st.model), st.coords, st.n_modes, modes)
+    dlam, dshape = changes(first, [c.term() for c in cands])
+    one = np.array([screen_linear(cal.obs, base, first.lam, first.phi_c, modes, dlam[i], dshape[i], c.step, c.upper)
+                    for i, c in enumerate(cands)])
+    batch = screen_linear_batch(cal.obs, base, first.lam, first.phi_c, modes, dlam, dshape,
+                                np.array([c.step for c in cands]), np.array([c.upper for c in cands]))
+    assert len(cands) > 200 and one[:, 0].max() > 10.0 and (one[:, 0] == 0).any()
+    np.testing.assert_allclose(batch, one, rtol=1e-9, atol=1e-9 * one[:, 0].max())

@@ -115,9 +115,25 @@ class LocalMatrices:
     def plain_beam(self, element_id: int) -> bool:
         """Whether the element is a planar beam whose matrices follow from its geometry alone (no
         crack, no weak zone): the elements a model-form term is computed for."""
-        e = self.model.elements[self.row[element_id]]
-        return (self.model.layout.dimension == 2 and e.formulation in ("euler-bernoulli", "timoshenko")
-                and e.crack_position is None and e.weak_zone is None)
+        return bool(self._plain[self.row[element_id]])
+
+    def plain_node(self, node: int) -> bool:
+        """Whether every element at the node is a plain beam (`plain_beam`)."""
+        return bool(self._plain[self.node_elements.get(node, [])].all())
+
+    @functools.cached_property
+    def _plain(self) -> np.ndarray:
+        return np.array([self.model.layout.dimension == 2 and e.formulation in ("euler-bernoulli", "timoshenko")
+                         and e.crack_position is None and e.weak_zone is None for e in self.model.elements], dtype=bool)
+
+    @functools.cached_property
+    def node_elements(self) -> dict[int, list[int]]:
+        """node -> the rows (in model.elements) of the elements at it."""
+        out: dict[int, list[int]] = {}
+        for k, e in enumerate(self.model.elements):
+            out.setdefault(e.node_i, []).append(k)
+            out.setdefault(e.node_j, []).append(k)
+        return out
 
     @functools.cached_property
     def _geometry(self) -> Geometry:
@@ -141,44 +157,70 @@ class LocalMatrices:
         return dataclasses.replace(Geometry(*(np.asarray(getattr(g, f))[rows] for f in Geometry.__dataclass_fields__)),
                                    **changed)
 
-    def _term(self, rows: np.ndarray, k_plus, k_minus, m_plus, m_minus, h: float) -> Term:
-        """The term of elements `rows` from their matrices at +h and -h, on the union of their DOFs."""
+    def _central(self, rows: np.ndarray, plus: Geometry, minus: Geometry, h) -> tuple[np.ndarray, np.ndarray]:
+        """d K_e / da and d M_e / da (n, 6, 6) of the elements `rows` (modulus and density
+        included) by the central difference of their matrices at geometries +h and -h."""
+        (kp, mp), (km, mm) = self._beam_matrices(rows, plus), self._beam_matrices(rows, minus)
+        h = np.broadcast_to(np.asarray(h, dtype=float), (len(rows),))[:, None, None]
+        return (self.modulus[rows][:, None, None] * (kp - km) / (2.0 * h),
+                self.density[rows][:, None, None] * (mp - mm) / (2.0 * h))
+
+    def _term(self, rows, dk_el: np.ndarray, dm_el: np.ndarray, sign: float) -> Term:
+        """sign x the element derivatives of `rows` assembled on the union of their DOFs."""
         edofs = self.dofmap.element_dofs[rows]
         dofs, where = np.unique(edofs, return_inverse=True)
         where = where.reshape(edofs.shape)
         dk, dm = np.zeros((len(dofs), len(dofs))), np.zeros((len(dofs), len(dofs)))
-        scale_k = self.modulus[rows][:, None, None] / (2.0 * h)
-        scale_m = self.density[rows][:, None, None] / (2.0 * h)
         for j in range(len(rows)):  # an element's block added where its DOFs are in the union
-            dk[np.ix_(where[j], where[j])] += (scale_k[j] * (k_plus[j] - k_minus[j]))
-            dm[np.ix_(where[j], where[j])] += (scale_m[j] * (m_plus[j] - m_minus[j]))
-        return Term(dofs, dk, dm)
+            dk[np.ix_(where[j], where[j])] += dk_el[j]
+            dm[np.ix_(where[j], where[j])] += dm_el[j]
+        return Term(dofs, sign * dk, sign * dm)
+
+    @functools.cached_property
+    def _depths(self) -> tuple[np.ndarray, np.ndarray]:
+        """d K_e, d M_e per unit a of every element's depth x (1 + a), at once (plain beams' rows)."""
+        rows = np.arange(len(self.model.elements))
+        g, h = self._geometry, FORM_STEP
+        return self._central(rows, *(self._sub(rows, area=g.area * (1 + t), inertia=g.inertia * (1 + t) ** 3)
+                                     for t in (h, -h)), h)
 
     def depth(self, element_id: int, sign: float) -> Term:
         """The element's section (1 + sign a) times as deep at a = 0: area x (1 + sign a), inertia
         x (1 + sign a)^3 (modelform.member_depth); a plain beam only (`plain_beam`)."""
-        rows = np.array([self.row[element_id]])
-        g, h = self._sub(rows), FORM_STEP
-        ends = [self._beam_matrices(rows, self._sub(rows, area=g.area * (1 + sign * t),
-                                                    inertia=g.inertia * (1 + sign * t) ** 3)) for t in (h, -h)]
-        return self._term(rows, ends[0][0], ends[1][0], ends[0][1], ends[1][1], h)
+        k = self.row[element_id]
+        dk, dm = self._depths
+        return self._term([k], dk[k:k + 1], dm[k:k + 1], sign)
+
+    @functools.cached_property
+    def _moves(self) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """For "x" and "y": every (element, end) pair's d K_e, d M_e per metre of its end node's move
+        (one batch for all nodes), and the pairs' element rows."""
+        model, g = self.model, self._geometry
+        rows = np.concatenate([np.arange(len(model.elements))] * 2)
+        at, pos = model.coordinates, model._node_pos
+        xi = at[[pos[e.node_i] for e in model.elements]][:, :2]
+        xj = at[[pos[e.node_j] for e in model.elements]][:, :2]
+        d0 = np.concatenate([xj - xi] * 2)
+        end = np.repeat([-1.0, 1.0], len(model.elements))  # moving node_i shortens d, node_j lengthens it
+        # the step: FORM_STEP of the shortest member at the node (as node_move's own rule)
+        shortest = {n: float(g.length[r].min()) for n, r in self.node_elements.items()}
+        nodes = np.array([e.node_i for e in model.elements] + [e.node_j for e in model.elements])
+        h = FORM_STEP * np.array([shortest[n] for n in nodes])
+        out = {}
+        for direction, unit in (("x", np.array([1.0, 0.0])), ("y", np.array([0.0, 1.0]))):
+            geos = []
+            for t in (h, -h):
+                d = d0 + (t * end)[:, None] * unit[None, :]
+                length = np.hypot(d[:, 0], d[:, 1])
+                geos.append(self._sub(rows, length=length, cos=d[:, 0] / length, sin=d[:, 1] / length))
+            out[direction] = self._central(rows, *geos, h)
+        return out
 
     def node_move(self, node: int, direction: str, sign: float) -> Term:
         """The node moved by sign a metres in `direction` ("x" or "y") at a = 0
         (modelform.moved_node): every plain beam at the node changes length and direction."""
-        model = self.model
-        rows = np.array([k for k, e in enumerate(model.elements) if node in (e.node_i, e.node_j)])
-        at, pos = model.coordinates, model._node_pos
-        xi = at[[pos[model.elements[r].node_i] for r in rows]]
-        xj = at[[pos[model.elements[r].node_j] for r in rows]]
-        unit = np.array([1.0, 0.0]) if direction == "x" else np.array([0.0, 1.0])
-        # +1 where the node is the element's node_j (the element's vector grows with the move), -1 at node_i
-        end = np.array([1.0 if model.elements[r].node_j == node else -1.0 for r in rows])
-        h = FORM_STEP * float(self._geometry.length[rows].min())
-        mats = []
-        for t in (h, -h):
-            d = xj[:, :2] - xi[:, :2] + (sign * t) * end[:, None] * unit[None, :]
-            length = np.hypot(d[:, 0], d[:, 1])
-            mats.append(self._beam_matrices(rows, self._sub(rows, length=length, cos=d[:, 0] / length,
-                                                            sin=d[:, 1] / length)))
-        return self._term(rows, mats[0][0], mats[1][0], mats[0][1], mats[1][1], h)
+        rows = np.array(self.node_elements[node])
+        n_el = len(self.model.elements)
+        pairs = np.where(np.array([self.model.elements[r].node_j == node for r in rows]), rows + n_el, rows)
+        dk, dm = self._moves[direction]
+        return self._term(rows, dk[pairs], dm[pairs], sign)

@@ -94,7 +94,7 @@ def model_form_candidates(st: Setting, places: list[dict] | None = None) -> list
         if not lengths:
             continue
         upper = MAX_MOVE * min(lengths)
-        plain = all(st.local.plain_beam(e.id) for e in model.elements if node in (e.node_i, e.node_j))
+        plain = st.local.plain_node(node)
         for d, sign in (("x", 1.0), ("x", -1.0), ("y", 1.0), ("y", -1.0)):
             def estimate(a, s, d=d, sign=sign):
                 return {"move_m": sign * a, "direction": d}

@@ -27,7 +27,7 @@ from scipy.sparse.linalg import splu
 
 from ..assembly import AffineModel, solver_path
 from ..modal import frequencies_hz
-from .fit import Fit, profiled, screen
+from .fit import Fit, profiled, profiled_paired, screen
 from .local import Term
 from .residuals import Observations
 
@@ -148,6 +148,24 @@ def screen_linear(obs: Observations, base: Fit, lam: np.ndarray, phi_c: np.ndarr
     return max(drop, 0.0), a
 
 
+def screen_linear_batch(obs: Observations, base: Fit, lam: np.ndarray, phi_c: np.ndarray, modes: np.ndarray,
+                        dlam: np.ndarray, dshape: np.ndarray, step: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """`screen_linear` of a chunk of candidates at once (dlam (c, m), dshape (c, n_coord, m), step
+    and upper (c,)): (chi^2 drop, a) as rows (c, 2). Only the paired modes `modes` enter the
+    residuals (the pairing is held), so only they are moved."""
+    pairing = base.pairing
+    held = np.where(pairing >= 0, np.searchsorted(modes, np.clip(pairing, 0, None)), -1)  # into `modes`
+    lam_m = lam[modes][None, :] + step[:, None] * dlam
+    phi_m = phi_c[None, :, modes] + step[:, None, None] * dshape
+    j = (profiled_paired(obs, frequencies_hz(lam_m), phi_m, held) - base.residuals) / step[:, None]
+    jj = np.einsum("ci,ci->c", j, j)
+    live = jj > 0.0
+    a = np.zeros(len(j))
+    a[live] = np.minimum(np.maximum(-(j[live] @ base.residuals) / jj[live], 0.0), upper[live])
+    drop = base.chi2 - np.sum((base.residuals + a[:, None] * j) ** 2, axis=1)
+    return np.column_stack([np.where(live, np.maximum(drop, 0.0), 0.0), a])
+
+
 def screen_all(obs: Observations, base: Fit, model, coords, n_modes: int, cands) -> list[tuple[float, float]]:
     """(chi^2 drop, a) of every candidate with a first-order term, from one set of modes of
     `model`; candidates without one (global effects) get (nan, nan): the caller screens them
@@ -159,9 +177,11 @@ def screen_all(obs: Observations, base: Fit, model, coords, n_modes: int, cands)
     for sl in chunks(first, len(with_term)):  # the changes of a chunk of candidates at a time
         part = with_term[sl]
         dlam, dshape = changes(first, [cands[i].term() for i in part])
-        for j, i in enumerate(part):
-            out[i] = screen_linear(obs, base, first.lam, first.phi_c, modes, dlam[j], dshape[j], cands[i].step,
-                                   cands[i].upper)
+        rows = screen_linear_batch(obs, base, first.lam, first.phi_c, modes, dlam, dshape,
+                                   np.array([cands[i].step for i in part], dtype=float),
+                                   np.array([cands[i].upper for i in part], dtype=float))
+        for i, (drop, a) in zip(part, rows.tolist()):
+            out[i] = (drop, a)
     return out
 
 
