@@ -251,11 +251,11 @@ class SparseModalSolver:
         return self.matrix(self.m_data0)
 
     # -- one point ----------------------------------------------------------------------
-    def _point(self, theta: np.ndarray, k: int, vectors: bool):
+    def _point(self, theta: np.ndarray, k: int, vectors: bool, matrices=None):
         """The k lowest eigenpairs (zero-energy ones included) at one point theta (p,):
-        eigenvalues (k,) ascending and, with `vectors`, M-normalised vectors (n_free, k)."""
-        kd, md = self.k_data(theta), self.m_data(theta)
-        kmat, mmat = self.matrix(kd), self.matrix(md)
+        eigenvalues (k,) ascending and, with `vectors`, M-normalised vectors (n_free, k).
+        `matrices`: K and M at theta as (k_data, m_data, K, M), when the caller has them."""
+        kd, md, kmat, mmat = self._matrices(theta) if matrices is None else matrices
         if k >= self.n_free - 1:  # ARPACK needs k < n - 1: a tiny model, solved densely
             lam, phi = scipy.linalg.eigh(kmat.toarray(), mmat.toarray(), subset_by_index=(0, k - 1))
             return lam, phi
@@ -281,6 +281,11 @@ class SparseModalSolver:
         order = np.argsort(lam)
         return lam[order], phi[:, order]
 
+    def _matrices(self, theta: np.ndarray):
+        """(k_data, m_data, K, M) at one point theta (p,)."""
+        kd, md = self.k_data(theta), self.m_data(theta)
+        return kd, md, self.matrix(kd), self.matrix(md)
+
     def _modes(self, theta: np.ndarray, n_modes: int, shapes: bool, rows, sens: bool):
         """One point: elastic eigenvalues, with `shapes` the shapes (all rows, or `rows`), with
         `sens` d lambda / d theta."""
@@ -291,10 +296,11 @@ class SparseModalSolver:
         # good to that error over the spectral gap and the quotient to its square, so it is left
         # with the assembled K's own rounding (3e-6 there; 1e-12 on ordinary frames, where it
         # changes nothing that matters). Hence vectors even when only values are asked for.
-        lam, phi = self._point(theta, self.n_rigid + n_modes, True)
+        matrices = self._matrices(theta)  # built once: the solve's and the quotients'
+        lam, phi = self._point(theta, self.n_rigid + n_modes, True, matrices)
         phi = phi[:, self.n_rigid:]
-        mass = np.einsum("im,im->m", phi, self.matrix(self.m_data(theta)) @ phi)
-        lam = np.einsum("im,im->m", phi, self.matrix(self.k_data(theta)) @ phi) / mass
+        mass = np.einsum("im,im->m", phi, matrices[3] @ phi)
+        lam = np.einsum("im,im->m", phi, matrices[2] @ phi) / mass
         need_vec = shapes or sens
         if not need_vec:
             return lam, None, None
