@@ -118,3 +118,26 @@ def test_the_batched_first_order_screen_is_the_one_by_one_screen():
                                 np.array([c.step for c in cands]), np.array([c.upper for c in cands]))
     assert len(cands) > 200 and one[:, 0].max() > 10.0 and (one[:, 0] == 0).any()
     np.testing.assert_allclose(batch, one, rtol=1e-9, atol=1e-9 * one[:, 0].max())
+
+
+def test_the_zone_terms_of_the_grid_in_one_batch_are_each_zones_own():
+    # LocalMatrices.zone serves the grid's places from one batch (`_zone_grid`); each must be what
+    # zones.zone_stiffness gives for that zone alone
+    from fe_problem.diagnosis import zones
+    from fe_problem.diagnosis.local import ZONE_STEP
+
+    m = fp.split_elements(fp.regular_frame(2, 3, floor_mass_kg=500.0), 2)
+    local = LocalMatrices(m)
+    checked = 0
+    for e in (1, 4, 9):
+        for start, end in zones.zone_places(m, e):
+            assert (e, start, end) in local._zone_grid
+            pair = zones.zone_stiffness(m, e, start, end, np.array([1.0, 1.0 - ZONE_STEP]))
+            np.testing.assert_allclose(local.zone(e, start, end).dk, (pair[1] - pair[0]) / ZONE_STEP, rtol=0,
+                                       atol=1e-12 * np.abs(pair[1] - pair[0]).max() / ZONE_STEP)
+            checked += 1
+    off_grid = zones.zone_place(m, 4, 0.353)
+    assert off_grid not in [k[1:] for k in local._zone_grid if k[0] == 4]
+    pair = zones.zone_stiffness(m, 4, *off_grid, np.array([1.0, 1.0 - ZONE_STEP]))
+    np.testing.assert_array_equal(local.zone(4, *off_grid).dk, (pair[1] - pair[0]) / ZONE_STEP)
+    assert checked >= 15
