@@ -97,7 +97,7 @@ class LocalMatrices:
         """(element id, start, end) -> the zone's dK/da for every place of `zones.zone_places` of
         every element that can carry one: `zones.zone_stiffness`'s arithmetic on all of them in
         one batch (each entry the same operations on the same numbers as a call of its own)."""
-        model, g = self.model, self._geometry
+        model = self.model
         keys, rows = [], []
         for k, e in enumerate(model.elements):
             if not (model.layout.dimension == 2 and formulation(e.formulation, model.layout).supports_crack
@@ -108,6 +108,7 @@ class LocalMatrices:
                 rows.append(k)
         if not keys:
             return {}
+        g = self._geometry  # planar beams only from here
         rows = np.repeat(np.array(rows), 2)                    # each place at ratio 1 and 1 - h
         ratio = np.tile([1.0, 1.0 - ZONE_STEP], len(keys))
         start = np.repeat([key[1] for key in keys], 2)
