@@ -34,6 +34,9 @@ from .residuals import Observations
 
 #: Bytes of the first-order changes held at once (a chunk of candidates): 64 MB.
 CHUNK_FLOATS = 2**26 // 8
+#: Candidates screened in one batch (`screen_linear_batch`; its temporaries are several times
+#: their changes, so a batch is a part of a chunk).
+SCREEN_BATCH = 64
 
 
 def _to_free(system: AffineModel, dofs: np.ndarray) -> np.ndarray:
@@ -177,11 +180,14 @@ def screen_all(obs: Observations, base: Fit, model, coords, n_modes: int, cands)
     for sl in chunks(first, len(with_term)):  # the changes of a chunk of candidates at a time
         part = with_term[sl]
         dlam, dshape = changes(first, [cands[i].term() for i in part])
-        rows = screen_linear_batch(obs, base, first.lam, first.phi_c, modes, dlam, dshape,
-                                   np.array([cands[i].step for i in part], dtype=float),
-                                   np.array([cands[i].upper for i in part], dtype=float))
-        for i, (drop, a) in zip(part, rows.tolist()):
-            out[i] = (drop, a)
+        step = np.array([cands[i].step for i in part], dtype=float)
+        upper = np.array([cands[i].upper for i in part], dtype=float)
+        for b in range(0, len(part), SCREEN_BATCH):  # its temporaries a few times the chunk's / 8
+            sub = slice(b, b + SCREEN_BATCH)
+            rows = screen_linear_batch(obs, base, first.lam, first.phi_c, modes, dlam[sub], dshape[sub], step[sub],
+                                       upper[sub])
+            for i, (drop, a) in zip(part[sub], rows.tolist()):
+                out[i] = (drop, a)
     return out
 
 
