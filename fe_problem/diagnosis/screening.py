@@ -164,7 +164,9 @@ def screen_linear_batch(obs: Observations, base: Fit, lam: np.ndarray, phi_c: np
     jj = np.einsum("ci,ci->c", j, j)
     live = jj > 0.0
     a = np.zeros(len(j))
-    a[live] = np.minimum(np.maximum(-(j[live] @ base.residuals) / jj[live], 0.0), upper[live])
+    # einsum, not a matrix-vector product: BLAS may sum a row differently in batches of other
+    # sizes, and a candidate's screen must not depend on its batch (tests/test_diagnosis_scale.py)
+    a[live] = np.minimum(np.maximum(-np.einsum("ci,i->c", j[live], base.residuals) / jj[live], 0.0), upper[live])
     drop = base.chi2 - np.sum((base.residuals + a[:, None] * j) ** 2, axis=1)
     return np.column_stack([np.where(live, np.maximum(drop, 0.0), 0.0), a])
 
@@ -183,10 +185,14 @@ def screen_all(obs: Observations, base: Fit, model, coords, n_modes: int, cands)
         step = np.array([cands[i].step for i in part], dtype=float)
         upper = np.array([cands[i].upper for i in part], dtype=float)
         for b in range(0, len(part), SCREEN_BATCH):  # its temporaries a few times the chunk's / 8
-            sub = slice(b, b + SCREEN_BATCH)
-            rows = screen_linear_batch(obs, base, first.lam, first.phi_c, modes, dlam[sub], dshape[sub], step[sub],
-                                       upper[sub])
-            for i, (drop, a) in zip(part[sub], rows.tolist()):
+            # every batch of the same size (the last padded by repeating its first row): numpy
+            # reduces a stack of one or a few rows in another order than a stack of many, and a
+            # candidate's screen must not depend on how the candidates were chunked
+            sub = np.arange(b, min(b + SCREEN_BATCH, len(part)))
+            pad = np.concatenate([sub, np.full(SCREEN_BATCH - len(sub), sub[0])])
+            rows = screen_linear_batch(obs, base, first.lam, first.phi_c, modes, dlam[pad], dshape[pad], step[pad],
+                                       upper[pad])
+            for i, (drop, a) in zip([part[k] for k in sub], rows[:len(sub)].tolist()):
                 out[i] = (drop, a)
     return out
 
