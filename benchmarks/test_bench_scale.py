@@ -107,7 +107,7 @@ def test_bare_cholesky_and_arpack_floor(benchmark, record, n):
     solver = problem.system._solver
     k, m = problem.system.stiffness(x[None])[0].tocsc(), problem.system.mass(x[None])[0].tocsc()
     a = (k - solver.sigma * m).tocsc()
-    analysis = cholmod.analyze(a, mode="auto")  # once per model, as the solver does
+    analysis = cholmod.analyze(a, mode=fe_problem.sparse.CHOLMOD_MODE)  # once per model, as the solver does
     v0 = np.random.default_rng(0).uniform(0.5, 1.5, n)
 
     def floor():

@@ -3,8 +3,9 @@ shift-invert Lanczos, for models too large for the dense batched path (solver.py
 
 K and M share one CSR pattern on the free DOFs, fixed at construction: each matrix's values
 are `c0 + G @ theta` with G a sparse (nnz, p) map, so a point costs O(nnz) to build and no
-per-parameter matrix is ever dense. Each point factorises A = K - sigma M once (SuperLU,
-`scipy.sparse.linalg.splu`) and runs ARPACK (`scipy.sparse.linalg.eigsh`, shift-invert mode)
+per-parameter matrix is ever dense. Each point factorises A = K - sigma M once (CHOLMOD's
+simplicial LDL^T on an analysis kept per model, `CHOLMOD_MODE`; SuperLU, `scipy.sparse.linalg.splu`,
+where scikit-sparse is absent) and runs ARPACK (`scipy.sparse.linalg.eigsh`, shift-invert mode)
 from a fixed start vector, so a point's modes do not depend on the points solved before it or
 beside it. The eigenvalues returned are the Rayleigh quotients phi^T K phi / phi^T M phi of
 ARPACK's vectors, free of the factorisation's rounding that its Ritz values carry (`_modes`).
@@ -48,6 +49,14 @@ FACTORIZATIONS = ("cholmod", "superlu")
 def default_factorization() -> str:
     """"cholmod" when scikit-sparse is installed, else "superlu"."""
     return "superlu" if _cholmod is None else "cholmod"
+
+
+#: CHOLMOD's factorisation: simplicial LDL^T. On the scale frames (benchmarks/scale_frames.py) it
+#: factors and solves about twice as fast as the supernodal LL^T that mode "auto" chooses (3,000
+#: and 9,000 DOFs: 39 + 56 ms against 27 + 29 ms for a factor and ARPACK's 41 solves at 9,000,
+#: with 25 % less fill): a frame's factor has small supernodes, so dense blocks gain nothing and
+#: cost their padding. LDL^T does not stop on an indefinite matrix as LL^T does: `_factor` checks D.
+CHOLMOD_MODE = "simplicial"
 
 
 #: ARPACK's relative tolerance on the Ritz values of the shift-invert operator. The requirement:
@@ -166,7 +175,7 @@ class SparseModalSolver:
         """CHOLMOD's symbolic analysis of the pattern (its fill-reducing order and the structure of
         the factor), once per model and process: it is not pickled, a worker makes its own."""
         if self._symbolic is None:
-            self._symbolic = _cholmod.analyze(self._csc(np.ones(len(self.rows))), mode="auto")
+            self._symbolic = _cholmod.analyze(self._csc(np.ones(len(self.rows))), mode=CHOLMOD_MODE)
         return self._symbolic
 
     def _csc(self, data: np.ndarray) -> sp.csc_matrix:
@@ -180,9 +189,12 @@ class SparseModalSolver:
         if self.factorization == "cholmod":
             try:
                 chol = self._analysis().cholesky(self._csc(a_data))
+                definite = bool(np.all(chol.D() > 0.0))  # LDL^T: positive definite iff every D_ii > 0
             except _cholmod.CholmodNotPositiveDefiniteError:
+                definite = False
+            if not definite:
                 raise ValueError(f"model {self.name!r}: K - sigma M is not positive definite at this point (a "
-                                 "DOF with no stiffness and no mass, or a negative modulus?)") from None
+                                 "DOF with no stiffness and no mass, or a negative modulus?)")
             return chol.solve_A
         ap = sp.csc_matrix((a_data[self._pdata], self._pindices, self._pindptr), shape=(self.n_free, self.n_free))
         try:
@@ -239,19 +251,23 @@ class SparseModalSolver:
         return self.matrix(self.m_data0)
 
     # -- one point ----------------------------------------------------------------------
-    def _point(self, theta: np.ndarray, k: int, vectors: bool):
+    def _point(self, theta: np.ndarray, k: int, vectors: bool, matrices=None):
         """The k lowest eigenpairs (zero-energy ones included) at one point theta (p,):
-        eigenvalues (k,) ascending and, with `vectors`, M-normalised vectors (n_free, k)."""
-        kd, md = self.k_data(theta), self.m_data(theta)
-        kmat, mmat = self.matrix(kd), self.matrix(md)
+        eigenvalues (k,) ascending and, with `vectors`, M-normalised vectors (n_free, k).
+        `matrices`: K and M at theta as (k_data, m_data, K, M), when the caller has them."""
+        kd, md, kmat, mmat = self._matrices(theta) if matrices is None else matrices
         if k >= self.n_free - 1:  # ARPACK needs k < n - 1: a tiny model, solved densely
             lam, phi = scipy.linalg.eigh(kmat.toarray(), mmat.toarray(), subset_by_index=(0, k - 1))
             return lam, phi
         op = LinearOperator(kmat.shape, matvec=self._factor(kd - self.sigma * md), dtype=float)
+        # M as a plain operator: eigsh calls it two or three times per Lanczos step, and a sparse
+        # matrix goes there through five layers of scipy's operator and dispatch code (11 % of a
+        # 1,080-DOF diagnosis); the product itself is the same CSR one
+        m_op = LinearOperator(mmat.shape, matvec=lambda v: mmat @ v, dtype=float)
         ncv = max(2 * k + 1, 20)
         while True:  # a wider Krylov space if the first does not converge (never seen on frames)
             try:
-                out = eigsh(kmat, k=k, M=mmat, sigma=self.sigma, which="LM", OPinv=op, v0=self._v0,
+                out = eigsh(kmat, k=k, M=m_op, sigma=self.sigma, which="LM", OPinv=op, v0=self._v0,
                             ncv=min(self.n_free, ncv), tol=self.arpack_tol, return_eigenvectors=vectors)
                 break
             except ArpackNoConvergence:
@@ -265,6 +281,11 @@ class SparseModalSolver:
         order = np.argsort(lam)
         return lam[order], phi[:, order]
 
+    def _matrices(self, theta: np.ndarray):
+        """(k_data, m_data, K, M) at one point theta (p,)."""
+        kd, md = self.k_data(theta), self.m_data(theta)
+        return kd, md, self.matrix(kd), self.matrix(md)
+
     def _modes(self, theta: np.ndarray, n_modes: int, shapes: bool, rows, sens: bool):
         """One point: elastic eigenvalues, with `shapes` the shapes (all rows, or `rows`), with
         `sens` d lambda / d theta."""
@@ -275,10 +296,11 @@ class SparseModalSolver:
         # good to that error over the spectral gap and the quotient to its square, so it is left
         # with the assembled K's own rounding (3e-6 there; 1e-12 on ordinary frames, where it
         # changes nothing that matters). Hence vectors even when only values are asked for.
-        lam, phi = self._point(theta, self.n_rigid + n_modes, True)
+        matrices = self._matrices(theta)  # built once: the solve's and the quotients'
+        lam, phi = self._point(theta, self.n_rigid + n_modes, True, matrices)
         phi = phi[:, self.n_rigid:]
-        mass = np.einsum("im,im->m", phi, self.matrix(self.m_data(theta)) @ phi)
-        lam = np.einsum("im,im->m", phi, self.matrix(self.k_data(theta)) @ phi) / mass
+        mass = np.einsum("im,im->m", phi, matrices[3] @ phi)
+        lam = np.einsum("im,im->m", phi, matrices[2] @ phi) / mass
         need_vec = shapes or sens
         if not need_vec:
             return lam, None, None
@@ -336,5 +358,5 @@ class SparseModalSolver:
         return self._batch(theta, n_modes, True, rows, True)
 
 
-__all__ = ["ARPACK_TOL", "FACTORIZATIONS", "PARALLEL_MIN_DOFS", "WORKERS_ENV", "SparseModalSolver",
+__all__ = ["ARPACK_TOL", "CHOLMOD_MODE", "FACTORIZATIONS", "PARALLEL_MIN_DOFS", "WORKERS_ENV", "SparseModalSolver",
            "default_factorization", "default_workers"]

@@ -78,6 +78,19 @@ def test_the_analysis_is_kept_per_model_and_made_anew_after_pickling():
     np.testing.assert_array_equal(copy.eigen(system.x0[None], 6)[0], before)
 
 
+@needs_cholmod
+def test_an_indefinite_point_is_one_clear_error_on_the_ldlt_path():
+    # simplicial LDL^T (fs.CHOLMOD_MODE) factors an indefinite matrix without complaint, as
+    # supernodal LL^T does not: the solver checks D, so a negative modulus still stops with the error
+    m = grid_frame(9, 10)
+    pars = (fp.Parameter("modulus", tuple(e.id for e in m.elements), 1.8e11, 2.4e11, 2.1e11),)
+    system = fp.AffineModel(m, pars, solver="sparse", workers=1)
+    assert system._solver.factorization == "cholmod"
+    with pytest.raises(ValueError, match="K - sigma M is not positive definite at this point"):
+        system.eigen(np.array([[-2.1e11]]), 4)
+    assert np.all(system.eigen(np.array([[2.1e11]]), 4)[0] > 0)  # a positive point still solves
+
+
 def test_without_scikit_sparse_the_solver_falls_back_to_superlu(monkeypatch):
     m = grid_frame(9, 10)
     x = np.array([2.0e11])

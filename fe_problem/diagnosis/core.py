@@ -60,7 +60,7 @@ from .nested import require_dynesty, rescored
 from .record import Cause, CandidateFit, Diagnosis, Gain, Noise, PinnedParameter, Residuals, Selection
 from .verdict import profile_interval, verdict
 from .residuals import Observations
-from .screening import linear_bounded_moduli, screen_all
+from .screening import linear_bounded_moduli, screen_all, screen_steps
 
 ALPHA = 0.01
 DEFAULT_FREQ_NOISE = 0.002
@@ -162,7 +162,7 @@ def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str 
     fits += [(distributed[i], fit(obs, distributed[i], promise[i][1]), "distributed") for i in top]
     if rounds is not None:  # the model-form alternatives: every node and element screened, the best fitted
         forms = model_form_candidates(cal.setting)
-        drops = [screen(obs, c, base)[0] for c in forms]
+        drops = [d for d, _ in screen_steps(obs, base, cal.setting, forms)]
         fits += [(forms[i], coarse_fit(obs, forms[i]), "model_form")
                  for i in sorted(range(len(forms)), key=lambda i: -drops[i])[:N_FORM_FIT]]
     several = rounds is not None and len(rounds.sized) > 1

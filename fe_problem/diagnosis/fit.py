@@ -51,6 +51,18 @@ def profiled(obs: Observations, hz: np.ndarray, shapes: np.ndarray, pairing: np.
     return Fit(0.0, s, float(r @ r), idx, r)
 
 
+def profiled_paired(obs: Observations, hz: np.ndarray, shapes: np.ndarray, pairing: np.ndarray) -> np.ndarray:
+    """`profiled` with the pairing held, for a batch of models at once (frequencies (b, k), shapes
+    (b, n_coord, k)): the residuals (b, n_residuals) at each model's best scale."""
+    ok = pairing >= 0
+    if ok.any():
+        q = hz[:, pairing[ok]] / obs.frequencies_hz[ok]
+        s = (q.sum(axis=1) / (q * q).sum(axis=1)) ** 2
+    else:
+        s = np.ones(len(hz))
+    return obs.residuals_paired(hz * np.sqrt(s)[:, None], shapes, pairing)
+
+
 def chi2_batch(obs: Observations, cand: Candidate, a: np.ndarray, pairing=None) -> list[Fit]:
     """Profiled fits for a batch of effect sizes, one batched eigen-solve."""
     a = np.asarray(a, dtype=float)
@@ -96,9 +108,17 @@ def fit(obs: Observations, cand: Candidate, a_hint: float | None = None) -> Fit:
     lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)]
     best = fits[k]
     if hi > lo:
-        res = minimize_scalar(lambda v: chi2_batch(obs, cand, np.array([v]))[0].chi2,
-                              bounds=(lo, hi), method="bounded", options={"xatol": 1e-4 * max(hi, 1e-9)})
-        cand_fit = chi2_batch(obs, cand, np.array([res.x]))[0]
+        tried: dict[float, Fit] = {}  # the search's fits: its answer is one of them, not solved again
+
+        def chi2_at(v: float) -> float:
+            v = float(v)
+            if v not in tried:
+                tried[v] = chi2_batch(obs, cand, np.array([v]))[0]
+            return tried[v].chi2
+
+        res = minimize_scalar(chi2_at, bounds=(lo, hi), method="bounded", options={"xatol": 1e-4 * max(hi, 1e-9)})
+        chi2_at(res.x)
+        cand_fit = tried[float(res.x)]
         if cand_fit.chi2 < best.chi2:
             best = cand_fit
     return best

@@ -10,19 +10,33 @@ affine in lambda for a stiffness, a mass or a spring (dm2 = 0). A joint made fle
 a rotational spring of compliance c at an element end changes each mode by c times the
 square of the dynamic end moment g_i = (K_e - lambda_i M_e) e_r, so
 D_i = -(c / a) g_i g_i^T (exact to first order in c).
+
+A model-form change (a member's depth, a node's position; modelform.py) changes the geometry
+inside the element matrices, nonlinearly: its term is the derivative of the changed elements'
+matrices by a central difference (`depth`, `node_move`), from their geometry alone, so that no
+model is built per candidate (a 3,000-DOF frame has 6,000 such candidates).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..assembly import DofMap
-from ..elements import element_matrices, profile_stiffness
+from ..elements import beam2d, element_matrices, formulation, profile_stiffness
+from ..elements.frame2d import Geometry
 from ..model import FrameModel
-from .zones import zone_stiffness
+from .zones import zone_places, zone_stiffness
+
+#: The forward-difference step of a weak zone's term (its loss of bending stiffness).
+ZONE_STEP = 1e-6
+
+#: Relative step of the central differences of a model-form term (truncation ~1e-12, rounding
+#: ~1e-10 of the term).
+FORM_STEP = 1e-6
 
 
 @dataclass(frozen=True)
@@ -66,11 +80,46 @@ class LocalMatrices:
     def zone(self, element_id: int, start: float, end: float) -> Term:
         """A weak zone (start, end) of the element losing a of its bending stiffness (zones.py),
         at a = 0: the derivative of the element's exact stiffness, by a forward difference
-        (relative error ~1e-6: enough to rank candidates)."""
-        h = 1e-6
-        pair = zone_stiffness(self.model, element_id, start, end, np.array([1.0, 1.0 - h]))
+        (relative error ~1e-6: enough to rank candidates). The zones of the grid's places are
+        computed for every element at once on first use (`_zone_grid`: one call per zone was 10 %
+        of a 3,000-DOF diagnosis); any other place as its own."""
         k = self.row[element_id]
-        return Term(self.dofmap.element_dofs[k], (pair[1] - pair[0]) / h, np.zeros_like(pair[0]))
+        grid = self._zone_grid
+        if (element_id, start, end) in grid:
+            dk = grid[(element_id, start, end)]
+        else:
+            pair = zone_stiffness(self.model, element_id, start, end, np.array([1.0, 1.0 - ZONE_STEP]))
+            dk = (pair[1] - pair[0]) / ZONE_STEP
+        return Term(self.dofmap.element_dofs[k], dk, np.zeros_like(dk))
+
+    @functools.cached_property
+    def _zone_grid(self) -> dict[tuple[int, float, float], np.ndarray]:
+        """(element id, start, end) -> the zone's dK/da for every place of `zones.zone_places` of
+        every element that can carry one: `zones.zone_stiffness`'s arithmetic on all of them in
+        one batch (each entry the same operations on the same numbers as a call of its own)."""
+        model = self.model
+        keys, rows = [], []
+        for k, e in enumerate(model.elements):
+            if not (model.layout.dimension == 2 and formulation(e.formulation, model.layout).supports_crack
+                    and e.crack_position is None and e.weak_zone is None):
+                continue
+            for start, end in zone_places(model, e.id):
+                keys.append((e.id, start, end))
+                rows.append(k)
+        if not keys:
+            return {}
+        g = self._geometry  # planar beams only from here
+        rows = np.repeat(np.array(rows), 2)                    # each place at ratio 1 and 1 - h
+        ratio = np.tile([1.0, 1.0 - ZONE_STEP], len(keys))
+        start = np.repeat([key[1] for key in keys], 2)
+        end = np.repeat([key[2] for key in keys], 2)
+        length, inertia = g.length[rows], g.inertia[rows]
+        extra = beam2d.zone_flexibility(length, inertia, start, end, ratio)
+        local = beam2d.flexibility_bending_stiffness(length, inertia, extra)
+        local += beam2d.local_stiffness(length, g.area[rows], np.zeros(len(rows)), np.zeros(len(rows)))
+        full = self.modulus[rows][:, None, None] * beam2d.to_global(local, beam2d.rotation(g.cos[rows], g.sin[rows]))
+        dk = (full[1::2] - full[0::2]) / ZONE_STEP
+        return {key: dk[i] for i, key in enumerate(keys)}
 
     def density_change(self, element_id: int, per_unit_a: float) -> Term:
         """The element's density changed by `per_unit_a` kg/m^3 per unit a."""
@@ -99,3 +148,117 @@ class LocalMatrices:
         mr = self.density[k] * self.m_el[k][:, r]
         return Term(self.dofmap.element_dofs[k], -np.outer(kr, kr) / ref,
                     -(np.outer(mr, kr) + np.outer(kr, mr)) / ref, -np.outer(mr, mr) / ref)
+
+    # -- model-form terms (modelform.py) ------------------------------------------------------
+    def plain_beam(self, element_id: int) -> bool:
+        """Whether the element is a planar beam whose matrices follow from its geometry alone (no
+        crack, no weak zone): the elements a model-form term is computed for."""
+        return bool(self._plain[self.row[element_id]])
+
+    def plain_node(self, node: int) -> bool:
+        """Whether every element at the node is a plain beam (`plain_beam`)."""
+        return bool(self._plain[self.node_elements.get(node, [])].all())
+
+    @functools.cached_property
+    def _plain(self) -> np.ndarray:
+        return np.array([self.model.layout.dimension == 2 and e.formulation in ("euler-bernoulli", "timoshenko")
+                         and e.crack_position is None and e.weak_zone is None for e in self.model.elements], dtype=bool)
+
+    @functools.cached_property
+    def node_elements(self) -> dict[int, list[int]]:
+        """node -> the rows (in model.elements) of the elements at it."""
+        out: dict[int, list[int]] = {}
+        for k, e in enumerate(self.model.elements):
+            out.setdefault(e.node_i, []).append(k)
+            out.setdefault(e.node_j, []).append(k)
+        return out
+
+    @functools.cached_property
+    def _geometry(self) -> Geometry:
+        return Geometry.of(self.model, self.model.elements)
+
+    def _beam_matrices(self, rows: np.ndarray, g: Geometry) -> tuple[np.ndarray, np.ndarray]:
+        """Global stiffness per unit modulus and mass per unit density (n, 6, 6) of the elements
+        `rows` with the geometry `g` (arrays (n,)), as their formulations build them."""
+        k, m = np.zeros((len(rows), 6, 6)), np.zeros((len(rows), 6, 6))
+        names = np.array([self.model.elements[r].formulation for r in rows])
+        for name in dict.fromkeys(names):
+            form, sel = formulation(name, self.model.layout), names == name
+            gs = Geometry(*(np.asarray(getattr(g, f))[sel] for f in Geometry.__dataclass_fields__))
+            phi, rot = form._phi(gs), form._rotary(gs)
+            k[sel] = gs.to_global(beam2d.local_stiffness(gs.length, gs.area, gs.inertia, phi))
+            m[sel] = gs.to_global(beam2d.local_mass(gs.length, gs.area, rot, phi))
+        return k, m
+
+    def _sub(self, rows: np.ndarray, **changed) -> Geometry:
+        g = self._geometry
+        return dataclasses.replace(Geometry(*(np.asarray(getattr(g, f))[rows] for f in Geometry.__dataclass_fields__)),
+                                   **changed)
+
+    def _central(self, rows: np.ndarray, plus: Geometry, minus: Geometry, h) -> tuple[np.ndarray, np.ndarray]:
+        """d K_e / da and d M_e / da (n, 6, 6) of the elements `rows` (modulus and density
+        included) by the central difference of their matrices at geometries +h and -h."""
+        (kp, mp), (km, mm) = self._beam_matrices(rows, plus), self._beam_matrices(rows, minus)
+        h = np.broadcast_to(np.asarray(h, dtype=float), (len(rows),))[:, None, None]
+        return (self.modulus[rows][:, None, None] * (kp - km) / (2.0 * h),
+                self.density[rows][:, None, None] * (mp - mm) / (2.0 * h))
+
+    def _term(self, rows, dk_el: np.ndarray, dm_el: np.ndarray, sign: float) -> Term:
+        """sign x the element derivatives of `rows` assembled on the union of their DOFs."""
+        edofs = self.dofmap.element_dofs[rows]
+        dofs, where = np.unique(edofs, return_inverse=True)
+        where = where.reshape(edofs.shape)
+        dk, dm = np.zeros((len(dofs), len(dofs))), np.zeros((len(dofs), len(dofs)))
+        for j in range(len(rows)):  # an element's block added where its DOFs are in the union
+            dk[np.ix_(where[j], where[j])] += dk_el[j]
+            dm[np.ix_(where[j], where[j])] += dm_el[j]
+        return Term(dofs, sign * dk, sign * dm)
+
+    @functools.cached_property
+    def _depths(self) -> tuple[np.ndarray, np.ndarray]:
+        """d K_e, d M_e per unit a of every element's depth x (1 + a), at once (plain beams' rows)."""
+        rows = np.arange(len(self.model.elements))
+        g, h = self._geometry, FORM_STEP
+        return self._central(rows, *(self._sub(rows, area=g.area * (1 + t), inertia=g.inertia * (1 + t) ** 3)
+                                     for t in (h, -h)), h)
+
+    def depth(self, element_id: int, sign: float) -> Term:
+        """The element's section (1 + sign a) times as deep at a = 0: area x (1 + sign a), inertia
+        x (1 + sign a)^3 (modelform.member_depth); a plain beam only (`plain_beam`)."""
+        k = self.row[element_id]
+        dk, dm = self._depths
+        return self._term([k], dk[k:k + 1], dm[k:k + 1], sign)
+
+    @functools.cached_property
+    def _moves(self) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """For "x" and "y": every (element, end) pair's d K_e, d M_e per metre of its end node's move
+        (one batch for all nodes), and the pairs' element rows."""
+        model, g = self.model, self._geometry
+        rows = np.concatenate([np.arange(len(model.elements))] * 2)
+        at, pos = model.coordinates, model._node_pos
+        xi = at[[pos[e.node_i] for e in model.elements]][:, :2]
+        xj = at[[pos[e.node_j] for e in model.elements]][:, :2]
+        d0 = np.concatenate([xj - xi] * 2)
+        end = np.repeat([-1.0, 1.0], len(model.elements))  # moving node_i shortens d, node_j lengthens it
+        # the step: FORM_STEP of the shortest member at the node (as node_move's own rule)
+        shortest = {n: float(g.length[r].min()) for n, r in self.node_elements.items()}
+        nodes = np.array([e.node_i for e in model.elements] + [e.node_j for e in model.elements])
+        h = FORM_STEP * np.array([shortest[n] for n in nodes])
+        out = {}
+        for direction, unit in (("x", np.array([1.0, 0.0])), ("y", np.array([0.0, 1.0]))):
+            geos = []
+            for t in (h, -h):
+                d = d0 + (t * end)[:, None] * unit[None, :]
+                length = np.hypot(d[:, 0], d[:, 1])
+                geos.append(self._sub(rows, length=length, cos=d[:, 0] / length, sin=d[:, 1] / length))
+            out[direction] = self._central(rows, *geos, h)
+        return out
+
+    def node_move(self, node: int, direction: str, sign: float) -> Term:
+        """The node moved by sign a metres in `direction` ("x" or "y") at a = 0
+        (modelform.moved_node): every plain beam at the node changes length and direction."""
+        rows = np.array(self.node_elements[node])
+        n_el = len(self.model.elements)
+        pairs = np.where(np.array([self.model.elements[r].node_j == node for r in rows]), rows + n_el, rows)
+        dk, dm = self._moves[direction]
+        return self._term(rows, dk[pairs], dm[pairs], sign)

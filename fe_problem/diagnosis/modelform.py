@@ -83,8 +83,10 @@ def model_form_candidates(st: Setting, places: list[dict] | None = None) -> list
                 return {"depth_factor": 1.0 + sign * a}
 
             build = (lambda v, element=element, sign=sign: member_depth(model, element, 1.0 + sign * v))
+            term = ((lambda element=element, sign=sign: st.local.depth(element, sign))
+                    if st.local.plain_beam(element) else None)  # the first-order screen's (local.py)
             out.append(Candidate("member_depth", {"element": element}, 0.5, 0.5 * GRID, _forward(st, build), estimate,
-                                 build, step=0.005, meta={"profile": what}))
+                                 build, step=0.005, meta={"profile": what}, term=term))
     for node in dict.fromkeys(nodes):
         if node in fixed:
             continue
@@ -92,12 +94,15 @@ def model_form_candidates(st: Setting, places: list[dict] | None = None) -> list
         if not lengths:
             continue
         upper = MAX_MOVE * min(lengths)
+        plain = st.local.plain_node(node)
         for d, sign in (("x", 1.0), ("x", -1.0), ("y", 1.0), ("y", -1.0)):
             def estimate(a, s, d=d, sign=sign):
                 return {"move_m": sign * a, "direction": d}
 
             build = (lambda v, node=node, d=d, sign=sign:
                      moved_node(model, node, sign * v if d == "x" else 0.0, sign * v if d == "y" else 0.0))
+            term = (lambda node=node, d=d, sign=sign: st.local.node_move(node, d, sign)) if plain else None
             out.append(Candidate("node_position", {"node": node}, upper, upper * GRID, _forward(st, build), estimate,
-                                 build, step=0.005 * upper, meta={"profile": f"{'+' if sign > 0 else '-'}{d}"}))
+                                 build, step=0.005 * upper, meta={"profile": f"{'+' if sign > 0 else '-'}{d}"},
+                                 term=term))
     return out

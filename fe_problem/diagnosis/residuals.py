@@ -130,3 +130,24 @@ class Observations:
         u_a = np.where(ok[sel][None, :], u_a, 0.0)
         sigma = self.shape_noise * np.max(np.abs(u_m), axis=0)  # (n_shape_modes,): of the mode's peak
         return np.concatenate([r_f, ((u_a - u_m) / sigma).ravel(order="F")]), idx
+
+    def residuals_paired(self, model_hz: np.ndarray, model_shapes: np.ndarray, pairing: np.ndarray) -> np.ndarray:
+        """`residuals` of a batch of models with one pairing held: frequencies (b, k), shapes at the
+        measured coordinates (b, n_coord, k); returns r (b, n_residuals). The first-order screen's
+        hot path (thousands of candidates a chunk, screening.py); tests/test_diagnosis_modelform_terms.py
+        holds it to `residuals` of each model."""
+        idx, ok = pairing, pairing >= 0
+        f = np.where(ok, model_hz[:, np.clip(idx, 0, None)], self.frequencies_hz * (1 + MAX_PAIR_FREQ))
+        r_f = (f - self.frequencies_hz) / (self.frequencies_hz * self.freq_noise)
+        if not self.has_shape.any():
+            return r_f
+        sel = self.has_shape
+        u_a = model_shapes[:, :, np.clip(idx[sel], 0, None)]                     # (b, n_coord, n_sel)
+        u_a = u_a / np.linalg.norm(u_a, axis=1, keepdims=True)
+        u_m = self.shapes[:, sel]
+        u_a = u_a * np.where(np.sum(u_a * u_m, axis=1, keepdims=True) < 0, -1.0, 1.0)
+        u_a = np.where(ok[sel][None, None, :], u_a, 0.0)
+        sigma = self.shape_noise * np.max(np.abs(u_m), axis=0)
+        shape_r = (u_a - u_m) / sigma                                               # (b, n_coord, n_sel)
+        # each model's block in `residuals`' order: mode by mode, the coordinates within (order F)
+        return np.concatenate([r_f, shape_r.transpose(0, 2, 1).reshape(len(model_hz), -1)], axis=1)

@@ -25,15 +25,18 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import splu
 
-from ..assembly import AffineModel
+from ..assembly import AffineModel, solver_path
 from ..modal import frequencies_hz
-from .fit import Fit, profiled
+from .fit import Fit, profiled, profiled_paired, screen
 from .local import Term
 from .residuals import Observations
 
 
 #: Bytes of the first-order changes held at once (a chunk of candidates): 64 MB.
 CHUNK_FLOATS = 2**26 // 8
+#: Candidates screened in one batch (`screen_linear_batch`; its temporaries are several times
+#: their changes, so a batch is a part of a chunk).
+SCREEN_BATCH = 64
 
 
 def _to_free(system: AffineModel, dofs: np.ndarray) -> np.ndarray:
@@ -148,6 +151,26 @@ def screen_linear(obs: Observations, base: Fit, lam: np.ndarray, phi_c: np.ndarr
     return max(drop, 0.0), a
 
 
+def screen_linear_batch(obs: Observations, base: Fit, lam: np.ndarray, phi_c: np.ndarray, modes: np.ndarray,
+                        dlam: np.ndarray, dshape: np.ndarray, step: np.ndarray, upper: np.ndarray) -> np.ndarray:
+    """`screen_linear` of a chunk of candidates at once (dlam (c, m), dshape (c, n_coord, m), step
+    and upper (c,)): (chi^2 drop, a) as rows (c, 2). Only the paired modes `modes` enter the
+    residuals (the pairing is held), so only they are moved."""
+    pairing = base.pairing
+    held = np.where(pairing >= 0, np.searchsorted(modes, np.clip(pairing, 0, None)), -1)  # into `modes`
+    lam_m = lam[modes][None, :] + step[:, None] * dlam
+    phi_m = phi_c[None, :, modes] + step[:, None, None] * dshape
+    j = (profiled_paired(obs, frequencies_hz(lam_m), phi_m, held) - base.residuals) / step[:, None]
+    jj = np.einsum("ci,ci->c", j, j)
+    live = jj > 0.0
+    a = np.zeros(len(j))
+    # einsum, not a matrix-vector product: BLAS may sum a row differently in batches of other
+    # sizes, and a candidate's screen must not depend on its batch (tests/test_diagnosis_scale.py)
+    a[live] = np.minimum(np.maximum(-np.einsum("ci,i->c", j[live], base.residuals) / jj[live], 0.0), upper[live])
+    drop = base.chi2 - np.sum((base.residuals + a[:, None] * j) ** 2, axis=1)
+    return np.column_stack([np.where(live, np.maximum(drop, 0.0), 0.0), a])
+
+
 def screen_all(obs: Observations, base: Fit, model, coords, n_modes: int, cands) -> list[tuple[float, float]]:
     """(chi^2 drop, a) of every candidate with a first-order term, from one set of modes of
     `model`; candidates without one (global effects) get (nan, nan): the caller screens them
@@ -159,10 +182,30 @@ def screen_all(obs: Observations, base: Fit, model, coords, n_modes: int, cands)
     for sl in chunks(first, len(with_term)):  # the changes of a chunk of candidates at a time
         part = with_term[sl]
         dlam, dshape = changes(first, [cands[i].term() for i in part])
-        for j, i in enumerate(part):
-            out[i] = screen_linear(obs, base, first.lam, first.phi_c, modes, dlam[j], dshape[j], cands[i].step,
-                                   cands[i].upper)
+        step = np.array([cands[i].step for i in part], dtype=float)
+        upper = np.array([cands[i].upper for i in part], dtype=float)
+        for b in range(0, len(part), SCREEN_BATCH):  # its temporaries a few times the chunk's / 8
+            # every batch of the same size (the last padded by repeating its first row): numpy
+            # reduces a stack of one or a few rows in another order than a stack of many, and a
+            # candidate's screen must not depend on how the candidates were chunked
+            sub = np.arange(b, min(b + SCREEN_BATCH, len(part)))
+            pad = np.concatenate([sub, np.full(SCREEN_BATCH - len(sub), sub[0])])
+            rows = screen_linear_batch(obs, base, first.lam, first.phi_c, modes, dlam[pad], dshape[pad], step[pad],
+                                       upper[pad])
+            for i, (drop, a) in zip([part[k] for k in sub], rows[:len(sub)].tolist()):
+                out[i] = (drop, a)
     return out
+
+
+def screen_steps(obs: Observations, base: Fit, setting, cands) -> list[tuple[float, float]]:
+    """(chi^2 drop, a) of each candidate as `fit.screen` judges it (one exact step), except on a
+    model of the sparse path, where a candidate with a first-order term is screened from one set
+    of modes (`screen_all`): there a step builds and solves a model per candidate (a 3,000-DOF
+    frame's 6,000 model-form candidates took most of its diagnosis)."""
+    if not cands or solver_path(len(setting.local.dofmap.free)) == "dense":
+        return [screen(obs, c, base) for c in cands]
+    first = screen_all(obs, base, setting.model, setting.coords, setting.n_modes, cands)
+    return [screen(obs, c, base) if c.term is None else f for c, f in zip(cands, first)]
 
 
 def linear_bounded_moduli(obs: Observations, base: Fit, local, coords, n_modes: int, rel_lo: float,
