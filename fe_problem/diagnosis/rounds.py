@@ -291,12 +291,12 @@ def grown_regions(cal, rounds) -> list[tuple[Candidate, Fit]]:
     """The later round that may add members next to a found stiffness change (the search itself
     does not: a further change next to one found is its form, `_new_place`). From each element
     where the search found a stiffness loss (gain), the region grows by one adjacent member (one
-    sharing a node) at a time, the neighbour whose addition fits best with the region's moduli
-    changed by one ratio, up to `MAX_REGION` members while the fit improves; each grown region is
-    also tried tapered (the change largest at the found member, falling linearly with the number
-    of members away from it). Returns every grown region (uniform and tapered) with its fit on the
-    calibrated model's paired modes; the evidence scores them beside the other classes (planar
-    models: the regions are classes of groups.py)."""
+    sharing a node) at a time, up to `MAX_REGION` members while the fit improves. A region is
+    tried uniform (its moduli changed by one ratio) and tapered (the change largest at the found
+    member, falling linearly with the number of members away from it: a gradient); the neighbour
+    whose region, in either form, fits best is added. Returns every grown region in both forms
+    with its fit on the calibrated model's paired modes; the evidence scores them beside the
+    other classes (planar models: the regions are classes of groups.py)."""
     from .groups import weighted_candidates
 
     st, obs = cal.setting, cal.obs
@@ -314,34 +314,37 @@ def grown_regions(cal, rounds) -> list[tuple[Candidate, Fit]]:
     out = []
     for kind, seed in seeds:
         sign = -1.0 if kind == "stiffness_loss" else 1.0
-        group_kind = "group_" + kind
         region, dist = [seed], {seed: 0}
-        previous = None
+        single = weighted_candidates(st, [("group_" + kind, {"group": f"members_{seed}"},
+                                           sign * np.isin(ids, [seed]).astype(float))])[0]
+        previous = fit(obs, single).chi2
         while len(region) < MAX_REGION:
             near = sorted({x for e in region for n in ends[e] for x in at_node[n]} - set(region))
             if not near:
                 break
-            specs = [(group_kind, {"group": "members_" + "_".join(map(str, sorted(region + [x])))},
-                      sign * np.isin(ids, region + [x]).astype(float)) for x in near]
+            specs = []
+            for x in near:
+                d = {**dist, x: 1 + min(dist[e] for e in region if set(ends[e]) & set(ends[x]))}
+                specs += _region_specs(kind, sign, ids, seed, d)
             trials = [(c, fit(obs, c)) for c in weighted_candidates(st, specs)]
             k = min(range(len(trials)), key=lambda i: (trials[i][1].chi2, i))
-            if previous is None:
-                single = weighted_candidates(st, [(group_kind, {"group": f"members_{seed}"},
-                                                   sign * np.isin(ids, [seed]).astype(float))])[0]
-                previous = fit(obs, single).chi2
             if trials[k][1].chi2 >= previous - 1e-9:
                 break
-            dist[near[k]] = 1 + min(dist[e] for e in region if set(ends[e]) & set(ends[near[k]]))
-            region.append(near[k])
+            x = near[k // 2]
+            dist[x] = 1 + min(dist[e] for e in region if set(ends[e]) & set(ends[x]))
+            region.append(x)
             previous = trials[k][1].chi2
-            out.append(trials[k])
-            far = max(dist.values())
-            taper = np.array([1.0 - dist[e] / (far + 1.0) if e in dist else 0.0 for e in ids])
-            members = "_".join(map(str, sorted(region)))
-            tapered = weighted_candidates(st, [("stiffness_trend", {"trend": f"taper_from_{seed}_members_{members}"},
-                                                sign * taper)])[0]
-            out.append((tapered, fit(obs, tapered)))
+            out += trials[2 * (k // 2):2 * (k // 2) + 2]
     return out
+
+
+def _region_specs(kind: str, sign: float, ids: list, seed: int, dist: dict) -> list:
+    """The uniform and the tapered class of the region `dist` (member -> members away from `seed`)."""
+    members = "_".join(map(str, sorted(dist)))
+    far = max(dist.values())
+    taper = np.array([1.0 - dist[e] / (far + 1.0) if e in dist else 0.0 for e in ids])
+    return [("group_" + kind, {"group": f"members_{members}"}, sign * np.isin(ids, list(dist)).astype(float)),
+            ("stiffness_trend", {"trend": f"taper_from_{seed}_members_{members}"}, sign * taper)]
 
 
 def _joint_refit(cal, st: Setting, picks, sizes, obs=None) -> tuple[list, list[float], float]:
