@@ -41,6 +41,18 @@ def _columns_by_storey(model) -> dict:
     return out
 
 
+def storey_ratios(extended: dict, nominal) -> np.ndarray:
+    """Each storey's column modulus in the extended model (`femu diagnose --json`'s) over the
+    nominal one, relative to the top storey's: the pattern up to the global scale every model is
+    allowed (the extended model carries it)."""
+    from fe_problem.model.io import model_from_dict
+
+    model = model_from_dict(extended)
+    ratios = [np.mean([model.element_modulus_pa(e) / nominal.element_modulus_pa(e) for e in sorted(ids)])
+              for _, ids in sorted(_columns_by_storey(nominal).items())]
+    return np.array(ratios) / ratios[-1]
+
+
 @pytest.mark.parametrize("seed", [2, 5])
 @pytest.mark.parametrize("ratios", [{5: 0.8, 6: 0.88}, {5: 0.8, 6: 0.85, 7: 0.9}, {1: 0.82, 2: 0.86, 3: 0.9, 4: 0.94}],
                          ids=["2 members", "3 members", "4 members"])
@@ -74,6 +86,9 @@ def test_a_storey_wise_pattern_is_not_answered_top_storey_only(tmp_path, seed):
     assert len(touched) >= 2, (record["chosen_class"]["label"], touched)
     assert record["chosen_class"]["reason"] and record["chosen_class"]["replaced"]
     assert any(w.startswith("chosen by evidence") for w in record["warnings"])
+    if _confident(record):  # an adequate answer gives the storeys' pattern (up to the global scale)
+        truth = np.array([0.71, 0.81, 0.91, 1.47]) / 1.47
+        assert storey_ratios(record["extended_model"], SHEAR4) == pytest.approx(truth, rel=0.1)
 
 
 @pytest.mark.parametrize("seed", [2, 3])

@@ -277,7 +277,7 @@ def _rivalled(cause, choice: ChosenClass):
     """The first cause (`Cause` or `Found`) as not identifiable: a class of another family is within
     a factor of 10 of the search's answer (`choose_class`); its kind and place kept where the rival
     shares them."""
-    own = cause.label or choice.label
+    own = choice.label  # the search's answer: its one cause, or its causes joined by " + "
     place = ",".join(f"{k}={v}" for k, v in (cause.location or {}).items())
     where = cause.location if place and choice.rival.partition("@")[2].split("(")[0] == place else None
     kind = cause.kind if choice.rival.startswith(cause.kind + "@") else "undetermined"
