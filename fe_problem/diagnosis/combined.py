@@ -47,21 +47,31 @@ class Combination:
         return " + ".join(c.label for c, _ in self.parts)
 
 
+#: Each further class is tried with the earlier sizes held at these multiples of theirs (one
+#: batched solve with its grid): an earlier class fitted alone took up part of the next one.
+HELD = (0.6, 0.8, 1.0, 1.2)
+
+
 def combinations(st: Setting, obs: Observations, fitted: list[tuple[Candidate, Fit]], alpha: float,
-                 n_tried: int) -> list[Combination]:
-    """The greedy combinations of the distributed classes `fitted` (candidates with
-    ``meta["weights"]``, each with its own fit), from the best one: every prefix of two or more
-    classes whose last class was significant (see the module docstring). n_tried: the number of
-    classes the Bonferroni correction counts."""
-    pool = [(c, f) for c, f in fitted if "weights" in c.meta and f.a > 0]
-    if len(pool) < 2:
+                 others: list[Candidate] = ()) -> list[Combination]:
+    """The greedy combinations of distributed classes (candidates with ``meta["weights"]``), from
+    the best of `fitted` (each with its own fit), each further class chosen among `fitted` and
+    `others` (those never fitted alone: a storey whose change the global scale hides alone):
+    every prefix of two or more classes whose last class was significant (see the module
+    docstring); the Bonferroni correction counts every class tried."""
+    fitted = [(c, f) for c, f in fitted if "weights" in c.meta]
+    seen = {c.label for c, _ in fitted}
+    pool = [(c, f) for c, f in fitted if f.a > 0] + [(c, None) for c in others
+                                                     if "weights" in c.meta and c.label not in seen]
+    n_tried = len(seen | {c.label for c, _ in pool})
+    if len(pool) < 2 or all(f is None for _, f in pool):
         return []
     model = st.model
     ids = list(model.element_ids)
     e0 = np.array([model.element_modulus_pa(e) for e in ids])
     system = lazy_system(lambda: AffineModel(model, tuple(
         Parameter("modulus", (e,), 1e-3 * v, 1e3 * v, v, name=f"E{e}") for e, v in zip(ids, e0))))
-    pool.sort(key=lambda x: (x[1].chi2, x[0].label))
+    pool.sort(key=lambda x: (x[1] is None, np.inf if x[1] is None else x[1].chi2, x[0].label))
     weights = {c.label: np.asarray(c.meta["weights"], dtype=float) for c, _ in pool}
     upper = {c.label: c.upper for c, _ in pool}
 
@@ -80,16 +90,17 @@ def combinations(st: Setting, obs: Observations, fitted: list[tuple[Candidate, F
             if c.label in chosen:
                 continue
             grid = c.grid[1:]
-            batch = np.column_stack([np.repeat(sizes[None, :], len(grid), axis=0), grid])
+            held = np.repeat(np.outer(HELD, sizes), len(grid), axis=0)
+            batch = np.column_stack([np.minimum(held, [upper[lab] for lab in chosen]), np.tile(grid, len(HELD))])
             fs = fits_at(chosen + [c.label], batch)
             k = int(np.argmin([x.chi2 for x in fs]))
-            trials.append((fs[k].chi2, c.label, grid[k]))
+            trials.append((fs[k].chi2, c.label, batch[k]))
         if not trials:
             break
-        _, label, a_new = min(trials)
+        _, label, start = min(trials, key=lambda t: (t[0], t[1]))
         labels = chosen + [label]
         hi = np.array([upper[lab] for lab in labels])
-        x0 = np.minimum(np.append(sizes, a_new), hi)
+        x0 = np.minimum(start, hi)
         res = least_squares(lambda a: fits_at(labels, a[None, :])[0].residuals, x0, bounds=(0.0, hi),
                             diff_step=1e-4, max_nfev=40 * len(labels))
         joint = fits_at(labels, res.x[None, :])[0]

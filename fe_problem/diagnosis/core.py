@@ -187,7 +187,7 @@ def scored_classes(cal: "Calibration", found: "Screening", rounds) -> tuple[Evid
     combos = []
     if rounds is not None:  # several distributed classes at once (combined.py)
         spread = [(c, f) for c, f, family in fits if family == "distributed"]
-        combos = combinations(cal.setting, obs, spread, ALPHA, len(distributed) + len(spread) - len(top))
+        combos = combinations(cal.setting, obs, spread, ALPHA, distributed)
     several = rounds is not None and len(rounds.sized) > 1
     reduced = [base.chi2 / obs.dof(1)] + [f.chi2 / obs.dof(2) for _, f, _ in fits]
     reduced += [cb.fit.chi2 / obs.dof(1 + len(cb.parts)) for cb in combos]
