@@ -162,6 +162,7 @@ def scored_classes(cal: "Calibration", found: "Screening", rounds) -> tuple[Evid
     error. Returns the evidence and label -> (candidate, fit, family) of every one-parameter class
     scored, so that the answer can be the best class (`choose_class`)."""
     obs, base = cal.obs, cal.base
+    dense = solver_path(len(cal.setting.local.dofmap.free)) == "dense"
     distributed = distributed_candidates(cal.setting)
     promise = [max(screen(obs, c, base), look_along(obs, c, base), key=lambda x: x[0]) for c in distributed]
     top = sorted(range(len(distributed)), key=lambda i: (-promise[i][0], i))[:N_DISTRIBUTED_FIT]
@@ -175,17 +176,19 @@ def scored_classes(cal: "Calibration", found: "Screening", rounds) -> tuple[Evid
             # the search's answer chosen again in a later round: scored on the same modes as the rest
             c1, a1 = rounds.sized[0]
             fits.append((c1, fit(obs, c1, a1), "local"))
-        fits += [(c, f, "distributed") for c, f in grown_regions(cal, rounds) if c.label not in labels]
+        # regions and combinations where a solve is cheap (the dense path): on a large model their
+        # hundreds of batched solves would take minutes
+        if dense:
+            fits += [(c, f, "distributed") for c, f in grown_regions(cal, rounds) if c.label not in labels]
         # the model-form alternatives: every node and element screened, the best fitted
         # (a proper fit where a solve is cheap: a coarse one leaves the class short of its optimum,
         # and a thinner member's own class then lost to a crack's zone by less than its misfit)
         forms = model_form_candidates(cal.setting)
         steps = [screen(obs, c, base) for c in forms]
-        dense = solver_path(len(cal.setting.local.dofmap.free)) == "dense"
         fits += [(forms[i], fit(obs, forms[i], steps[i][1]) if dense else coarse_fit(obs, forms[i]), "model_form")
                  for i in sorted(range(len(forms)), key=lambda i: (-steps[i][0], i))[:N_FORM_FIT]]
     combos = []
-    if rounds is not None:  # several distributed classes at once (combined.py)
+    if rounds is not None and dense:  # several distributed classes at once (combined.py)
         spread = [(c, f) for c, f, family in fits if family == "distributed"]
         combos = combinations(cal.setting, obs, spread, ALPHA, distributed)
     several = rounds is not None and len(rounds.sized) > 1
