@@ -131,10 +131,6 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
         checks = checks + spurious_modes(cal.unpaired, final_unpaired, cal.obs_all.frequencies_hz, _explained(checks))
     ev, fits = scored_classes(cal, found, rounds)
     choice = choose_class(cal, ev, fits, rounds)
-    if choice.fitted is None and choice.rival is not None:  # as good as another kind of explanation
-        cause = _rivalled(cause, choice)
-        causes = (_rivalled(causes[0], choice),) + causes[1:]
-        warnings.append(f"chosen by evidence: {choice.reason}")
     if choice.fitted is None:  # the search's own answer is the best class by evidence
         return Diagnosis(cause, alternatives, residuals_of(cal), rounds.gain, tuple(sel.rows.values()), sel.selection,
                          extended, tuple(warnings + _fault_notes(checks) + _evidence_notes(ev, rounds, choice)), causes,
@@ -269,19 +265,6 @@ def choose_class(cal: "Calibration", ev: Evidence, fits: dict, rounds) -> Chosen
                 "the data cannot tell these kinds of explanation apart")
     return ChosenClass(best.label, best.family, best.log_evidence, why, own_label, margin,
                        rival.label if rival is not None else None, fitted=fits[best.label])
-
-
-def _rivalled(cause, choice: ChosenClass):
-    """The first cause (`Cause` or `Found`) as not identifiable: a class of another family is within
-    a factor of 10 of the search's answer (`choose_class`); its kind and place kept where the rival
-    shares them."""
-    own = choice.label  # the search's answer: its one cause, or its causes joined by " + "
-    place = ",".join(f"{k}={v}" for k, v in (cause.location or {}).items())
-    where = cause.location if place and choice.rival.partition("@")[2].split("(")[0] == place else None
-    kind = cause.kind if choice.rival.startswith(cause.kind + "@") else "undetermined"
-    return dataclasses.replace(cause, kind=kind, location=where, estimate={}, identifiable=False, label=None,
-                               indistinguishable=tuple(dict.fromkeys(tuple(cause.indistinguishable or (own,))
-                                                                     + (choice.rival,))))
 
 
 def _class_answer(cal, model, sel, alternatives, choice: ChosenClass, ev: Evidence, rounds, search_causes, checks,
