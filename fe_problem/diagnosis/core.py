@@ -131,6 +131,10 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
         checks = checks + spurious_modes(cal.unpaired, final_unpaired, cal.obs_all.frequencies_hz, _explained(checks))
     ev, fits = scored_classes(cal, found, rounds)
     choice = choose_class(cal, ev, fits, rounds)
+    if choice.fitted is None and choice.rival is not None:  # the same member's other form as good
+        cause = _rivalled(cause, choice)
+        causes = (_rivalled(causes[0], choice),) + causes[1:]
+        warnings.append(f"chosen by evidence: {choice.reason}")
     if choice.fitted is None:  # the search's own answer is the best class by evidence
         return Diagnosis(cause, alternatives, residuals_of(cal), rounds.gain, tuple(sel.rows.values()), sel.selection,
                          extended, tuple(warnings + _fault_notes(checks) + _evidence_notes(ev, rounds, choice)), causes,
@@ -251,8 +255,21 @@ def choose_class(cal: "Calibration", ev: Evidence, fits: dict, rounds) -> Chosen
                "the search's answer (the likelihood-ratio test against the calibrated model)")
         # a class of another kind within a factor of 10 below it is noted (a warning,
         # `_evidence_notes`), not made a tie: the search's answer has the significance test and
-        # its own ambiguity margin behind it (a flexible joint stays named beside a node moved 6 mm)
-        return ChosenClass(own_label, "several" if several else "local", own_ev, why)
+        # its own ambiguity margin behind it (a flexible joint stays named beside a node moved 6 mm).
+        # Except the same member's other form: a weak zone or a loss in a member and that member
+        # thinner lower its bending stiffness alike (a member 2.8 % thinner came out as a 32 % weak
+        # zone, 1.5 above its own class), and the data cannot tell them apart
+        from .rounds import STIFFNESS_KINDS  # rounds uses this module's steps
+
+        members = {(c.location or {}).get("element") for c, _ in rounds.sized if c.kind in STIFFNESS_KINDS}
+        rival = None if own_ev is None or brings else next(
+            (c for c in contenders if c.family not in SEARCH_FAMILIES and own_ev - c.log_evidence < FACTOR_10
+             and c.label in fits and (fits[c.label][0].location or {}).get("element") in members - {None}), None)
+        if rival is not None:
+            why += (f"; {rival.label} ({rival.family}), the same member's other form, is within a factor of 10 of it "
+                    f"(log evidence {rival.log_evidence:.4g} against {own_ev:.4g}): the data cannot tell them apart")
+        return ChosenClass(own_label, "several" if several else "local", own_ev, why,
+                           rival=None if rival is None else rival.label)
     ref = own[0].log_evidence if own else None
     margin = None if ref is None else best.log_evidence - ref
     others = [c for c in contenders[1:] if c.family != best.family]
@@ -265,6 +282,17 @@ def choose_class(cal: "Calibration", ev: Evidence, fits: dict, rounds) -> Chosen
                 "the data cannot tell these kinds of explanation apart")
     return ChosenClass(best.label, best.family, best.log_evidence, why, own_label, margin,
                        rival.label if rival is not None else None, fitted=fits[best.label])
+
+
+def _rivalled(cause, choice: ChosenClass):
+    """The first cause (`Cause` or `Found`) as not identifiable between the search's answer and
+    `choice.rival`; its kind and place kept where the rival shares them."""
+    place = ",".join(f"{k}={v}" for k, v in (cause.location or {}).items())
+    where = cause.location if place and choice.rival.partition("@")[2].split("(")[0] == place else None
+    kind = cause.kind if choice.rival.startswith(cause.kind + "@") else "undetermined"
+    return dataclasses.replace(cause, kind=kind, location=where, estimate={}, identifiable=False, label=None,
+                               indistinguishable=tuple(dict.fromkeys(tuple(cause.indistinguishable or (choice.label,))
+                                                                     + (choice.rival,))))
 
 
 def _class_answer(cal, model, sel, alternatives, choice: ChosenClass, ev: Evidence, rounds, search_causes, checks,
