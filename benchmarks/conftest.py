@@ -55,6 +55,11 @@ RATIOS = (
      "inproc:pymoo-ga", "sandbox:pymoo-ga", 1 / 1.1),
     ("sandboxed run, populations (cma-es, 1,000 evaluations): in-process / sandboxed time",
      "inproc:cma-es", "sandbox:cma-es", 1 / 1.1),
+    # issue 20: the certification's Jacobian, analytic over the central difference it replaced
+    ("certify Jacobian, hframe-shape-noisy 48 parameters: analytic over central difference",
+     "certify_jac_fd:48", "certify_jac_analytic:48", 5.0),
+    ("certify Jacobian, hframe-shape-noisy 192 parameters: analytic over central difference",
+     "certify_jac_fd:192", "certify_jac_analytic:192", 20.0),
 )
 
 #: (label, figure key prefix, goal): the log-log slope of per-item time against DOFs over the
