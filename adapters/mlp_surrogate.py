@@ -165,7 +165,8 @@ class MLPSurrogate:
     - a trust region (TuRBO, Eriksson et al. 2019): a box of side `length` (in the unit cube)
       centred on the best point; the networks are trained on the `n_train` points nearest to
       it, with inputs scaled to that neighbourhood; the next FE point is the best of
-      `n_candidates` points drawn in the box, as the ensemble predicts them. After
+      `n_candidates` points drawn uniformly in the box and clipped into the unit cube (so that
+      an optimum on a bound is reached exactly), as the ensemble predicts them. After
       `success_tol` improvements in a row the box doubles (at most `length_max`), after
       `failure_tol` evaluations without one it halves; below `length_min` it starts again
       at `length0` around the best point;
@@ -242,8 +243,10 @@ class MLPSurrogate:
             scaling = (centre, spread, m, d)
             weights = [scg(lambda w: net.error(w, Z, T), lambda w: net.gradient(w, Z, T), w, cycles)[0]
                        for w in weights]
-            lo, hi = np.maximum(centre - length / 2, 0.0), np.minimum(centre + length / 2, 1.0)
-            C = lo + rng.random((n_candidates, n_var)) * (hi - lo)
+            # candidates in the box, clipped into the cube rather than drawn inside it: a bound
+            # gets the candidates that fall beyond it, so an optimum on a bound (the paper
+            # problem's, most moduli at 6e10 or 8e10 Pa) is proposed exactly
+            C = np.clip(centre + (rng.random((n_candidates, n_var)) - 0.5) * length, 0.0, 1.0)
             predicted = np.mean([net.predict(w, (C - centre) / spread) for w in weights], axis=0)
             new = C[np.argmin(predicted)][None]
             F_new = fe(new)
