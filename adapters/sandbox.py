@@ -39,6 +39,7 @@ import numpy as np
 import psutil
 
 from .budget import check_budget, check_seed, check_x0_mode, jacobian_cost
+from .capabilities import CAPABILITIES
 from .harness import RunResult, BudgetedObjective, BudgetExhausted, TimeLimitExceeded, _problem_count, record
 from .processes import kill_tree
 from .registry import check_name
@@ -281,7 +282,7 @@ def _description(answer) -> dict:
     return {"distribution": text(answer.get("distribution")),
             "distribution_version": text(answer.get("distribution_version")),
             "effective_options": options if isinstance(options, dict) else {},
-            "capabilities": {k: v for k, v in flags.items() if isinstance(k, str) and isinstance(v, bool)}
+            "capabilities": {k: v for k, v in flags.items() if k in CAPABILITIES and isinstance(v, bool)}
             if isinstance(flags, dict) else {}}
 
 

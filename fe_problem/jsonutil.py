@@ -101,15 +101,30 @@ def read_json_file(path: Path, error: type[Exception] = ValueError):
         raise error(f"{path}: not valid JSON ({exc})") from None
 
 
-def check_keys(obj: dict, allowed, where: str, error: type[Exception] = ValueError) -> None:
-    """Refuse a key of `obj` that is not in `allowed`: `error` naming `where` (the file and the
-    path to the object), the key and, when one is close, the allowed key it was probably meant
-    to be. A misspelt key ('suports', 'releas_i') would otherwise be ignored without a word."""
+def unknown_key(obj: dict, allowed, path: str = "") -> str | None:
+    """What is wrong with the keys of `obj` (None if each is in `allowed`): the first unknown
+    key, written as its path (`path` plus the key: ``history[0].seedz``), and the allowed key it
+    was probably meant to be (the closest the object lacks, else the closest) or, when none is
+    close, the allowed keys."""
     import difflib
 
     allowed = tuple(allowed)
     for key in obj:
         if key not in allowed:
-            close = difflib.get_close_matches(str(key), allowed, n=1, cutoff=0.6)
+            # a misspelt key stands for a key the object lacks: those first ('best_fx' beside a
+            # 'best_x' is 'best_f'), then any allowed key
+            missing = [k for k in allowed if k not in obj]
+            close = (difflib.get_close_matches(str(key), missing, n=1, cutoff=0.6)
+                     or difflib.get_close_matches(str(key), allowed, n=1, cutoff=0.6))
             hint = f"; did you mean {close[0]!r}?" if close else f"; the known keys are {', '.join(sorted(allowed))}"
-            raise error(f"{where}: unknown key {key!r}{hint}")
+            return f"unknown key {path + str(key)!r}{hint}"
+    return None
+
+
+def check_keys(obj: dict, allowed, where: str, error: type[Exception] = ValueError) -> None:
+    """Refuse a key of `obj` that is not in `allowed`: `error` naming `where` (the file and the
+    path to the object), the key and, when one is close, the allowed key it was probably meant
+    to be. A misspelt key ('suports', 'releas_i') would otherwise be ignored without a word."""
+    problem = unknown_key(obj, allowed)
+    if problem:
+        raise error(f"{where}: {problem}")

@@ -20,6 +20,12 @@ Families (dimension = n_var, the number of updating parameters):
 - ``frame-shape``: a one-bay multi-storey steel frame fixed at its base, 4, 8, 16, 32 or 64
   storeys (3 elements each: n_var 12 to 192), moduli within +-15 % of 210 GPa, 8 modes with
   shapes at the storey nodes (x, y), noise-free: f_opt = 0 exactly.
+- ``frame3d-freq``, ``frame3d-shape``: space frames of the shipped ``frame3d``'s plan (2 x 2
+  bays of 6 m x 5 m, 3.5 m storeys, HEB 300 columns, IPE 400 beams, tributary floor masses,
+  fixed base), 4, 8 or 16 storeys (4 is the shipped example); one modulus per storey for its
+  9 columns, its 6 beams along x and its 6 beams along y (n_var 12, 24, 48), within +-15 % of
+  210 GPa; 8 modes (bending in x and y, torsion) measured in x and y at the 4 floor corners of
+  every storey, frequencies only or with shapes, noise-free: f_opt = 0 exactly.
 
 Every instance's truth and noise come from a seed derived from its id alone (SHA-256), so an
 id means the same problem on every machine and in every version that keeps this module.
@@ -38,8 +44,8 @@ import numpy as np
 from .correlation import pair_modes
 from .modal_data import ModalData, synthetic_measurement
 from .modal import modal_analysis
-from .model import FrameModel, load_model, regular_frame, split_elements
-from .parameters import element_moduli
+from .model import FrameModel, LumpedMass, load_model, regular_frame, regular_frame_3d, split_elements
+from .parameters import Parameter, element_moduli
 from .problem import UpdatingProblem
 from ._threads import blas_pinned
 
@@ -65,10 +71,14 @@ ZERO_BELOW = 1e-20
 #: (docs/suite.md): 1e-2 times the power of ten at or above the median J(x0) - f_opt of the
 #: family's instances at its smallest dimension, so the top target sits near J(x0).
 TARGET_SCALE = {"paper": 1e-5, "hframe-freq": 1e-4, "hframe-shape": 1e-3, "hframe-freq-noisy": 1e-4,
-                "hframe-shape-noisy": 1e-3, "frame-shape": 1e-2}
+                "hframe-shape-noisy": 1e-3, "frame-shape": 1e-2, "frame3d-freq": 1e-5, "frame3d-shape": 1e-4}
 
 H_FRAME_SPLITS = (1, 2, 4, 8, 16)
 FRAME_STOREYS = (4, 8, 16, 32, 64)
+#: Storeys of the space-frame families (3 parameters each: n_var 12, 24, 48); 4 is the shipped frame3d.
+FRAME3D_STOREYS = (4, 8, 16)
+#: The space frames' moduli bounds (Pa): +-15 % of steel's 210 GPa, as ``frame-shape``.
+STEEL_E_PA, STEEL_BOUNDS = 2.1e11, (0.85 * 2.1e11, 1.15 * 2.1e11)
 N_INSTANCES = 5
 N_MODES = 8
 FREQ_NOISE, SHAPE_NOISE = 0.002, 0.02
@@ -82,7 +92,7 @@ class Family:
     """A family of suite problems: its structure, what is measured, and its sizes (n_var)."""
 
     name: str
-    structure: str          # "paper", "hframe" or "frame"
+    structure: str          # "paper", "hframe", "frame" or "frame3d"
     shapes: bool
     noisy: bool
     dimensions: tuple[int, ...]
@@ -102,6 +112,11 @@ FAMILIES = {f.name: f for f in (
            "split H-frame, 8 frequencies and shapes of a hidden truth, 0.2 % / 2 % noise"),
     Family("frame-shape", "frame", True, False, tuple(3 * s for s in FRAME_STOREYS), N_INSTANCES,
            "multi-storey one-bay frame, 8 frequencies and shapes of a hidden truth, noise-free"),
+    # new families go at the end: suite_ids() keeps every earlier id in its place
+    Family("frame3d-freq", "frame3d", False, False, tuple(3 * s for s in FRAME3D_STOREYS), N_INSTANCES,
+           "2 x 2-bay space frame, storey moduli, 8 frequencies of a hidden truth, noise-free"),
+    Family("frame3d-shape", "frame3d", True, False, tuple(3 * s for s in FRAME3D_STOREYS), N_INSTANCES,
+           "2 x 2-bay space frame, storey moduli, 8 frequencies and corner shapes (x, y) of a hidden truth, noise-free"),
 )}
 
 
@@ -205,9 +220,50 @@ def storey_frame(storeys: int, storey_height_m: float = 3.0, bay_m: float = 6.0)
                          description=f"one-bay {storeys}-storey steel frame, fixed base (femu suite)")
 
 
+def space_storey_frame(storeys: int) -> FrameModel:
+    """A space frame of the shipped ``frame3d``'s plan with `storeys` storeys (4: the shipped
+    example's nodes, members, sections, masses and supports; tests/test_suite3d.py).
+
+    `regular_frame_3d(2, 2, storeys, 6.0, 5.0, 3.5)` (HEB 300 columns, IPE 400 beams, steel,
+    fixed base) with the shipped example's floor masses lumped at the nodes by tributary area,
+    400 kg/m^2 on floors and 300 kg/m^2 on the roof (a corner node carries 3 m x 2.5 m, an edge
+    node twice that, the middle node 6 m x 5 m). Measured: x and y at the 4 corners of every
+    floor, as accelerometers on a test frame are placed (the corners see both bending planes
+    and torsion; vertical motion of a sway frame is axial column strain, below a sensor's
+    noise)."""
+    bay_x, bay_y, height = 6.0, 5.0, 3.5
+    model = regular_frame_3d(2, 2, storeys, bay_x, bay_y, height, name=f"frame3d-{storeys}storey",
+                             description=f"2 x 2-bay {storeys}-storey steel space frame (frame3d's plan), fixed "
+                                         "base, tributary floor masses (femu suite)")
+    width_x, width_y, roof = 2 * bay_x, 2 * bay_y, storeys * height
+
+    def tributary(v: float, width: float, bay: float) -> float:  # the node's share of its floor along one axis
+        return bay / 2 if v in (0.0, width) else bay
+
+    upper = model.nodes[9:]
+    masses = tuple(LumpedMass(n.id, (300.0 if n.z == roof else 400.0) * tributary(n.x, width_x, bay_x)
+                              * tributary(n.y, width_y, bay_y)) for n in upper)
+    corners = [n.id for n in upper if n.x in (0.0, width_x) and n.y in (0.0, width_y)]
+    return model.replace(masses=masses, measured_dofs=tuple((c, d) for c in corners for d in ("x", "y")))
+
+
+def storey_moduli(model: FrameModel) -> tuple[Parameter, ...]:
+    """Three modulus parameters per storey of a `space_storey_frame`: its columns, its beams
+    along x, its beams along y (`regular_frame_3d`'s element order: per storey the 9 columns,
+    the 6 beams along x, the 6 along y), each within `STEEL_BOUNDS` (Pa), starting at 210 GPa."""
+    per_storey, groups = 21, (("columns", 0, 9), ("beams-x", 9, 15), ("beams-y", 15, 21))
+    ids = model.element_ids
+    return tuple(Parameter("modulus", tuple(ids[s * per_storey + a: s * per_storey + b]), *STEEL_BOUNDS, STEEL_E_PA,
+                           name=f"E-{what}-{s + 1}")
+                 for s in range(len(ids) // per_storey) for what, a, b in groups)
+
+
 @lru_cache(maxsize=16)
 def _structure(family: Family, n_var: int) -> tuple[FrameModel, tuple]:
     """The nominal model and its modulus parameters for a family at size n_var."""
+    if family.structure == "frame3d":
+        model = space_storey_frame(n_var // 3)
+        return model, storey_moduli(model)
     if family.structure == "frame":
         model = storey_frame(n_var // 3)
         return model, element_moduli(model, lower=0.85 * 2.1e11, upper=1.15 * 2.1e11)
@@ -236,7 +292,7 @@ def _truth_and_data(problem_id: str) -> tuple[np.ndarray, ModalData]:
     nominal = modal_analysis(model, N_MODES + 4)
     for _ in range(MAX_DRAWS):
         truth = rng.uniform(lo, hi)
-        truth_model = model.with_element_moduli({p.targets[0]: float(v) for p, v in zip(params, truth)})
+        truth_model = model.with_element_moduli({e: float(v) for p, v in zip(params, truth) for e in p.targets})
         data = synthetic_measurement(truth_model, n_modes=N_MODES, freq_noise=noise[0], shape_noise=noise[1],
                                      seed=id_seed(problem_id, "noise") % 2**32, with_shapes=family.shapes,
                                      model_name=model.name)

@@ -86,6 +86,28 @@ class Hangs:
         time.sleep(3600)
 
 
+class HangsTellingPid:
+    """As Hangs, after writing its process's pid to `pid_file`: a test can then check that the
+    process that would have slept for an hour was ended."""
+
+    def minimize(self, objective, bounds, budget, rng, pid_file=None):
+        Path(pid_file).write_text(str(os.getpid()))
+        objective(rng.uniform(*bounds, size=(2, len(bounds[0]))))
+        time.sleep(3600)
+
+
+def hang_was_ended(pid_file: Path) -> bool:
+    """Whether the process whose pid HangsTellingPid wrote (it would sleep an hour) is gone: no
+    such pid, a zombie, or the pid taken since by a process started after the file was written."""
+    import psutil
+
+    try:
+        p = psutil.Process(int(pid_file.read_text()))
+        return p.status() == psutil.STATUS_ZOMBIE or p.create_time() > pid_file.stat().st_mtime
+    except psutil.NoSuchProcess:
+        return True
+
+
 class Slow:
     """Calls the objective slowly: the harness stops it cooperatively at the time limit."""
 

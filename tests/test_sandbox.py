@@ -92,11 +92,21 @@ def test_what_a_plugin_prints_is_in_its_record_not_on_the_callers_output(capfd):
         assert words in r.output and words not in out + err
 
 
-def test_a_plugin_that_hangs_is_stopped_at_its_time_limit_with_its_evaluations_kept():
-    problem = make_problem("paper")
-    r = adapters.run(plugin(cp.Hangs), problem, BUDGET, 0, time_limit_s=1.0)
-    assert r.status == "timeout" and r.n_evals == 2 == problem.points_evaluated, r.error
-    assert "time limit of 1.0 s" in r.error and r.wall_s < 1.0 + 0.5 + 0.05 + 1.0
+def test_a_plugin_that_hangs_is_stopped_at_its_time_limit_with_its_evaluations_kept(tmp_path):
+    """Checked by behaviour, not by a wall-clock bound (a loaded machine delays any wake-up):
+    stopped by the sandbox's deadline (the error only that path writes), not before the limit
+    + 0.5 s + 5 % as the evaluating side measured it, its process (asleep for an hour) ended."""
+    from adapters.sandbox import worker_deadline_s
+    from sample_plugins import HangsTellingPid, hang_was_ended
+
+    pid_file = tmp_path / "hangs.pid"
+    for name in (plugin(cp.Hangs), plugin(HangsTellingPid)):
+        options = {"pid_file": str(pid_file)} if name.endswith("Pid") else {}
+        r = adapters.run(name, problem := make_problem("paper"), BUDGET, 0, time_limit_s=1.0, **options)
+        assert r.status == "timeout" and r.n_evals == 2 == problem.points_evaluated, r.error
+        assert "time limit of 1.0 s without asking for an evaluation" in r.error, r.error
+        assert r.wall_s >= worker_deadline_s(1.0)
+    assert hang_was_ended(pid_file)
 
 
 def test_the_debugging_mode_runs_in_this_process_and_is_marked_unverified(tmp_path):

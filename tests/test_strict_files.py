@@ -96,3 +96,128 @@ def test_a_mode_given_twice_is_named(tmp_path):
     f.write_text(json.dumps(d))
     with pytest.warns(UserWarning, match=r"field 'modes'\[2\] and \[3\] are the same mode given twice"):
         fp.load_modal_data(f)
+
+
+# -- run records and study.json (femu/studies/store.py RECORD_KEYS, manifest.py STUDY_KEYS) ----------
+def _rename(key, new):
+    return lambda d: d.update({new: d.pop(key)})
+
+
+RECORD_CASES = [  # (edit of a stored run record, what the one error line says)
+    (_rename("best_f", "best_fx"), "unknown key 'best_fx'; did you mean 'best_f'?"),
+    (_rename("n_evals", "n_eval"), "unknown key 'n_eval'; did you mean 'n_evals'?"),
+    (_rename("status", "stauts"), "unknown key 'stauts'; did you mean 'status'?"),
+    (_rename("verified", "verifed"), "unknown key 'verifed'; did you mean 'verified'?"),
+    (_rename("effective_options", "effective_option"),
+     "unknown key 'effective_option'; did you mean 'effective_options'?"),
+    (lambda d: d["capabilities"].update(batchs=d["capabilities"].pop("batch")),
+     "unknown key 'capabilities.batchs'; did you mean 'batch'?"),
+    (lambda d: d.update(comment="rerun by hand"), "unknown key 'comment'; the known keys are best_f, best_x, budget"),
+]
+
+
+@pytest.fixture(scope="module")
+def store(tmp_path_factory):
+    s = tmp_path_factory.mktemp("rec") / "store"
+    assert main(["study", "--optimizers", "random-search", "--seeds", "0-1", "--budget", "10", "--store", str(s),
+                 "--workers", "0", "--no-progress"]) == 0
+    return s
+
+
+def _copy(store, tmp_path):
+    import shutil
+
+    s = tmp_path / "store"
+    shutil.copytree(store, s)
+    return s, sorted((s / "runs").glob("*.json"))[0]
+
+
+def _one_line(capsys, argv, *says):
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+    assert all(s in err for s in says), err
+
+
+@pytest.mark.parametrize("edit,says", RECORD_CASES, ids=[s.split("'")[1] for _, s in RECORD_CASES])
+def test_results_and_report_refuse_an_unknown_key_in_a_run_record(store, tmp_path, capsys, edit, says):
+    s, f = _copy(store, tmp_path)
+    d = json.loads(f.read_text())
+    edit(d)
+    f.write_text(json.dumps(d))
+    capsys.readouterr()
+    for argv in (["results", str(s)], ["results", str(s), "--json"], ["report", str(s), "--out", str(tmp_path / "r")]):
+        _one_line(capsys, argv, f"femu {argv[0]}: error: {f}: not a readable run record ({says}",
+                  "correct or remove that key")
+    assert not (tmp_path / "r").exists()
+    assert main(["results", str(s), "--skip-invalid"]) == 0  # the other run, with the damaged one named
+    out, err = capsys.readouterr()
+    assert out.strip().endswith("1 runs in " + str(s)) and err.count("warning: left out") == 1 and str(f) in err
+
+
+def test_a_record_written_before_the_newer_fields_is_still_read(store, tmp_path, capsys):
+    """A record of format femu.run/1 with the fields of RunResult's first version (before
+    fe_cpu_s, opt_cpu_s, n_jacobians, x0, versions, f_opt, verified, output and the plugin
+    description):
+    read as written, the missing fields at their defaults; the report says it is unverified."""
+    s, f = _copy(store, tmp_path)
+    d = json.loads(f.read_text())
+    old = {k: d[k] for k in ("optimizer", "problem", "seed", "budget", "options", "n_evals", "best_f", "best_x",
+                             "trace", "wall_s", "cpu_s", "fe_s", "status", "error", "variant", "host", "format")}
+    f.write_text(json.dumps(old))
+    capsys.readouterr()
+    assert main(["results", str(s), "--json"]) == 0
+    runs = json.loads(capsys.readouterr().out)
+    back = next(r for r in runs if r["seed"] == d["seed"])
+    assert {k: back[k] for k in old} == old and back["verified"] is False and back["capabilities"] == {}
+    assert main(["report", str(s), "--out", str(tmp_path / "r")]) == 0
+    assert "1 run of `random-search` is **unverified**" in (tmp_path / "r" / "report.md").read_text()
+
+
+def test_every_key_a_study_writes_is_a_key_the_reader_knows(store):
+    from femu.studies.manifest import REQUEST_KEYS, STUDY_KEYS
+    from femu.studies.store import RECORD_KEYS
+
+    for f in (store / "runs").glob("*.json"):
+        assert set(json.loads(f.read_text())) == set(RECORD_KEYS)
+    manifest = json.loads((store / "study.json").read_text())
+    assert set(manifest) == set(STUDY_KEYS) and set(REQUEST_KEYS) == set(STUDY_KEYS) - {"format", "history"}
+
+
+STUDY_CASES = [  # (edit of study.json, what the one error line says)
+    (_rename("seeds", "seedz"), "unknown key 'seedz'; did you mean 'seeds'?"),
+    (_rename("time_limit_s", "time_limit"), "unknown key 'time_limit'; did you mean 'time_limit_s'?"),
+    (lambda d: d.update(workers=2), "unknown key 'workers'; the known keys are budget, executor, format"),
+    (lambda d: d["history"].append({**{k: v for k, v in d.items() if k not in ("format", "history")}, "budgett": 3}),
+     "unknown key 'history[0].budgett'; did you mean 'budget'?"),
+]
+
+
+@pytest.mark.parametrize("edit,says", STUDY_CASES, ids=[s.split("'")[1] for _, s in STUDY_CASES])
+def test_femu_study_refuses_an_unknown_key_in_study_json_and_touches_nothing(store, tmp_path, capsys, edit, says):
+    s, _ = _copy(store, tmp_path)
+    f = s / "study.json"
+    d = json.loads(f.read_text())
+    edit(d)
+    f.write_text(json.dumps(d))
+    before = {p: p.read_bytes() for p in s.rglob("*") if p.is_file()}
+    capsys.readouterr()
+    _one_line(capsys, ["study", "--optimizers", "random-search", "--seeds", "0-2", "--budget", "10", "--store", str(s),
+                       "--workers", "0", "--no-progress"],
+              f"femu study: error: {f}: not a study manifest ({says}", "delete or repair study.json")
+    assert {p: p.read_bytes() for p in s.rglob("*") if p.is_file()} == before
+
+
+def test_a_workers_unknown_capability_flag_never_reaches_a_record():
+    """The worker is the plugin's process: what it says about itself is kept only in the record's
+    documented shape, so a patched description cannot make the record one the reader refuses."""
+    from adapters.harness import RunResult
+    from adapters.sandbox import _description
+    from femu.studies.store import check_record, run_key
+
+    said = _description({"capabilities": {"anytime": True, "evil": True, "batch": "yes"}, "distribution": "x" * 300})
+    assert said["capabilities"] == {"anytime": True} and said["distribution"] is None
+    record = RunResult(optimizer="p", problem="hframe", seed=0, budget=1, verified=True, **said).to_dict()
+    assert check_record(record, run_key("paper", "p", 1, 0)) is None
+    record["capabilities"]["evil"] = True  # as it would be stored without the cut
+    assert check_record(record, run_key("paper", "p", 1, 0)).startswith("unknown key 'capabilities.evil'")

@@ -26,7 +26,7 @@ from femu.cli import main
 from femu.studies.store import Store
 from femu.studies.study import parse_seeds, run_study
 from adapters.variants import make_problem
-from sample_plugins import Hangs, NeedsFifty, Raises, ReturnsNaN, Slow
+from sample_plugins import Hangs, HangsTellingPid, hang_was_ended, NeedsFifty, Raises, ReturnsNaN, Slow
 
 FEMU = [str(Path(sys.executable).parent / "femu")]
 
@@ -224,21 +224,31 @@ def test_failing_plugins_are_stored_and_the_study_goes_on(tmp_path, capsys):
 
 
 def test_hanging_plugin_is_terminated_and_recorded_as_timeout(tmp_path):
-    t0 = time.perf_counter()
-    res = run_study([plugin(Hangs), plugin(Slow), "random-search"], "0", 100, tmp_path / "s", workers=2,
-                    time_limit_s=2.0, progress=False)
-    elapsed = time.perf_counter() - t0
+    """No wall-clock bound on the study (a loaded machine can take any time to start processes):
+    the behaviour is checked. The hung plugin is stopped by the sandbox's deadline (the error
+    only that path writes), not before its limit as the evaluating side measured it, its
+    evaluations kept, and its process (which would sleep an hour) is gone."""
+    from adapters.sandbox import worker_deadline_s
+
+    pid_file = tmp_path / "hangs.pid"
+    hangs = plugin(HangsTellingPid)
+    res = run_study([hangs, plugin(Slow), "random-search"], "0", 100, tmp_path / "s", workers=2,
+                    time_limit_s=2.0, progress=False, options={hangs: {"pid_file": str(pid_file)}})
     hang, slow, rs = res.runs
     # stopped by the sandbox at its limit: its 2 evaluations are kept (before: lost with a killed process)
-    assert hang.status == "timeout" and hang.n_evals == 2 and "time limit of 2.0 s" in hang.error, hang.error
-    assert 2.6 <= hang.wall_s < 10  # its worker killed by the sandbox at 2 s + 0.5 s + 5 %
+    assert hang.status == "timeout" and hang.n_evals == 2, hang.error
+    stopped = re.fullmatch(r"stopped after ([0-9.]+) s: the optimizer passed its time limit of 2\.0 s without asking "
+                           r"for an evaluation; the evaluations done until then are kept", hang.error)
+    assert stopped, hang.error
+    # the limit honoured: its worker killed at 2 s + 0.5 s + 5 %, not earlier
+    assert float(stopped.group(1)) >= round(worker_deadline_s(2.0), 1) and hang.wall_s >= worker_deadline_s(2.0)
+    assert hang_was_ended(pid_file)
     # the cooperative limit keeps what was evaluated (a 0.05 s pause per evaluation: ~40 in 2 s)
     assert slow.status == "timeout" and 0 < slow.n_evals < 100 and math.isfinite(slow.best_f)
     assert rs.status == "ok" and rs.n_evals == 100
     assert not [p for p in multiprocessing.active_children() if p.name.startswith("femu ")]  # the hung one is gone
-    assert elapsed < 30
     stored = {r.optimizer: r.status for r in Store(tmp_path / "s").runs()}
-    assert stored == {plugin(Hangs): "timeout", plugin(Slow): "timeout", "random-search": "ok"}
+    assert stored == {hangs: "timeout", plugin(Slow): "timeout", "random-search": "ok"}
 
 
 # -- kill and resume -----------------------------------------------------------------------
@@ -375,3 +385,32 @@ def test_x0_is_a_study_option_given_to_every_solver_or_none(tmp_path, capsys):
         main(other + ["--x0", "some"])
     assert stop.value.code == 2
     assert "argument --x0: invalid choice: 'some'" in capsys.readouterr().err and not (tmp_path / "t").exists()
+
+
+@pytest.mark.parametrize("workers", ["0", "1"])
+def test_in_process_mode_records_unverified_runs_and_the_report_says_so(tmp_path, capsys, workers):
+    """`femu study --in-process` (debugging): the same runs as in a worker (same seed, same
+    points), each record unverified, study.json and the summary line saying so, and the report
+    naming the unverified runs."""
+    base = ["study", "--optimizers", "random-search", "--seeds", "0-1", "--budget", "30", "--workers", workers,
+            "--no-progress"]
+    assert main(base + ["--store", str(tmp_path / "iso")]) == 0
+    assert main(base + ["--store", str(tmp_path / "dbg"), "--in-process"]) == 0
+    summary = capsys.readouterr().out.strip().splitlines()[-1]
+    assert "2 unverified" in summary and "--in-process" in summary, summary
+    iso, dbg = Store(tmp_path / "iso").runs(), Store(tmp_path / "dbg").runs()
+    assert [r.verified for r in iso] == [True, True] and [r.verified for r in dbg] == [False, False]
+    assert [(r.best_f, r.best_x, r.trace) for r in iso] == [(r.best_f, r.best_x, r.trace) for r in dbg]
+    assert json.loads((tmp_path / "dbg" / "study.json").read_text())["in_process"] is True
+    assert json.loads((tmp_path / "iso" / "study.json").read_text())["in_process"] is False
+    assert main(["report", str(tmp_path / "dbg"), "--out", str(tmp_path / "r")]) == 0
+    assert "2 runs of `random-search` are **unverified**" in (tmp_path / "r" / "report.md").read_text()
+    assert main(["report", str(tmp_path / "iso"), "--out", str(tmp_path / "r2")]) == 0
+    assert "unverified" not in (tmp_path / "r2" / "report.md").read_text()
+
+
+def test_in_process_help_says_what_it_costs(capsys):
+    with pytest.raises(SystemExit):
+        main(["study", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "--in-process" in text and "recorded as unverified" in text

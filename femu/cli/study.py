@@ -38,6 +38,12 @@ def add_arguments(s) -> None:
     s.add_argument("--option", action="append", default=None, metavar="NAME.KEY=VALUE",
                    help="an option for optimizer NAME's minimize, VALUE in JSON (20, 0.5, true, \"text\", [1, 2]); "
                         "repeat for more (`femu optimizers` lists each one's options and defaults)")
+    s.add_argument("--in-process", action="store_true",
+                   help="debugging: run each optimizer in its run's own process (where a debugger or a breakpoint "
+                        "reaches it) instead of a worker without the problem. The cost: a plugin there can reach "
+                        "the problem behind its budget, so every such run is recorded as unverified and reports "
+                        "say so; what it prints is not captured, and with --workers 0 its time limit is only checked when "
+                        "it asks for an evaluation")
     s.add_argument("--retry-failed", action="store_true",
                    help="run again the runs stored as failed or timeout (they are kept otherwise)")
 
@@ -103,7 +109,8 @@ def run(args) -> int:
         result = run_study(args.optimizers, args.seeds, args.budget, args.store, variants=args.variants,
                            workers=args.workers, scheduler=args.scheduler, time_limit_s=args.time_limit, suite=args.suite,
                            progress=not args.no_progress, retry_failed=getattr(args, "retry_failed", False),
-                           x0=getattr(args, "x0", "none"), options=options or None)
+                           x0=getattr(args, "x0", "none"), options=options or None,
+                           isolated=not getattr(args, "in_process", False))
     except KeyboardInterrupt:
         print(f"femu study: interrupted; the finished runs are in {args.store}: the same command resumes the study",
               file=sys.stderr)

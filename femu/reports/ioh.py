@@ -57,7 +57,8 @@ MARKER = "femu-ioh.json"
 #: Our IOHprofiler function ids, one per problem family (a variant is its own family; the
 #: ``paper`` variant is the suite's ``paper`` problem). Stable: never renumber, only add.
 FUNCTION_IDS = {"paper": 20001, "synthetic": 20002, "hframe-freq": 20011, "hframe-shape": 20012,
-                "hframe-freq-noisy": 20013, "hframe-shape-noisy": 20014, "frame-shape": 20015}
+                "hframe-freq-noisy": 20013, "hframe-shape-noisy": 20014, "frame-shape": 20015,
+                "frame3d-freq": 20016, "frame3d-shape": 20017}
 #: The ids of femu-bench 0.1's first exports (1, 2, 11-15), which collided with BBOB's 1-24.
 OLD_FUNCTION_IDS = {"paper": 1, "synthetic": 2, "hframe-freq": 11, "hframe-shape": 12, "hframe-freq-noisy": 13,
                     "hframe-shape-noisy": 14, "frame-shape": 15}

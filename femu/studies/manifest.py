@@ -9,6 +9,8 @@ from datetime import datetime, timezone
 
 from adapters.provenance import library_versions
 
+from fe_problem.jsonutil import unknown_key
+
 from .store import Store, StoreError, _is_int, _is_num
 
 STUDY_FORMAT = "femu.study/1"
@@ -49,6 +51,7 @@ REQUEST_FIELDS = (
     ("options", False, lambda v: isinstance(v, dict), "an object"),
     ("retry_failed", False, lambda v: isinstance(v, bool), "true or false"),
     ("x0", False, lambda v: v in ("none", "all"), "none or all"),
+    ("in_process", False, lambda v: isinstance(v, bool), "true or false"),
     ("executor", True, lambda v: isinstance(v, str) and v, "a non-empty string"),
     ("started", True, _is_time, "an ISO 8601 time"),
     ("host", False, lambda v: isinstance(v, str), "a string"),
@@ -57,11 +60,21 @@ REQUEST_FIELDS = (
 )
 
 
+#: The keys of one request (REQUEST_FIELDS' names), and of the whole study.json: a key not
+#: listed (a misspelt ``seedz``, a hand-added field) is refused, never ignored.
+REQUEST_KEYS = tuple(name for name, *_ in REQUEST_FIELDS)
+STUDY_KEYS = ("format", *REQUEST_KEYS, "history")
+
+
 def check_manifest(d) -> str | None:
-    """What is wrong with the study manifest `d` (None if nothing): its format, every request
-    field with its type and range, and each earlier request in ``history``."""
+    """What is wrong with the study manifest `d` (None if nothing): an unknown key (with its
+    path and the known key it was probably meant to be), its format, every request field with
+    its type and range, and each earlier request in ``history``."""
     if not isinstance(d, dict):
         return f"a JSON {type(d).__name__}, not an object"
+    problem = unknown_key(d, STUDY_KEYS)
+    if problem:
+        return problem
     if d.get("format") != STUDY_FORMAT:
         return f"field 'format': {d.get('format')!r} is not {STUDY_FORMAT!r}"
     history = d.get("history", [])
@@ -70,6 +83,8 @@ def check_manifest(d) -> str | None:
     for where, req in [("", d)] + [(f"history[{i}].", h) for i, h in enumerate(history)]:
         if not isinstance(req, dict):
             return f"field '{where.rstrip('.')}': must be an object"
+        if where and (problem := unknown_key(req, REQUEST_KEYS, where)):
+            return problem
         for name, required, ok, what in REQUEST_FIELDS:
             if name not in req:
                 if required:

@@ -29,8 +29,9 @@ from urllib.parse import quote
 
 import psutil
 
+from adapters.capabilities import CAPABILITIES
 from adapters.harness import RECORD_FORMAT, RunResult
-from fe_problem.jsonutil import dumps, read_json_file
+from fe_problem.jsonutil import dumps, read_json_file, unknown_key
 from fe_problem.model.validate import is_number, shown
 
 
@@ -61,11 +62,25 @@ def _is_num(v) -> bool:
 J_ROUNDING = 1e-12
 
 
+#: The keys of a run record (format femu.run/1): RunResult's fields, defined there once. Records
+#: written before a field existed lack it (it reads as its default); a key not listed here
+#: (a misspelt ``best_fx``, a hand-added field) is refused, never ignored.
+RECORD_KEYS = tuple(RunResult.__dataclass_fields__)
+#: The keys of a record's ``capabilities`` object (adapters.capabilities).
+CAPABILITY_KEYS = CAPABILITIES
+
+
 def check_record(d, key: str) -> str | None:
-    """What is wrong with the run record `d` stored under `key` (None if nothing): every field
-    of format femu.run/1 with its type and range, and the key it must be stored under."""
+    """What is wrong with the run record `d` stored under `key` (None if nothing): an unknown
+    key (with its path and the known key it was probably meant to be), every field of format
+    femu.run/1 with its type and range, and the key it must be stored under."""
     if not isinstance(d, dict):
         return f"a JSON {type(d).__name__}, not an object"
+    problem = unknown_key(d, RECORD_KEYS)
+    if problem is None and isinstance(d.get("capabilities"), dict):
+        problem = unknown_key(d["capabilities"], CAPABILITY_KEYS, "capabilities.")
+    if problem:
+        return problem
     if d.get("format", RECORD_FORMAT) != RECORD_FORMAT:
         return f"field 'format': {d.get('format')!r} is not {RECORD_FORMAT!r}"
     for name in ("optimizer", "problem", "variant"):
@@ -98,6 +113,14 @@ def check_record(d, key: str) -> str | None:
                            ("host", isinstance(d.get("host", ""), str), "a string"),
                            ("verified", isinstance(d.get("verified", False), bool), "true or false"),
                            ("output", isinstance(d.get("output", ""), str), "a string"),
+                           ("distribution", d.get("distribution") is None or isinstance(d["distribution"], str),
+                            "a string or null"),
+                           ("distribution_version", d.get("distribution_version") is None
+                            or isinstance(d["distribution_version"], str), "a string or null"),
+                           ("effective_options", isinstance(d.get("effective_options", {}), dict), "an object"),
+                           ("capabilities", isinstance(d.get("capabilities", {}), dict)
+                            and all(isinstance(v, bool) for v in d.get("capabilities", {}).values()),
+                            "an object of capability -> true or false"),
                            ("versions", isinstance(d.get("versions", {}), dict), "an object of library -> version")):
         if not ok:
             return f"field {name!r}: must be {need}, got {shown(d.get(name))}"
@@ -319,7 +342,8 @@ class Store:
         else:
             problem = check_record(data, key)
         if problem:
-            raise StoreError(f"{path}: not a readable run record ({problem}); {REDO_HINT}")
+            hint = f"correct or remove that key, or {REDO_HINT}" if problem.startswith("unknown key") else REDO_HINT
+            raise StoreError(f"{path}: not a readable run record ({problem}); {hint}")
         return RunResult.from_dict(data)
 
     def runs(self, skip_invalid: bool = False) -> list[RunResult]:

@@ -105,6 +105,10 @@ class StudyResult:
             statuses += f", {c['stopped']} stopped"
         line = (f"femu study: {len(self.runs)} runs in {self.store} ({self.n_new} new, {self.n_kept} kept): "
                 f"{statuses}; {self.wall_s:.1f} s ({self.executor})")
+        unverified = sum(1 for r in self.runs if not r.verified)
+        if unverified:
+            line += (f"; {unverified} unverified (their optimizer ran in the problem's own process: --in-process, "
+                     f"or recorded before the sandbox)")
         if self.n_elsewhere:
             line += (f"; {self.n_elsewhere} runs left to another process running them on this store "
                      f"(the same command gathers them once it has finished)")
@@ -224,7 +228,8 @@ def _stored_runs(store: Store, grid: list[Task]) -> dict[str, RunResult]:
 
 def run_study(optimizers, seeds, budget: int, store, variants=None, workers: int | None = None,
               scheduler: str | None = None, time_limit_s: float | None = None, progress: bool = True,
-              options: dict | None = None, retry_failed: bool = False, suite=None, x0: str = "none") -> StudyResult:
+              options: dict | None = None, retry_failed: bool = False, suite=None, x0: str = "none",
+              isolated: bool = True) -> StudyResult:
     """Run the grid optimizers x variants x seeds with `budget` FE evaluations per run into
     `store` (a directory), skipping the runs already stored.
 
@@ -238,6 +243,9 @@ def run_study(optimizers, seeds, budget: int, store, variants=None, workers: int
     passed to that optimizer's minimize. retry_failed: run again stored failed/timeout runs.
     x0: ``none`` (every solver starts from its own seeded draws) or ``all`` (every solver is
     given the problem's initial point; a plugin whose minimize takes no x0 is refused).
+    isolated: each optimizer in a worker process without the problem (adapters.sandbox); False
+    runs it in its run's own process, for debugging (`femu study --in-process`): its records
+    are unverified, and reports say so.
     Raises ValueError (StoreError for the store) before running anything on bad input.
     """
     optimizers, seeds, budget, variants, options = _check_inputs(
@@ -250,7 +258,7 @@ def run_study(optimizers, seeds, budget: int, store, variants=None, workers: int
             refused = optimizer_facts(name, n_vars, options.get(name, {}))["x0_refused"]
             if refused:
                 raise ValueError(refused)
-    grid = [Task(o, v, budget, s, options.get(o, {}), time_limit_s, x0)
+    grid = [Task(o, v, budget, s, options.get(o, {}), time_limit_s, x0, bool(isolated))
             for v in variants for o in optimizers for s in seeds]
     stored = _stored_runs(store, grid)
     store.remove_stale_claims()  # left by studies that were killed, whatever runs they were for
@@ -269,7 +277,8 @@ def run_study(optimizers, seeds, budget: int, store, variants=None, workers: int
         write_manifest(store, {"optimizers": optimizers, "seeds": seeds, "budget": budget, "variants": variants,
                                "suite": suite if suite is None or isinstance(suite, str) else list(suite),
                                "time_limit_s": time_limit_s, "options": options,
-                               "retry_failed": bool(retry_failed), "x0": x0}, executor.name)
+                               "retry_failed": bool(retry_failed), "x0": x0, "in_process": not isolated},
+                       executor.name)
         records = {t.key: stored[t.key] for t in grid if t.key in stored}
         todo_keys = {t.key for t in todo}
         kept_failed = sum(1 for k, r in records.items() if k not in todo_keys and r.status in RETRY_STATUSES)

@@ -26,7 +26,9 @@ from .store import run_key
 @dataclass(frozen=True)
 class Task:
     """One run of the grid. time_limit_s in seconds (None: no limit); x0: what the solver is told
-    of the start (``none`` or ``all``, adapters.budget.X0_MODES)."""
+    of the start (``none`` or ``all``, adapters.budget.X0_MODES); isolated: the optimizer in a
+    worker process without the problem (adapters.sandbox), False for the in-process debugging
+    mode (`femu study --in-process`: the record is unverified)."""
 
     optimizer: str
     variant: str
@@ -35,6 +37,7 @@ class Task:
     options: dict = field(default_factory=dict)
     time_limit_s: float | None = None
     x0: str = "none"
+    isolated: bool = True
 
     @property
     def key(self) -> str:
@@ -71,7 +74,7 @@ def run_task(task: Task, on_start: Callable[[], None] | None = None) -> dict:
         if on_start is not None:
             on_start()
         record = run(task.optimizer, problem, task.budget, task.seed, time_limit_s=task.time_limit_s,
-                     variant=task.variant, x0=task.x0, **task.options).to_dict()
+                     variant=task.variant, x0=task.x0, isolated=task.isolated, **task.options).to_dict()
         return dict(record, f_opt=getattr(problem, "f_opt", None))
     except Exception as exc:
         return lost_record(task, "failed", f"{type(exc).__name__}: {exc}\n{traceback.format_exc(limit=6)}",
@@ -88,7 +91,7 @@ def lost_record(task: Task, status: str, error: str, wall_s: float) -> dict:
     """The record of a run whose process returned nothing (hard timeout, crash)."""
     return RunResult(optimizer=task.optimizer, problem=_problem_name(task.variant), seed=task.seed,
                      budget=task.budget, options=dict(task.options), wall_s=wall_s, status=status, x0=task.x0,
-                     error=error, variant=task.variant, host=platform.node(), verified=True).to_dict()
+                     error=error, variant=task.variant, host=platform.node(), verified=task.isolated).to_dict()
 
 
 def hard_deadline_s(time_limit_s: float | None) -> float | None:
