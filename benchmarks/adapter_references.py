@@ -4,8 +4,10 @@ and their ratio (adapter / reference; below 1: the adapter is better).
 
     cd benchmarks && OPENBLAS_NUM_THREADS=1 python adapter_references.py --budget 1000 --seeds 5 --write
 
---write replaces the table in docs/suite.md (between its "adapter-references" markers);
-without it the table is printed. Runs go through `adapters.run`, so the numbers are the ones a
+--write puts the rows into the table in docs/suite.md (between its "adapter-references"
+markers), keeping the rows of built-ins not run this time (`--optimizers optuna-tpe` updates
+that built-in's rows alone; a table of another budget or other seeds is refused); without it
+the table is printed. Runs go through `adapters.run`, so the numbers are the ones a
 study would store. --optimizers selects built-ins (default: every one with a reference).
 """
 
@@ -85,9 +87,28 @@ def main(argv=None) -> int:
     if BEGIN not in s:
         s = s.rstrip("\n") + "\n\n## Adapters against their libraries\n\n" + BEGIN + "\n" + END + "\n"
     head, rest = s.split(BEGIN)
-    doc.write_text(head + BEGIN + "\n" + text + "\n" + END + rest.split(END, 1)[1])
+    old, tail = rest.split(END, 1)
+    doc.write_text(head + BEGIN + "\n" + merged(old, text, args.optimizers.split(",")) + "\n" + END + tail)
     print(f"wrote the table into {doc}")
     return 0
+
+
+def merged(old: str, new: str, names) -> str:
+    """The table `new` with the rows of `old` for the built-ins not in `names` kept, in the order
+    of REFERENCES: one built-in's rows are regenerated without running the others again. Refused
+    (ValueError) when `old` was made at another budget or with other seeds (its first line)."""
+    old_lines, new_lines = old.strip().splitlines(), new.strip().splitlines()
+    if not old_lines:
+        return new
+    if old_lines[0] != new_lines[0]:
+        raise ValueError("the table in docs/suite.md was made with another budget or other seeds "
+                         f"({old_lines[0][:80]}...): regenerate every row (--optimizers {','.join(REFERENCES)})")
+    rows = {}
+    for line in old_lines[4:] + new_lines[4:]:  # the new rows after the old: they replace them
+        name = line.split("`")[1]
+        rows.setdefault(name, {})[line.split("|")[3].strip()] = line
+    kept = [n for n in REFERENCES if n in rows] + [n for n in rows if n not in REFERENCES]
+    return "\n".join(new_lines[:4] + [line for n in kept for line in rows[n].values()])
 
 
 if __name__ == "__main__":

@@ -217,9 +217,9 @@ def test_budget_below_the_methods_minimum_is_refused():
             adapters.run(name, big, 47, seed=0)
     assert big.n_evals == 0
     assert adapters.run("pymoo-ga", big, 48, seed=0).n_evals == 48
-    # the surrogate's minimum follows the design size it is given: the design and one refit
-    with pytest.raises(ValueError, match="'mlp-surrogate' needs a budget of at least 31 evaluations, got 30"):
-        adapters.run("mlp-surrogate", p, 30, seed=0, n_initial=30)
+    # the minimum follows an option it is given: CMA-ES's first generation is the popsize asked for
+    with pytest.raises(ValueError, match="'cma-es' needs a budget of at least 30 evaluations, got 29"):
+        adapters.run("cma-es", p, 29, seed=0, popsize=30)
     assert p.n_evals == 0
 
 

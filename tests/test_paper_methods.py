@@ -210,14 +210,38 @@ def test_sensitivity_fits_the_whole_residual_of_the_synthetic_variant():
 
 
 def test_mlp_surrogate_evaluates_the_design_then_one_point_per_refit():
-    obj, finished = _drive(MLPSurrogate(), make_problem("paper"), 170, 3)
+    obj, finished = _drive(MLPSurrogate(), make_problem("paper"), 70, 3)
     assert finished == "ok"
-    assert [len(b) for b in obj.batches] == [150] + [1] * 20
+    assert [len(b) for b in obj.batches] == [26] + [1] * 44  # 2 (n_var + 1) design points, whatever the budget
     U = (obj.batches[0] - obj.bounds[0]) / (obj.bounds[1] - obj.bounds[0])
     for j in range(12):  # a Latin hypercube in the bounds
-        np.testing.assert_array_equal(np.sort(np.floor(U[:, j] * 150)), np.arange(150))
-    small, _ = _drive(MLPSurrogate(), make_problem("paper"), 64, 3)
-    assert len(small.batches[0]) == 60  # the paper's 150/160 of a smaller budget
+        np.testing.assert_array_equal(np.sort(np.floor(U[:, j] * 26)), np.arange(26))
+    # every refit's point lies in the trust region: within length_max / 2 of the best point before it
+    span, p = obj.bounds[1] - obj.bounds[0], make_problem("paper")
+    for k in range(1, len(obj.batches)):
+        seen = np.vstack(obj.batches[:k])
+        best = seen[np.argmin(p.evaluate(seen))]
+        assert np.all(np.abs(obj.batches[k][0] - best) <= 0.4 * span + 1e-9 * span)
+    short, _ = _drive(MLPSurrogate(), make_problem("paper"), 20, 3)
+    assert [len(b) for b in short.batches] == [26] and short.n_evals == 20  # the design's first 20 points
+    np.testing.assert_array_equal(short.batches[0], obj.batches[0])
+
+
+def test_mlp_surrogate_warm_start_rescaling_is_the_same_function():
+    """_refitted_scales: the network with transformed weights on rescaled inputs and targets
+    predicts the same values of y(u) as before, to round-off."""
+    from adapters.mlp_surrogate import _refitted_scales
+
+    rng = np.random.default_rng(0)
+    net = MLP(5, 8)
+    w = net.init(rng) * 3.0
+    c0, s0, m0, d0 = rng.random(5), rng.random(5) + 0.1, -3.0, 2.0
+    c1, s1, m1, d1 = rng.random(5), rng.random(5) + 0.1, -7.5, 0.3
+    u = rng.random((50, 5))
+    y0 = m0 + d0 * net.predict(w, (u - c0) / s0)
+    w1 = _refitted_scales(w, net, (c1 - c0) / s0, s1 / s0, (m0 - m1) / d1, d0 / d1)
+    y1 = m1 + d1 * net.predict(w1, (u - c1) / s1)
+    np.testing.assert_allclose(y1, y0, rtol=1e-12, atol=1e-12)
 
 
 def test_deap_ga_batches_are_generations_and_paper_settings_run():
