@@ -20,7 +20,8 @@ BUDGET, SEEDS = 300, (0, 1, 2)
 RATIO = 3.0
 
 
-@pytest.mark.parametrize("name", ["cma-es", "sensitivity", "pymoo-ga", "deap-ga-stock", "pyswarms-pso", "scipy-sa"])
+@pytest.mark.parametrize("name", ["cma-es", "optuna-cmaes", "sensitivity", "pymoo-ga", "deap-ga-stock", "pyswarms-pso",
+                                  "scipy-sa"])
 def test_adapter_is_within_a_small_factor_of_its_library(name):
     ref = REFERENCES[name][0]
     for pid in PROBLEMS:
