@@ -145,6 +145,18 @@ class Observations:
         u_a = model_shapes[:, :, np.clip(idx[sel], 0, None)]                     # (b, n_coord, n_sel)
         u_a = u_a / np.linalg.norm(u_a, axis=1, keepdims=True)
         u_m = self.shapes[:, sel]
+        # close modes as `residuals` treats them: only the (model, mode) pairs that have a
+        # neighbour within reach go through `close_mode_shape` (none on most models)
+        cols = np.flatnonzero(sel)
+        j = np.clip(idx[cols], 0, None)
+        hz_j = model_hz[:, j]                                                       # (b, n_sel)
+        gap = np.abs(model_hz[:, None, :] - hz_j[:, :, None]) / hz_j[:, :, None]   # (b, n_sel, k)
+        near = gap < CLOSE_MODES_REACH * CLOSE_MODES_REL
+        near[:, np.arange(len(cols)), j] = False
+        for b, col in zip(*np.nonzero(near.any(axis=2) & ok[cols][None, :])):
+            mixed = close_mode_shape(u_m[:, col], model_hz[b], model_shapes[b], j[col])
+            if mixed is not None:
+                u_a[b, :, col] = mixed
         u_a = u_a * np.where(np.sum(u_a * u_m, axis=1, keepdims=True) < 0, -1.0, 1.0)
         u_a = np.where(ok[sel][None, None, :], u_a, 0.0)
         sigma = self.shape_noise * np.max(np.abs(u_m), axis=0)
