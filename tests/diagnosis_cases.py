@@ -92,9 +92,6 @@ class Case:
     dofs: tuple | None = None
     #: a fault of the data: ("reverse", channel) or ("swap", channel, channel), channels as (node, dir)
     fault: tuple = ()
-    #: how many modes are measured, and whether without shapes (frequencies only)
-    n_modes: int = N_MODES
-    frequencies_only: bool = False
 
     @property
     def truths(self) -> tuple:
@@ -102,12 +99,10 @@ class Case:
         return self.effects or (() if self.kind == "none" else ((self.kind, self.location),))
 
     def data(self, model_name: str = "hframe") -> fp.ModalData:
-        """`n_modes` (8) modes with 0.2 % frequency noise and shape noise of 2 % of each mode's largest entry."""
-        data = fp.synthetic_measurement(self.truth, self.n_modes, dofs=self.dofs or (self.nominal or HFRAME).measured_dofs,
+        """8 modes with 0.2 % frequency noise and shape noise of 2 % of each mode's largest entry."""
+        data = fp.synthetic_measurement(self.truth, N_MODES, dofs=self.dofs or (self.nominal or HFRAME).measured_dofs,
                                         freq_noise=FREQ_NOISE, shape_noise=SHAPE_NOISE, seed=self.seed,
                                         model_name=model_name)
-        if self.frequencies_only:
-            data = data.without_shapes()
         if not self.fault:
             return data
         shapes = data.shapes.copy()  # the fault made as a test makes it: on the data's columns
@@ -383,44 +378,6 @@ def storey_gradient_truth(model: FrameModel, drop: float) -> FrameModel:
         k = sum(f < 0.5 * (a.y + b.y) for f in floors)  # storeys below: 0 for the bottom storey
         moduli[e.id] = model.element_modulus_pa(e.id) * (1.0 - drop * (n - 1 - k) / max(n - 1, 1))
     return model.with_element_moduli(moduli)
-
-
-def shear_frame() -> FrameModel:
-    """A four-storey laboratory shear frame as the issue's real one is measured: one 0.3 m bay,
-    0.25 m storeys, the H-frame's bar as columns, floors 3 times as deep (stiff beams), a 0.5 kg
-    floor mass at each floor node, fixed base, and one sensor per floor (x at the left floor
-    node): 4 modes at 4 floors. The repository has no such laboratory data; this model stands in
-    for it (`regular_frame`)."""
-    bar = HFRAME.sections["bar"]
-    model = fp.regular_frame(1, 4, 0.3, 0.25, column=bar, beam=Section(3 * bar.area_m2, 27 * bar.inertia_m4),
-                             material=HFRAME.materials["aluminium"], floor_mass_kg=0.5, name="shear4",
-                             description="a four-storey shear frame written for the diagnosis tests")
-    floors = sorted({n.y for n in model.nodes if n.y > 0})
-    left = [min((n for n in model.nodes if n.y == y), key=lambda n: n.x).id for y in floors]
-    return model.replace(measured_dofs=tuple((n, "x") for n in left))
-
-
-SHEAR4 = shear_frame()
-
-
-def storey_ratios_truth(model: FrameModel, ratios) -> FrameModel:
-    """The columns of storey k (0 at the base) with their moduli times ratios[k], written as
-    element moduli in the model file (not with the candidate code)."""
-    floors = sorted({round(n.y, 9) for n in model.nodes})
-    moduli = {}
-    for e in model.elements:
-        a, b = model.node(e.node_i), model.node(e.node_j)
-        if a.x != b.x:
-            continue
-        k = sum(f < 0.5 * (a.y + b.y) for f in floors) - 1
-        moduli[e.id] = model.element_modulus_pa(e.id) * float(ratios[k])
-    return model.with_element_moduli(moduli)
-
-
-def member_ratios_truth(model: FrameModel, ratios: dict) -> FrameModel:
-    """Members' moduli times their ratio (element id -> ratio), edited in the model file: a
-    gradient over adjacent members."""
-    return model.with_element_moduli({e: model.element_modulus_pa(e) * float(r) for e, r in ratios.items()})
 
 
 def moved_node_truth(model: FrameModel, node: int, dx: float, dy: float) -> FrameModel:

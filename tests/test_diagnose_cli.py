@@ -53,9 +53,7 @@ CORRELATION_KEYS = ["measured_hz", "model_hz", "error_pct", "mean_abs_error_pct"
                     "mean_comac", "paired_model_mode"]
 RECORD_KEYS = {
     "record": ["cause", "alternatives", "residuals", "gain", "selection", "candidates", "warnings", "extended_model",
-               "causes", "adequate", "goodness_of_fit", "noise", "data_checks", "evidence", "chosen_class",
-               "search_causes"],
-    "chosen_class": ["label", "family", "log_evidence", "reason", "replaced", "margin", "rival"],
+               "causes", "adequate", "goodness_of_fit", "noise", "data_checks", "evidence"],
     "found": ["kind", "location", "estimate", "interval", "label", "p_adjusted", "identifiable", "plausible"],
     "goodness_of_fit": ["adequate", "chi2", "dof", "reduced_chi2", "p_value", "alpha", "implied_freq_noise",
                         "implied_shape_noise", "explanation"],
@@ -101,8 +99,6 @@ def assert_record_keys(record: dict, cause: str, gain: str) -> None:
     assert isinstance(record["adequate"], bool) and record["adequate"] == record["goodness_of_fit"]["adequate"]
     assert list(record["goodness_of_fit"]) == RECORD_KEYS["goodness_of_fit"]
     assert list(record["noise"]) == RECORD_KEYS["noise"]
-    assert list(record["chosen_class"]) == RECORD_KEYS["chosen_class"]
-    assert record["chosen_class"]["reason"] and isinstance(record["search_causes"], list)
 
 
 def test_json_names_the_added_mass_and_out_writes_a_usable_extended_model(files, capsys, tmp_path):

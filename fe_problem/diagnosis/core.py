@@ -51,16 +51,14 @@ from .candidates import Candidate, Setting, all_candidates, scale_stiffness, sol
 from . import plausibility
 from .datachecks import DataCheck, check_data, spurious_modes
 from .evidence import FACTOR_10, Evidence, ScoredClass, occam_log_factor, ranked
-from .combined import Combination, combinations
 from .groups import distributed_candidates
 from .modelform import model_form_candidates
 from .plausibility import few_dof_note
 from .fit import Fit, chi2_batch, fit, look_along, profiled, screen
 from . import sparse_class
 from .nested import require_dynesty, rescored
-from .record import (Cause, CandidateFit, ChosenClass, Diagnosis, Found, Gain, Noise, PinnedParameter, Residuals,
-                     Selection)
-from .verdict import interval_of, profile_interval, verdict
+from .record import Cause, CandidateFit, Diagnosis, Gain, Noise, PinnedParameter, Residuals, Selection
+from .verdict import profile_interval, verdict
 from .residuals import Observations
 from .screening import linear_bounded_moduli, screen_all, screen_steps
 
@@ -113,11 +111,9 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
             warnings.append(v.explanation)
         checks = checks + spurious_modes(cal.unpaired, cal.unpaired, cal.obs_all.frequencies_hz, _explained(checks))
         ev = score_classes(cal, found, None, evidence)
-        choice = ChosenClass("calibrated model (no effect)", "none", 0.0, "the likelihood-ratio test finds nothing "
-                             "significant: no class is chosen over the calibrated model")
         return Diagnosis(cause, alternatives, residuals_of(cal), gain(cal, None), tuple(sel.rows.values()),
                          sel.selection, None, tuple(warnings + _fault_notes(checks) + _evidence_notes(ev, None)), (),
-                         v, noise, checks, ev, choice)
+                         v, noise, checks, ev)
     cause, alternatives, _ = extend(cal, found, sel)
     from .rounds import further_causes  # it uses this module's steps
 
@@ -137,17 +133,10 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
     if len(cal.unpaired):
         final_unpaired = calibrate(rounds.model, data, noise.freq_noise, noise.shape_noise, model).unpaired
         checks = checks + spurious_modes(cal.unpaired, final_unpaired, cal.obs_all.frequencies_hz, _explained(checks))
-    ev, fits = scored_classes(cal, found, rounds, evidence)
-    choice = choose_class(cal, ev, fits, rounds)
-    if choice.fitted is None and choice.rival is not None:  # the same member's other form as good
-        cause = _rivalled(cause, choice)
-        causes = (_rivalled(causes[0], choice),) + causes[1:]
-        warnings.append(f"chosen by evidence: {choice.reason}")
-    if choice.fitted is None:  # the search's own answer is the best class by evidence
-        return Diagnosis(cause, alternatives, residuals_of(cal), rounds.gain, tuple(sel.rows.values()), sel.selection,
-                         extended, tuple(warnings + _fault_notes(checks) + _evidence_notes(ev, rounds, choice)), causes,
-                         v, noise, checks, ev, choice)
-    return _class_answer(cal, model, sel, alternatives, choice, ev, rounds, causes, checks, noise, alpha)
+    ev = score_classes(cal, found, rounds, evidence)
+    return Diagnosis(cause, alternatives, residuals_of(cal), rounds.gain, tuple(sel.rows.values()), sel.selection,
+                     extended, tuple(warnings + _fault_notes(checks) + _evidence_notes(ev, rounds)), causes, v, noise,
+                     checks, ev)
 
 
 # == evidence between model classes (evidence.py, groups.py) ====================================
@@ -160,56 +149,27 @@ EVIDENCE_METHODS = ("laplace", "nested")
 
 
 def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str = "laplace") -> Evidence:
-    """Every class scored by its evidence against the calibrated model (`scored_classes`)."""
-    return scored_classes(cal, found, rounds, evidence)[0]
-
-
-def scored_classes(cal: "Calibration", found: "Screening", rounds,
-                   evidence: str = "laplace") -> tuple[Evidence, dict]:
     """Every class scored by its Laplace evidence against the calibrated model: no effect, each
-    fitted local candidate, the best-screened distributed classes (groups.py), the regions grown
-    from a stiffness change the search found (rounds.grown_regions), the model-form classes, "every member" sparse
-    (sparse_class.py) and, with several causes, the model with all of them; the best few with their held-out prediction
-    error. Returns the evidence and label -> (candidate, fit, family) of every one-parameter class
-    scored, so that the answer can be the best class (`choose_class`). evidence ``nested``: the
-    best classes by Laplace scored again by nested sampling (nested.py; the several-cause model
-    and the combinations keep their Laplace value)."""
+    fitted local candidate, the best-screened distributed classes (groups.py), "every member"
+    sparse (sparse_class.py) and, with several causes, the model with all of them; the best few
+    with their held-out prediction error. evidence ``nested``: the best classes by Laplace
+    scored again by nested sampling (nested.py; the several-cause model keeps its Laplace value)."""
     obs, base = cal.obs, cal.base
-    dense = solver_path(len(cal.setting.local.dofmap.free)) == "dense"
     distributed = distributed_candidates(cal.setting)
     promise = [max(screen(obs, c, base), look_along(obs, c, base), key=lambda x: x[0]) for c in distributed]
-    top = sorted(range(len(distributed)), key=lambda i: (-promise[i][0], i))[:N_DISTRIBUTED_FIT]
-    fits = [(found.candidates[i], f, "local") for i, f in sorted(found.fitted.items())]
+    top = sorted(range(len(distributed)), key=lambda i: -promise[i][0])[:N_DISTRIBUTED_FIT]
+    fits = [(found.candidates[i], f, "local") for i, f in found.fitted.items()]
     fits += [(distributed[i], fit(obs, distributed[i], promise[i][1]), "distributed") for i in top]
-    if rounds is not None:
-        from .rounds import grown_regions  # it uses this module's steps
-
-        labels = {c.label for c, _, _ in fits}
-        if len(rounds.sized) == 1 and rounds.sized[0][0].label not in labels and rounds.obs.n_modes == obs.n_modes:
-            # the search's answer chosen again in a later round: scored on the same modes as the rest
-            c1, a1 = rounds.sized[0]
-            fits.append((c1, fit(obs, c1, a1), "local"))
-        # regions and combinations where a solve is cheap (the dense path): on a large model their
-        # hundreds of batched solves would take minutes
-        if dense:
-            fits += [(c, f, "distributed") for c, f in grown_regions(cal, rounds) if c.label not in labels]
-        # the model-form alternatives: every node and element screened, the best fitted
-        # (a proper fit where a solve is cheap: a coarse one leaves the class short of its optimum,
-        # and a thinner member's own class then lost to a crack's zone by less than its misfit)
+    if rounds is not None:  # the model-form alternatives: every node and element screened, the best fitted
         forms = model_form_candidates(cal.setting)
-        steps = screen_steps(obs, base, cal.setting, forms)
-        fits += [(forms[i], fit(obs, forms[i], steps[i][1]) if dense else coarse_fit(obs, forms[i]), "model_form")
-                 for i in sorted(range(len(forms)), key=lambda i: (-steps[i][0], i))[:N_FORM_FIT]]
-    combos = []
-    if rounds is not None and dense:  # several distributed classes at once (combined.py)
-        spread = [(c, f) for c, f, family in fits if family == "distributed"]
-        combos = combinations(cal.setting, obs, spread, ALPHA, distributed)
+        drops = [d for d, _ in screen_steps(obs, base, cal.setting, forms)]
+        fits += [(forms[i], coarse_fit(obs, forms[i]), "model_form")
+                 for i in sorted(range(len(forms)), key=lambda i: -drops[i])[:N_FORM_FIT]]
     several = rounds is not None and len(rounds.sized) > 1
     sparse = sparse_class.fit_sparse(cal.setting, obs, base.pairing)  # "every member", sparse (None: n/a)
     # the sparse class does not set the dispersion: with many members and few data its misfit says
     # little about the noise (it would move every other class's evidence)
     reduced = [base.chi2 / obs.dof(1)] + [f.chi2 / obs.dof(2) for _, f, _ in fits]
-    reduced += [cb.fit.chi2 / obs.dof(1 + len(cb.parts)) for cb in combos]
     if several:
         reduced.append(rounds.final.chi2 / rounds.obs.dof(1 + len(rounds.sized)))
     d = max(1.0, min(reduced))
@@ -219,12 +179,6 @@ def scored_classes(cal: "Calibration", found: "Screening", rounds,
                                  cand.upper, d)
         classes.append(ScoredClass(cand.label, family, 1, f.chi2, -(f.chi2 - base.chi2) / (2 * d) + occam,
                                    cand.estimate(f.a, f.s)))
-    for cb in combos:
-        occam = sum(occam_log_factor(lambda a, c=c: [x.chi2 for x in chi2_batch(obs, c, np.asarray(a))], a_j,
-                                     c.upper, d) for c, a_j in cb.parts)
-        classes.append(ScoredClass(cb.label, "distributed", len(cb.parts), cb.fit.chi2,
-                                   -(cb.fit.chi2 - base.chi2) / (2 * d) + occam,
-                                   {c.label: c.estimate(a_j, cb.fit.s) for c, a_j in cb.parts}))
     if several:
         # judged on the modes that pair with the final model; the calibrated model on the same modes
         base_r = profiled(rounds.obs, cal.hz0, cal.sh0)
@@ -236,11 +190,11 @@ def scored_classes(cal: "Calibration", found: "Screening", rounds,
         classes.append(sparse_class.with_dispersion(sparse, d).scored(base.chi2, d, sparse_class.held_out_error(
             cal.setting, cal.data, cal.used, sparse, obs.freq_noise, obs.shape_noise)))
     ev = ranked(_one_per_answer(classes), "laplace", d)
-    by_label = {c.label: (c, f, family) for c, f, family in fits}
+    by_label = {c.label: c for c, _, _ in fits}
     out = []
     for k, c in enumerate(ev.classes):
         if k < N_HELD_OUT and (c.label in by_label or c.family == "none"):
-            c = dataclasses.replace(c, held_out_error_pct=_held_out_error(cal, by_label.get(c.label, (None,))[0]))
+            c = dataclasses.replace(c, held_out_error_pct=_held_out_error(cal, by_label.get(c.label)))
         out.append(c)
     ev = dataclasses.replace(ev, classes=tuple(out))
     if evidence == "nested":
@@ -251,122 +205,7 @@ def scored_classes(cal: "Calibration", found: "Screening", rounds,
                                         np.full(len(sparse.members), sparse_class.LOW),
                                         np.full(len(sparse.members), sparse_class.HIGH), -sparse.support_log_penalty)
         ev = rescored(ev, integrands, base.chi2, d)
-    by_label.update({cb.label: (cb, cb.fit, "distributed") for cb in combos})
-    return ev, by_label
-
-
-#: Families the search itself answers with; any other family a class comes in (distributed,
-#: model_form, or one a candidate module adds) is an alternative to the search's answer.
-SEARCH_FAMILIES = ("none", "local", "several")
-
-
-def choose_class(cal: "Calibration", ev: Evidence, fits: dict, rounds) -> ChosenClass:
-    """The answer: the best class by evidence once the likelihood-ratio test has found that there is
-    something at all (so never the calibrated model). The search's own answer (its one cause, or
-    the model with all its causes) stays the answer when it is that class; otherwise the best class
-    replaces it (`fitted` then holds its (candidate, fit)). The search's answer is kept when it
-    pairs measured modes the calibrated model does not (a spring that brings its suspension mode):
-    the other classes are scored without those modes and cannot be compared with it."""
-    several = len(rounds.sized) > 1
-    key = rounds.sized[0][0].label.split("(")[0]
-    own = [c for c in ev.classes if (c.family == "several" if several else
-                                     c.family == "local" and c.label.split("(")[0] == key)]
-    own_label = " + ".join(c.label for c, _ in rounds.sized)
-    contenders = [c for c in ev.classes if c.family != "none"]
-    best = contenders[0] if contenders else None
-    brings = rounds.obs.n_modes > cal.obs.n_modes
-    if best is None or best.family in SEARCH_FAMILIES or best.label not in fits or brings:
-        own_ev = own[0].log_evidence if own else None
-        why = ("the search's answer, which pairs measured modes the calibrated model cannot (the other classes are "
-               "scored without them)" if brings and best is not None and best.family not in SEARCH_FAMILIES else
-               "the best class by evidence" if own and best is not None and own[0].label == best.label else
-               "the search's answer (the likelihood-ratio test against the calibrated model)")
-        # a class of another kind within a factor of 10 below it is noted (a warning,
-        # `_evidence_notes`), not made a tie: the search's answer has the significance test and
-        # its own ambiguity margin behind it (a flexible joint stays named beside a node moved 6 mm).
-        # Except the same member's other form: a weak zone or a loss in a member and that member
-        # thinner lower its bending stiffness alike (a member 2.8 % thinner came out as a 32 % weak
-        # zone, 1.5 above its own class), and the data cannot tell them apart
-        from .rounds import STIFFNESS_KINDS  # rounds uses this module's steps
-
-        members = {(c.location or {}).get("element") for c, _ in rounds.sized if c.kind in STIFFNESS_KINDS}
-        rival = None if own_ev is None or brings else next(
-            (c for c in contenders if c.family not in SEARCH_FAMILIES and own_ev - c.log_evidence < FACTOR_10
-             and c.label in fits and (fits[c.label][0].location or {}).get("element") in members - {None}), None)
-        if rival is not None:
-            why += (f"; {rival.label} ({rival.family}), the same member's other form, is within a factor of 10 of it "
-                    f"(log evidence {rival.log_evidence:.4g} against {own_ev:.4g}): the data cannot tell them apart")
-        return ChosenClass(own_label, "several" if several else "local", own_ev, why,
-                           rival=None if rival is None else rival.label)
-    ref = own[0].log_evidence if own else None
-    margin = None if ref is None else best.log_evidence - ref
-    others = [c for c in contenders[1:] if c.family != best.family]
-    rival = others[0] if others and best.log_evidence - others[0].log_evidence < FACTOR_10 else None
-    why = (f"the best class by evidence (log evidence {best.log_evidence:.4g}"
-           + ("" if ref is None else f", {margin:.3g} above the search's answer {own_label} ({ref:.4g})")
-           + "); the likelihood-ratio test says there is an effect")
-    if rival is not None:
-        why += (f"; {rival.label} ({rival.family}) is within a factor of 10 (log evidence {rival.log_evidence:.4g}): "
-                "the data cannot tell these kinds of explanation apart")
-    return ChosenClass(best.label, best.family, best.log_evidence, why, own_label, margin,
-                       rival.label if rival is not None else None, fitted=fits[best.label])
-
-
-def _rivalled(cause, choice: ChosenClass):
-    """The first cause (`Cause` or `Found`) as not identifiable between the search's answer and
-    `choice.rival`; its kind and place kept where the rival shares them."""
-    place = ",".join(f"{k}={v}" for k, v in (cause.location or {}).items())
-    where = cause.location if place and choice.rival.partition("@")[2].split("(")[0] == place else None
-    kind = cause.kind if choice.rival.startswith(cause.kind + "@") else "undetermined"
-    return dataclasses.replace(cause, kind=kind, location=where, estimate={}, identifiable=False, label=None,
-                               indistinguishable=tuple(dict.fromkeys(tuple(cause.indistinguishable or (choice.label,))
-                                                                     + (choice.rival,))))
-
-
-def _class_answer(cal, model, sel, alternatives, choice: ChosenClass, ev: Evidence, rounds, search_causes, checks,
-                  noise, alpha: float) -> Diagnosis:
-    """The diagnosis whose answer is the class `choice` (one parameter, not the search's): its cause
-    with a profile interval, its verdict, its extended model and its held-out gain; the search's
-    causes stay in the record (`search_causes`)."""
-    cand, f, family = choice.fitted
-    obs, p_adj = cal.obs, sel.selection.p_adjusted
-    # a combination of classes: each part built on the model with the others at their sizes
-    parts = cand.parts if isinstance(cand, Combination) else ((cand, f.a),)
-    dispersion = max(1.0, f.chi2 / obs.dof(1 + len(parts)))
-    found_parts = []
-    for part, a_j in parts:
-        f_j = fit(obs, part, a_j)
-        low, high = profile_interval(obs, part, f_j, dispersion)
-        found_parts.append(_judged(model, Found(part.kind, part.location, part.estimate(f_j.a, f_j.s),
-                                                interval_of(part, low, high, f_j.s), part.label, p_adj)))
-    first, last = parts[0][0], parts[-1][0]
-    estimate = first.estimate(parts[0][1], f.s)
-    if choice.rival is not None:
-        cause = Cause("undetermined", None, {}, False, p_adj, None, (cand.label, choice.rival),
-                      f"chosen by evidence: {choice.reason}")
-        found_parts[0] = dataclasses.replace(found_parts[0], identifiable=False,
-                                             indistinguishable=(cand.label, choice.rival))
-    else:
-        cause = _judged(model, Cause(first.kind, first.location, estimate, True, p_adj, first.label,
-                                     explanation=f"chosen by evidence: {choice.reason}"))
-    v = verdict(obs, f, 1 + len(parts), alpha, what=f"the class {cand.label}")
-    warnings = list(cal.warnings) + [cause.explanation]
-    if not v.adequate:
-        warnings.append(v.explanation)
-    warnings += [f"implausible estimate: {c.label}: {c.implausible_because}" for c in found_parts if not c.plausible]
-    few = few_dof_note(v.dof, 1 + len(parts))
-    if few:
-        warnings.append(few)
-    extended = scale_stiffness(last.extend(parts[-1][1]), f.s)
-    what = "; ".join(f"{c.label} ({_describe(c.estimate)})" for c in found_parts)
-    extended = extended.replace(name=f"{model.name}+{cand.label.replace(' + ', '+')}", source="<diagnosis>",
-                                description=f"{model.name} extended by diagnosis: {what}, stiffness scaled by {f.s:.5f}")
-    if len(cal.unpaired):
-        final_unpaired = calibrate(extended, cal.data, noise.freq_noise, noise.shape_noise, model).unpaired
-        checks = checks + spurious_modes(cal.unpaired, final_unpaired, cal.obs_all.frequencies_hz, _explained(checks))
-    return Diagnosis(cause, alternatives, residuals_of(cal), gain(cal, last), tuple(sel.rows.values()), sel.selection,
-                     extended, tuple(warnings + _fault_notes(checks) + _evidence_notes(ev, rounds, choice)),
-                     tuple(found_parts), v, noise, checks, ev, choice, search_causes)
+    return ev
 
 
 def coarse_fit(obs: Observations, cand: Candidate) -> Fit:
@@ -421,14 +260,12 @@ def _held_out_error(cal: "Calibration", cand: Candidate | None) -> float | None:
     return correlate(hz * np.sqrt(s), sh, obs_hold).mean_abs_error_pct
 
 
-def _evidence_notes(ev: Evidence, rounds, choice: ChosenClass | None = None) -> list[str]:
-    """A sentence when a distributed class has clearly more evidence than the search's answer, one
-    when a model-form class explains the data about as well or better, and the factor-of-10 note."""
+def _evidence_notes(ev: Evidence, rounds) -> list[str]:
+    """A sentence when a distributed class has clearly more evidence than the answer given, and the
+    factor-of-10 note."""
     notes = []
     best = ev.best
     answer = "no effect" if rounds is None else ("the causes found" if len(rounds.sized) > 1 else "the cause found")
-    if choice is not None and choice.fitted is not None:
-        answer = "the local search's " + ("causes" if len(rounds.sized) > 1 else "cause")
     chosen = [c for c in ev.classes if c.family == ("none" if rounds is None else
                                                      ("several" if len(rounds.sized) > 1 else "local"))]
     if rounds is not None and len(rounds.sized) == 1:
@@ -442,10 +279,8 @@ def _evidence_notes(ev: Evidence, rounds, choice: ChosenClass | None = None) -> 
     if rounds is not None and form and chosen and form[0].log_evidence > chosen[0].log_evidence - FACTOR_10:
         notes.append(f"model form: {form[0].label} ({', '.join(f'{k} {v:.4g}' if isinstance(v, float) else f'{k} {v}' for k, v in (form[0].estimate or {}).items())}) "
                      f"explains the data {'better than' if form[0].log_evidence > chosen[0].log_evidence else 'about as well as'} "
-                     f"{answer} (log evidence {form[0].log_evidence:.3g} against {chosen[0].log_evidence:.3g}): "
-                     + ("the answer is this error of the model's geometry or section, not the search's physics"
-                        if choice is not None and choice.label == form[0].label else
-                        "the named cause may be an error of the model's geometry or section, not that physics"))
+                     f"{answer} (log evidence {form[0].log_evidence:.3g} against {chosen[0].log_evidence:.3g}): the "
+                     "named cause may be an error of the model's geometry or section, not that physics")
     if ev.note:
         notes.append("evidence: " + ev.note)
     return notes

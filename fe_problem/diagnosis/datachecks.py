@@ -17,8 +17,6 @@ well-excited entry in every mode while the other channels agree.
 - ``channel_swap`` (channels c, d): exchanging the two rows of the measured shapes raises the
   MAC in every mode where the model's entries at c and d differ by at least `EXCITED` of the
   peak (at least two), and lowers the shapes' chi^2 as above.
-  Either fault counts only when the data it corrects then agree with the model (mean MAC of
-  those modes at least `MATCH`): otherwise the shapes differ for another reason.
   Channel faults are sought greedily: the largest drop first, the data corrected by it, then the
   next (at most `MAX_CHANNEL_FAULTS`).
 - ``mode_order`` (modes i, j): paired by frequency (the calibrated model's nearest modes, one
@@ -206,10 +204,6 @@ def _consistent(kind, chans, u_m, u_a, partner, macs_fixed, macs_given) -> dict 
         if seen.sum() < 2 or not (macs_fixed[seen] > macs_given[seen]).all():
             return None
         modes = np.flatnonzero(seen)
-    if macs_fixed[modes].mean() < MATCH:
-        # the data corrected still disagree with the model: the shapes differ for another reason
-        # (on 4 channels a storey pattern made one channel look reversed, MAC 0.38-0.85 after it)
-        return None
     return {"modes": [int(i) + 1 for i in modes], "mac_as_given": [float(v) for v in macs_given[modes]],
             "mac_corrected": [float(v) for v in macs_fixed[modes]]}
 

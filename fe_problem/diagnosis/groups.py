@@ -137,15 +137,4 @@ def _candidate(st, system, ids, e0, kind, where, w) -> Candidate:
 
     grid = upper * np.concatenate([[0.0], np.geomspace(2e-3, 1.0, 15)])
     return Candidate(kind, where, upper, grid, forward, estimate, lambda a: st.model.with_element_moduli(moduli(a)),
-                     step=0.01 * upper, meta={"weights": w})
-
-
-def weighted_candidates(st: Setting, specs: list[tuple[str, dict, np.ndarray]]) -> list[Candidate]:
-    """One-parameter candidates from (kind, location, weights over the elements in model order)
-    specs, on one shared affine system (the regions a later round grows, rounds.grown_regions)."""
-    model = st.model
-    ids = list(model.element_ids)
-    e0 = np.array([model.element_modulus_pa(e) for e in ids])
-    system = lazy_system(lambda: AffineModel(model, tuple(
-        Parameter("modulus", (e,), 1e-3 * v, 1e3 * v, v, name=f"E{e}") for e, v in zip(ids, e0))))
-    return [_candidate(st, system, ids, e0, kind, where, np.asarray(w, dtype=float)) for kind, where, w in specs]
+                     step=0.01 * upper)

@@ -285,32 +285,6 @@ def _mean(c: Correlation | None, key: str) -> float | None:
     return None if c is None else getattr(c, key)
 
 
-@dataclass(frozen=True)
-class ChosenClass:
-    """Which model class the answer is, and why (the JSON's ``chosen_class``).
-
-    label, family, log_evidence: the class as the evidence table has it (log evidence None when
-    the table has no row for it); reason: a sentence; replaced: the search's answer (its causes'
-    labels joined by " + ") when the chosen class is another one, else None; margin: the chosen
-    class's log evidence above the search's answer; rival: a class of another family within a
-    factor of 10 of it (then the cause is reported as not identifiable between the two).
-    fitted: the chosen class's (candidate, fit, family) when it replaced the search's answer (not
-    in the JSON)."""
-
-    label: str
-    family: str
-    log_evidence: float | None
-    reason: str
-    replaced: str | None = None
-    margin: float | None = None
-    rival: str | None = None
-    fitted: object = field(default=None, repr=False, compare=False)
-
-    def to_dict(self) -> dict:
-        return {"label": self.label, "family": self.family, "log_evidence": self.log_evidence, "reason": self.reason,
-                "replaced": self.replaced, "margin": self.margin, "rival": self.rival}
-
-
 @dataclass(frozen=True, eq=False)
 class Diagnosis:
     """The answer of a diagnosis; `to_dict()` is the JSON `femu diagnose --json` prints.
@@ -321,10 +295,7 @@ class Diagnosis:
     every cause found, in order of evidence (`cause` is the first); verdict: the final model's
     goodness of fit; noise: the noise model used; data_checks: faults found in the data before
     the diagnosis (`datachecks.DataCheck`), which ran on the data as given; evidence: every model
-    class (none, local, distributed, sparse, model_form, several) ranked by its evidence (`evidence.Evidence`);
-    chosen_class: which class the answer is and why (the best class by evidence once the
-    likelihood-ratio test finds an effect); search_causes: the local search's causes when the
-    chosen class replaced them (empty otherwise: then `causes` are the search's).
+    class (none, local, distributed, sparse, model_form, several) ranked by its evidence (`evidence.Evidence`).
     """
 
     cause: Cause
@@ -340,8 +311,6 @@ class Diagnosis:
     noise: Noise | None = None
     data_checks: tuple = ()
     evidence: object = None
-    chosen_class: ChosenClass | None = None
-    search_causes: tuple[Found, ...] = ()
 
     @property
     def adequate(self) -> bool | None:
@@ -364,6 +333,4 @@ class Diagnosis:
                          "causes": list(self.causes), "adequate": self.adequate,
                          "goodness_of_fit": self.verdict, "noise": self.noise,
                          "data_checks": [c.to_dict() for c in self.data_checks],
-                         "evidence": None if self.evidence is None else self.evidence.to_dict(),
-                         "chosen_class": None if self.chosen_class is None else self.chosen_class.to_dict(),
-                         "search_causes": list(self.search_causes)})
+                         "evidence": None if self.evidence is None else self.evidence.to_dict()})

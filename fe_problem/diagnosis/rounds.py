@@ -18,7 +18,6 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
-import numpy as np
 from scipy.optimize import minimize_scalar
 from scipy.stats import chi2 as chi2_dist
 
@@ -281,70 +280,6 @@ def _touches_found_stiffness(model: FrameModel, element: int | None, places: lis
         return {model.element(eid).node_i, model.element(eid).node_j}
 
     return any(kind in STIFFNESS_KINDS and ends(element) & ends(where["element"]) for kind, where in places)
-
-
-#: A region grown from a stiffness change the search found has at most this many members.
-MAX_REGION = 4
-
-
-def grown_regions(cal, rounds) -> list[tuple[Candidate, Fit]]:
-    """The later round that may add members next to a found stiffness change (the search itself
-    does not: a further change next to one found is its form, `_new_place`). From each element
-    where the search found a stiffness loss (gain), the region grows by one adjacent member (one
-    sharing a node) at a time, up to `MAX_REGION` members while the fit improves. A region is
-    tried uniform (its moduli changed by one ratio) and tapered (the change largest at the found
-    member, falling linearly with the number of members away from it: a gradient); the neighbour
-    whose region, in either form, fits best is added. Returns every grown region in both forms
-    with its fit on the calibrated model's paired modes; the evidence scores them beside the
-    other classes (planar models: the regions are classes of groups.py)."""
-    from .groups import weighted_candidates
-
-    st, obs = cal.setting, cal.obs
-    model = st.model
-    if model.layout.dimension != 2:
-        return []
-    ids = list(model.element_ids)
-    ends = {e.id: (e.node_i, e.node_j) for e in model.elements}
-    at_node: dict = {}
-    for e, nodes in ends.items():
-        for n in nodes:
-            at_node.setdefault(n, []).append(e)
-    seeds = list(dict.fromkeys((c.kind, c.location["element"]) for c, _ in rounds.sized
-                               if c.kind in STIFFNESS_KINDS and (c.location or {}).get("element") in ends))
-    out = []
-    for kind, seed in seeds:
-        sign = -1.0 if kind == "stiffness_loss" else 1.0
-        region, dist = [seed], {seed: 0}
-        single = weighted_candidates(st, [("group_" + kind, {"group": f"members_{seed}"},
-                                           sign * np.isin(ids, [seed]).astype(float))])[0]
-        previous = fit(obs, single).chi2
-        while len(region) < MAX_REGION:
-            near = sorted({x for e in region for n in ends[e] for x in at_node[n]} - set(region))
-            if not near:
-                break
-            specs = []
-            for x in near:
-                d = {**dist, x: 1 + min(dist[e] for e in region if set(ends[e]) & set(ends[x]))}
-                specs += _region_specs(kind, sign, ids, seed, d)
-            trials = [(c, fit(obs, c)) for c in weighted_candidates(st, specs)]
-            k = min(range(len(trials)), key=lambda i: (trials[i][1].chi2, i))
-            if trials[k][1].chi2 >= previous - 1e-9:
-                break
-            x = near[k // 2]
-            dist[x] = 1 + min(dist[e] for e in region if set(ends[e]) & set(ends[x]))
-            region.append(x)
-            previous = trials[k][1].chi2
-            out += trials[2 * (k // 2):2 * (k // 2) + 2]
-    return out
-
-
-def _region_specs(kind: str, sign: float, ids: list, seed: int, dist: dict) -> list:
-    """The uniform and the tapered class of the region `dist` (member -> members away from `seed`)."""
-    members = "_".join(map(str, sorted(dist)))
-    far = max(dist.values())
-    taper = np.array([1.0 - dist[e] / (far + 1.0) if e in dist else 0.0 for e in ids])
-    return [("group_" + kind, {"group": f"members_{members}"}, sign * np.isin(ids, list(dist)).astype(float)),
-            ("stiffness_trend", {"trend": f"taper_from_{seed}_members_{members}"}, sign * taper)]
 
 
 def _joint_refit(cal, st: Setting, picks, sizes, obs=None) -> tuple[list, list[float], float]:

@@ -151,9 +151,6 @@ def _cause_lines(diag: Diagnosis) -> list[str]:
     lines = [f"{head}: {cause_text(cause)}",
              f"  p {_p_text(cause.p_adjusted)} (adjusted over {sel.n_candidates} candidates; "
              f"significant below {fmt(sel.alpha, 2)})"]
-    chosen = diag.chosen_class
-    if chosen is not None and not cause.is_none:
-        lines.append(f"  chosen class: {chosen.label} ({chosen.family}): {chosen.reason}")
     best, needed = diag.best, threshold_chi2_drop(sel)
     if cause.is_none and best is not None and needed is not None:
         lines.append(f"  best candidate {best.label}: chi^2 drop {fmt(best.chi2_drop)}, {fmt(needed, 3)} needed")

@@ -234,8 +234,6 @@ def _cause_section(diag: Diagnosis, extended_file: str | None) -> list[str]:
                   f"{fmt(needed, 3)}")
     if cause.explanation and not cause.is_none:
         md.append(f"- {cause.explanation}")
-    if diag.chosen_class is not None and not cause.is_none:
-        md.append(f"- chosen class: {diag.chosen_class.label} ({diag.chosen_class.family}): {diag.chosen_class.reason}")
     if extended_file:
         md.append(f"- extended model: [`{extended_file}`]({extended_file}) (calibrated, with the effect"
                   + ("; the best of the candidates that cannot be told apart" if not cause.identifiable else "")
