@@ -326,18 +326,10 @@ RECORD_DAMAGE = {"wall_s": BIG, "trace": [[1, BIG]], "error": 5, "host": [1], "v
                  "opt_cpu_s": -1.0, "x0": [1, 2], "n_jacobians": -1, "f_opt": "zero", "best_x": [None]}
 
 
-@pytest.fixture(scope="module")
-def store(tmp_path_factory):
-    s = tmp_path_factory.mktemp("rec") / "store"
-    assert main(["study", "--optimizers", "random-search", "--seeds", "0-1", "--budget", "10", "--store", str(s),
-                 "--workers", "0", "--no-progress"]) == 0
-    return s
-
-
 @pytest.mark.parametrize("field,value", list(RECORD_DAMAGE.items()))
-def test_a_hand_edited_record_field_is_a_store_error_naming_it(store, tmp_path, capsys, field, value):
+def test_a_hand_edited_record_field_is_a_store_error_naming_it(random_search_store, tmp_path, capsys, field, value):
     s = tmp_path / "store"
-    shutil.copytree(store, s)
+    shutil.copytree(random_search_store, s)
     f = sorted((s / "runs").glob("*.json"))[0]
     rec = json.loads(f.read_text())
     rec[field] = value

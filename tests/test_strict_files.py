@@ -116,19 +116,11 @@ RECORD_CASES = [  # (edit of a stored run record, what the one error line says)
 ]
 
 
-@pytest.fixture(scope="module")
-def store(tmp_path_factory):
-    s = tmp_path_factory.mktemp("rec") / "store"
-    assert main(["study", "--optimizers", "random-search", "--seeds", "0-1", "--budget", "10", "--store", str(s),
-                 "--workers", "0", "--no-progress"]) == 0
-    return s
-
-
-def _copy(store, tmp_path):
+def _copy(random_search_store, tmp_path):
     import shutil
 
     s = tmp_path / "store"
-    shutil.copytree(store, s)
+    shutil.copytree(random_search_store, s)
     return s, sorted((s / "runs").glob("*.json"))[0]
 
 
@@ -140,8 +132,8 @@ def _one_line(capsys, argv, *says):
 
 
 @pytest.mark.parametrize("edit,says", RECORD_CASES, ids=[s.split("'")[1] for _, s in RECORD_CASES])
-def test_results_and_report_refuse_an_unknown_key_in_a_run_record(store, tmp_path, capsys, edit, says):
-    s, f = _copy(store, tmp_path)
+def test_results_and_report_refuse_an_unknown_key_in_a_run_record(random_search_store, tmp_path, capsys, edit, says):
+    s, f = _copy(random_search_store, tmp_path)
     d = json.loads(f.read_text())
     edit(d)
     f.write_text(json.dumps(d))
@@ -155,12 +147,12 @@ def test_results_and_report_refuse_an_unknown_key_in_a_run_record(store, tmp_pat
     assert out.strip().endswith("1 runs in " + str(s)) and err.count("warning: left out") == 1 and str(f) in err
 
 
-def test_a_record_written_before_the_newer_fields_is_still_read(store, tmp_path, capsys):
+def test_a_record_written_before_the_newer_fields_is_still_read(random_search_store, tmp_path, capsys):
     """A record of format femu.run/1 with the fields of RunResult's first version (before
     fe_cpu_s, opt_cpu_s, n_jacobians, x0, versions, f_opt, verified, output and the plugin
     description):
     read as written, the missing fields at their defaults; the report says it is unverified."""
-    s, f = _copy(store, tmp_path)
+    s, f = _copy(random_search_store, tmp_path)
     d = json.loads(f.read_text())
     old = {k: d[k] for k in ("optimizer", "problem", "seed", "budget", "options", "n_evals", "best_f", "best_x",
                              "trace", "wall_s", "cpu_s", "fe_s", "status", "error", "variant", "host", "format")}
@@ -174,13 +166,13 @@ def test_a_record_written_before_the_newer_fields_is_still_read(store, tmp_path,
     assert "1 run of `random-search` is **unverified**" in (tmp_path / "r" / "report.md").read_text()
 
 
-def test_every_key_a_study_writes_is_a_key_the_reader_knows(store):
+def test_every_key_a_study_writes_is_a_key_the_reader_knows(random_search_store):
     from femu.studies.manifest import REQUEST_KEYS, STUDY_KEYS
     from femu.studies.store import RECORD_KEYS
 
-    for f in (store / "runs").glob("*.json"):
+    for f in (random_search_store / "runs").glob("*.json"):
         assert set(json.loads(f.read_text())) == set(RECORD_KEYS)
-    manifest = json.loads((store / "study.json").read_text())
+    manifest = json.loads((random_search_store / "study.json").read_text())
     assert set(manifest) == set(STUDY_KEYS) and set(REQUEST_KEYS) == set(STUDY_KEYS) - {"format", "history"}
 
 
@@ -194,8 +186,9 @@ STUDY_CASES = [  # (edit of study.json, what the one error line says)
 
 
 @pytest.mark.parametrize("edit,says", STUDY_CASES, ids=[s.split("'")[1] for _, s in STUDY_CASES])
-def test_femu_study_refuses_an_unknown_key_in_study_json_and_touches_nothing(store, tmp_path, capsys, edit, says):
-    s, _ = _copy(store, tmp_path)
+def test_femu_study_refuses_an_unknown_key_in_study_json_and_touches_nothing(random_search_store, tmp_path, capsys, edit,
+                                                                         says):
+    s, _ = _copy(random_search_store, tmp_path)
     f = s / "study.json"
     d = json.loads(f.read_text())
     edit(d)
