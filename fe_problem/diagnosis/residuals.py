@@ -112,30 +112,13 @@ class Observations:
         (as if 30 % off in frequency and orthogonal in shape) so that no fit can gain by
         losing a mode."""
         idx = self.pair(model_hz, model_shapes) if pairing is None else pairing
-        ok = idx >= 0
-        f = np.where(ok, model_hz[np.clip(idx, 0, None)], self.frequencies_hz * (1 + MAX_PAIR_FREQ))
-        r_f = (f - self.frequencies_hz) / (self.frequencies_hz * self.freq_noise)
-        if not self.has_shape.any():
-            return r_f, idx
-        sel = self.has_shape
-        u_a = model_shapes[:, np.clip(idx[sel], 0, None)]
-        u_a = u_a / np.linalg.norm(u_a, axis=0)
-        u_m = self.shapes[:, sel]
-        for col, i in enumerate(np.flatnonzero(sel)):
-            if ok[i]:
-                mixed = close_mode_shape(u_m[:, col], model_hz, model_shapes, idx[i])
-                if mixed is not None:
-                    u_a[:, col] = mixed
-        u_a = u_a * np.where(np.sum(u_a * u_m, axis=0) < 0, -1.0, 1.0)
-        u_a = np.where(ok[sel][None, :], u_a, 0.0)
-        sigma = self.shape_noise * np.max(np.abs(u_m), axis=0)  # (n_shape_modes,): of the mode's peak
-        return np.concatenate([r_f, ((u_a - u_m) / sigma).ravel(order="F")]), idx
+        return self.residuals_paired(model_hz[None], model_shapes[None], idx)[0], idx
 
     def residuals_paired(self, model_hz: np.ndarray, model_shapes: np.ndarray, pairing: np.ndarray) -> np.ndarray:
         """`residuals` of a batch of models with one pairing held: frequencies (b, k), shapes at the
-        measured coordinates (b, n_coord, k); returns r (b, n_residuals). The first-order screen's
-        hot path (thousands of candidates a chunk, screening.py); tests/test_diagnosis_modelform_terms.py
-        holds it to `residuals` of each model."""
+        measured coordinates (b, n_coord, k); returns r (b, n_residuals). `residuals` is this
+        on a batch of one; the first-order screen's hot path (thousands of candidates a chunk,
+        screening.py) calls it on whole batches."""
         idx, ok = pairing, pairing >= 0
         f = np.where(ok, model_hz[:, np.clip(idx, 0, None)], self.frequencies_hz * (1 + MAX_PAIR_FREQ))
         r_f = (f - self.frequencies_hz) / (self.frequencies_hz * self.freq_noise)
