@@ -112,14 +112,18 @@ class ObjectiveProxy:
         super().__setattr__(name, value)
 
     def _request(self, message: bytes) -> bytes:
-        for stream in (sys.stdout, sys.stderr):  # what it printed so far is in its record, even if ended now
-            stream.flush()
+        """The evaluating side's answer to `message`: its VALUES answer (tag included)."""
+        sys.stdout.flush()  # what it printed so far is in its record, even if ended now
+        sys.stderr.flush()
         with self._lock:
             if self._stopped is not None:  # the run is over: nothing more is evaluated
                 raise self._stopped
             self._conn.send_bytes(message)
             answer = self._conn.recv_bytes()
-        tag, body = answer[:1], answer[1:]
+        tag = answer[:1]
+        if tag == VALUES:
+            return answer
+        body = answer[1:]
         if tag == STOP:
             from .harness import BudgetExhausted, TimeLimitExceeded
 
@@ -130,10 +134,16 @@ class ObjectiveProxy:
         if tag == ERROR:
             kind, text = pickle.loads(body)
             raise {"ValueError": ValueError, "FloatingPointError": FloatingPointError}.get(kind, TypeError)(text)
-        return body
+        return answer
 
     def _received(self, X, f) -> None:
         start = self._n_evals
+        if len(f) == 1:  # one point per call (most calls of such optimizers): no array work
+            v = float(f[0])
+            if v < self._best_f:  # False for NaN, as fmin.accumulate below
+                self._trace.append([start + 1, v])
+                self._best_f, self._best_x = v, X[0].copy()
+            return
         np = self._np
         running = np.fmin.accumulate(np.concatenate(([self._best_f], f)))
         new = np.flatnonzero(running[1:] < running[:-1])
@@ -143,12 +153,14 @@ class ObjectiveProxy:
 
     def __call__(self, X):
         np = self._np
-        X = np.atleast_2d(np.asarray(X, dtype=float))
+        X = np.asarray(X, dtype=float)
+        if X.ndim != 2:
+            X = np.atleast_2d(X)
         if X.ndim != 2 or X.shape[1] != self._n_var:
             raise ValueError(f"the points must have shape (n, {self._n_var}), got {X.shape}")
-        body = self._request(EVAL + np.ascontiguousarray(X).tobytes())
-        n_evals = int.from_bytes(body[:8], "little")
-        f = np.frombuffer(body[8:], dtype=float).copy()
+        answer = self._request(EVAL + X.tobytes())  # tobytes: C order whatever X's layout
+        n_evals = int.from_bytes(answer[1:9], "little")
+        f = np.frombuffer(answer, dtype=float, offset=9).copy()
         self._received(X[: len(f)], f)
         self._n_evals = n_evals
         return f
@@ -160,8 +172,8 @@ class ObjectiveProxy:
         X = np.atleast_2d(np.asarray(x, dtype=float))
         if X.shape != (1, self._n_var):
             raise ValueError(f"least_squares takes one point of {self._n_var} parameters, got shape {X.shape}")
-        body = self._request(LSQ + bytes([bool(jacobian)]) + X.tobytes())
-        n_evals, f, residuals, jac = pickle.loads(body)
+        answer = self._request(LSQ + bytes([bool(jacobian)]) + X.tobytes())
+        n_evals, f, residuals, jac = pickle.loads(answer[1:])
         self._received(X, np.array([f]))
         self._n_evals = n_evals
         return LeastSquares(f, residuals, jac)
