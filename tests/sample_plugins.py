@@ -332,6 +332,6 @@ class PrintsItsCores:
     def minimize(self, objective, bounds, budget, rng):
         objective(_points(bounds, rng, 1))
         print("CORES", sorted(os.sched_getaffinity(0)), flush=True)
-        time.sleep(3.0)
+        time.sleep(5.0)  # the other run has claimed its core by then, even on a loaded machine
         while True:
             objective(_points(bounds, rng, 1))
