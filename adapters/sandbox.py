@@ -25,9 +25,11 @@ process); a study's run processes use their study's (`use_server`).
 from __future__ import annotations
 
 import atexit
+import fcntl
 import os
 import pickle
 import shutil
+import stat
 import subprocess
 import sys
 import tempfile
@@ -54,6 +56,8 @@ READY_S = 120.0
 OUTPUT_CHARS = 20_000
 #: Characters of the core claims file read (a line per run under way: far more than enough).
 CLAIMS_CHARS = 65_536
+#: Seconds a run waits for the core claims file's lock before it runs unpinned.
+CLAIMS_LOCK_S = 1.0
 
 
 def worker_deadline_s(time_limit_s: float | None) -> float | None:
@@ -374,18 +378,22 @@ def _alive(tid: int) -> bool:
 @contextmanager
 def _claims(path: str):
     """The claims in the file `path` as {tid: core} of live threads, locked; written back after."""
-    import fcntl
-
-    import stat
-
     # in the server's private directory, which a plugin's process could also write: a symlink,
-    # a FIFO or a huge file there costs the run its pinning (OSError), never a wait
+    # a FIFO, a huge file or a lock held there costs the run its pinning (OSError), never a wait
     fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | os.O_NONBLOCK, 0o600)
     if not stat.S_ISREG(os.fstat(fd).st_mode):
         os.close(fd)
         raise OSError(f"{path}: not a regular file")
     with os.fdopen(fd, "r+") as fh:
-        fcntl.flock(fh, fcntl.LOCK_EX)
+        t0 = time.perf_counter()
+        while True:
+            try:
+                fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                break
+            except BlockingIOError:
+                if time.perf_counter() - t0 > CLAIMS_LOCK_S:
+                    raise
+                time.sleep(0.002)
         taken = {}
         for line in fh.read(CLAIMS_CHARS).split("\n"):
             try:

@@ -221,8 +221,8 @@ def test_femu_reproduce_keeps_its_json_clean_stops_a_hanging_plugin_and_writes_o
 # -- the core a sandboxed run is pinned to ---------------------------------------------------------
 def test_core_claims_spread_runs_over_the_cores_and_forget_ended_ones(tmp_path):
     """Runs sharing a worker server each take the least claimed core; a claim of a thread that
-    has ended counts for nothing; a claims file that is not a regular file is refused (the run
-    then goes unpinned), never waited on."""
+    has ended counts for nothing; a claims file that is not a regular file, or whose lock
+    another process holds, is refused (the run then goes unpinned), never waited on for long."""
     from adapters.sandbox import _release_core, claim_core
 
     claims = str(tmp_path / "cores")
@@ -239,6 +239,16 @@ def test_core_claims_spread_runs_over_the_cores_and_forget_ended_ones(tmp_path):
     _release_core(claims, tid=1)
     _release_core(claims)
     assert open(claims).read() == ""  # every live claim released, the dead one dropped
+    holder = subprocess.Popen([sys.executable, "-c", "import fcntl, sys, time; fh = open(sys.argv[1]); "
+                               "fcntl.flock(fh, fcntl.LOCK_EX); print('locked', flush=True); time.sleep(30)", claims],
+                              stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline() == "locked\n"
+        with pytest.raises(BlockingIOError):  # a lock somebody holds: given up after CLAIMS_LOCK_S
+            claim_core({0, 1}, claims)
+    finally:
+        holder.kill()
+        holder.wait()
     os.unlink(claims)
     os.mkfifo(claims)
     with pytest.raises(OSError, match="not a regular file"):
