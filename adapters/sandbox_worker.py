@@ -25,6 +25,7 @@ from __future__ import annotations
 import os
 
 import importlib
+import json
 import importlib.abc
 import pickle
 import signal
@@ -46,6 +47,12 @@ BLOCKED_PACKAGES = ("fe_problem", "femu")
 EVAL, LSQ, DONE = b"E", b"L", b"D"
 #: Tags of the evaluating side's answers: values, a stop (budget or time), an error to raise.
 VALUES, STOP, ERROR = b"F", b"S", b"X"
+
+
+def send_json(conn, obj, tag: bytes = b"") -> None:
+    """Send `obj` to the evaluating process as JSON: what this process sends there is data only,
+    never a pickle (unpickling runs code, and this process is the plugin's)."""
+    conn.send_bytes(tag + json.dumps(obj).encode())
 
 #: What `ObjectiveProxy.least_squares` returns (as the problem's LeastSquares).
 LeastSquares = namedtuple("LeastSquares", "f residuals jacobian")
@@ -228,7 +235,7 @@ def _capture_output(path: str) -> None:
 
 def worker(conn) -> None:
     """One run (see the module doc), on the connection `conn` to the evaluating process."""
-    conn.send(os.getpid())
+    send_json(conn, os.getpid())
     spec = conn.recv()
     _capture_output(spec["output_path"])
     # the evaluating process's path and directory now (the server's are those of its start)
@@ -240,9 +247,9 @@ def worker(conn) -> None:
         pass
     if spec.get("describe"):
         try:
-            conn.send(("described", _describe(spec)))
+            send_json(conn, ["described", _describe(spec)])
         except BaseException as exc:
-            conn.send(("refused", str(exc) if isinstance(exc, ValueError) else f"{type(exc).__name__}: {exc}"))
+            send_json(conn, ["refused", str(exc) if isinstance(exc, ValueError) else f"{type(exc).__name__}: {exc}"])
         conn.recv()  # ended by the evaluating process
         return
     try:
@@ -252,13 +259,13 @@ def worker(conn) -> None:
         described = run_description(type(optimizer), spec["options"])  # a bad capability flag: refused
     except BaseException as exc:
         message = str(exc) if isinstance(exc, ValueError) else f"{type(exc).__name__}: {exc}"
-        conn.send(("refused", message))
+        send_json(conn, ["refused", message])
         conn.recv()
         return
     import numpy as np
 
     proxy = ObjectiveProxy(conn, spec)
-    conn.send(("ready", described))
+    send_json(conn, ["ready", described])
     try:
         optimizer.minimize(proxy, proxy.bounds, proxy.budget, np.random.default_rng(spec["seed"]), **start,
                            **spec["options"])
@@ -274,7 +281,7 @@ def worker(conn) -> None:
             stream.flush()
         except Exception:
             pass
-    conn.send_bytes(DONE + pickle.dumps(outcome))
+    send_json(conn, list(outcome), DONE)
     conn.recv()  # the evaluating process ends this process and every one it started
 
 

@@ -49,6 +49,8 @@ ROUTES = [
     (cp.PatchesTheHarness, "stopped", 3, None),  # it patched its own copies only: its 3 points charged
     (cp.ForgesItsEnd, "stopped", 3, None),  # an end it sends itself is a return, never "ok"
     (cp.ForgesValues, "failed", 3, "protocol"),
+    (cp.SmugglesCodeInItsEnd, "failed", 3, "protocol"),  # read as JSON: its pickle never runs here
+    (cp.SendsAHugeMessage, "failed", 3, "protocol"),  # refused by its length, never read
     (cp.ResetsItsCountAndBudget, "ok", BUDGET, None),
     (cp.PrintsALot, "ok", BUDGET, None),
 ]
@@ -62,6 +64,7 @@ def test_no_route_gains_anything_through_adapters_run(cls, status, n_evals, says
     assert says is None and r.error is None or says in r.error, r.error
     assert problem.points_evaluated == r.n_evals <= BUDGET  # not one point uncharged
     assert r.verified
+    assert not hasattr(adapters, "SMUGGLED_CODE_RAN")  # no plugin code ran in this process
 
 
 def test_a_suite_problems_truth_and_optimum_never_reach_the_optimizer():
