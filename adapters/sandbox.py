@@ -15,7 +15,10 @@ decides the run's status from what it saw:
 - ``failed``: it raised (the error is the worker's text), or its process ended without a word,
   or it broke the protocol.
 
-What an optimizer raises, prints or patches stays in its worker, which is ended with every
+What comes from the worker is read as data only: points as raw float64 bytes, everything else
+as JSON, never a pickle (unpickling runs code, and it would run here, beside the problem and its
+counts), and no message longer than the budget's points (`MESSAGE_BYTES` for the others) is
+read at all. What an optimizer raises, prints or patches stays in its worker, which is ended with every
 process it started when its run ends; its stdout and stderr are the record's ``output``.
 
 The server: one per process that runs optimizers (started on first use, ended with that
@@ -25,12 +28,16 @@ process); a study's run processes use their study's (`use_server`).
 from __future__ import annotations
 
 import atexit
+import fcntl
+import json
 import os
 import pickle
 import shutil
+import stat
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from contextlib import contextmanager
 from multiprocessing.connection import Client
@@ -51,6 +58,38 @@ SERVER_START_S = 120.0
 READY_S = 120.0
 #: Characters of a run's captured stdout and stderr kept in its record (the end is kept).
 OUTPUT_CHARS = 20_000
+#: Characters of the core claims file read (a line per run under way: far more than enough).
+CLAIMS_CHARS = 65_536
+#: Seconds a run waits for the core claims file's lock before it runs unpinned.
+CLAIMS_LOCK_S = 1.0
+#: The longest message read from a worker that is not a batch of points (its pid, a description,
+#: an end of run with its traceback): a longer one is a protocol fault, refused before it is read.
+MESSAGE_BYTES = 1 << 20
+
+
+def _receive(conn, limit: int = MESSAGE_BYTES):
+    """A worker's message, read as JSON: the worker is the plugin's process, so what comes from
+    it is data only, never a pickle (unpickling runs code, here, beside the problem). ValueError
+    ("protocol: ...") when it is not JSON or longer than `limit` bytes; EOFError/OSError when the
+    process is gone."""
+    try:
+        raw = conn.recv_bytes(limit)
+    except OSError as exc:
+        if str(exc) == "bad message length":  # multiprocessing's words for a message over the limit
+            raise ValueError(f"protocol: the optimizer's process sent a message longer than {limit} bytes") from None
+        raise
+    try:
+        return json.loads(raw)
+    except ValueError:  # not UTF-8 JSON (json's own error is a ValueError too)
+        raise ValueError("protocol: the optimizer's process sent a message that is not JSON") from None
+
+
+def _pair(message) -> tuple[str, object]:
+    """A worker's ``[kind, payload]`` message, or ValueError."""
+    if not (isinstance(message, list) and len(message) == 2 and isinstance(message[0], str)):
+        raise ValueError("protocol: the optimizer's process sent a message of the wrong shape")
+    return message[0], message[1]
+
 
 
 def worker_deadline_s(time_limit_s: float | None) -> float | None:
@@ -126,7 +165,10 @@ class _Worker:
         self.conn = Client(self.address, family="AF_UNIX")
         if not self.conn.poll(SERVER_START_S):
             raise RuntimeError("the optimizers' worker server did not answer")
-        self.pid = int(self.conn.recv())
+        pid = _receive(self.conn)
+        if type(pid) is not int:
+            raise RuntimeError("the optimizers' worker server sent no process id")
+        self.pid = pid
         fd, self.output_path = tempfile.mkstemp(prefix="femu-run-", suffix=".out")
         os.close(fd)
 
@@ -183,14 +225,29 @@ def describe(name: str, n_vars, options: dict | None = None) -> dict:
                           "sys_path": list(sys.path), "cwd": os.getcwd()})
         if not worker.conn.poll(READY_S):
             raise ValueError(f"optimizer {name!r}: loading it took more than {READY_S:.0f} s")
-        kind, answer = worker.conn.recv()
+        kind, answer = _pair(_receive(worker.conn))
     except (EOFError, OSError):
         raise ValueError(f"optimizer {name!r}: its process ended while it was loaded") from None
+    except ValueError as exc:
+        raise ValueError(f"optimizer {name!r}: {exc}") from None
     finally:
         worker.end()
     if kind != "described":
-        raise ValueError(answer)
-    return answer
+        raise ValueError(str(answer))
+    return _facts(name, n_vars, answer)
+
+
+def _facts(name: str, n_vars, answer) -> dict:
+    """A worker's description in `optimizer_facts`' shape (JSON keys are text: the n_var keys
+    become ints again), or ValueError when it is not that shape."""
+    try:
+        need = {int(n): answer["min_budget"][str(int(n))] for n in n_vars}
+        refused = answer["x0_refused"]
+        if not all(type(v) is int for v in need.values()) or not (refused is None or isinstance(refused, str)):
+            raise TypeError
+    except (KeyError, TypeError, ValueError):
+        raise ValueError(f"optimizer {name!r}: protocol: its process sent a description of the wrong shape") from None
+    return {"min_budget": need, "x0_refused": refused}
 
 
 def optimizer_facts(name: str, n_vars, options: dict | None = None) -> dict:
@@ -243,7 +300,7 @@ def run_isolated(name: str, problem, budget: int, seed: int, time_limit_s: float
         if not worker.conn.poll(READY_S):
             raise ValueError(f"optimizer {name!r}: loading it took more than {READY_S:.0f} s")
         try:
-            kind, why = worker.conn.recv()
+            kind, why = _pair(_receive(worker.conn))
         except (EOFError, OSError):
             raise ValueError(f"optimizer {name!r}: its process ended while it was loaded: "
                              f"{worker.output()[-500:]}") from None
@@ -256,8 +313,8 @@ def run_isolated(name: str, problem, budget: int, seed: int, time_limit_s: float
         # that the wake-ups of a loaded machine between two processes do not eat its time; the
         # hard deadline counts from now, its optimizer loaded
         objective = _Lazy(lambda: BudgetedObjective(problem, budget, time_limit_s))
-        with _one_core(worker.pid):
-            status, error = _serve(worker, objective, problem, time_limit_s)
+        with _one_core(worker.pid, os.path.join(os.path.dirname(worker.address), "cores")):
+            status, error = _serve(worker, objective, problem, time_limit_s, budget)
         objective = objective.get()
         wall = time.perf_counter() - wall0
         cpu = time.process_time() - cpu0 + max(worker.cpu_s() - worker_cpu0, 0.0)
@@ -299,31 +356,114 @@ class _Lazy:
 
 
 @contextmanager
-def _one_core(worker_pid: int):
+def _one_core(worker_pid: int, claims: str | None = None):
     """This thread and the worker on one core for the run, this thread's cores put back after.
 
     The two take turns (a request, its values, the next request): on one core each hands the
-    core straight to the other, while on two cores of a loaded machine every turn waits for
-    the scheduler (a ping-pong of two processes on this 2-core machine, measured once: 27 us against
-    300 us a round trip)."""
+    core straight to the other, while on two cores every turn is a wake-up across cores (a
+    ping-pong of two processes on this 2-core machine: 51-79 against 98-425 microseconds a
+    round trip at load 9). The core is the least claimed one in the file `claims` (runs
+    sharing a worker server: a study's run processes), so that the runs of a parallel study
+    are spread over the cores instead of all pinned to the one they started on; without
+    `claims`, the core this thread is on. (Affinity is a thread's: claims are by thread id.)"""
     try:
         before = os.sched_getaffinity(0)
-        core = psutil.Process().cpu_num()
-        core = core if core in before else min(before)
+        core = claim_core(before, claims)
         os.sched_setaffinity(0, {core})
         os.sched_setaffinity(worker_pid, {core})
     except (AttributeError, OSError, psutil.Error):  # not Linux, or the worker is gone: run as it is
+        _release_core(claims)
         yield
         return
     try:
         yield
     finally:
         os.sched_setaffinity(0, before)
+        _release_core(claims)
 
 
-def _serve(worker: _Worker, lazy: _Lazy, problem, time_limit_s) -> tuple[str, str | None]:
+def claim_core(allowed, claims: str | None = None, tid: int | None = None) -> int:
+    """The core for the sandboxed run of thread `tid` (default: this thread) among `allowed`:
+    the one the fewest live threads have claimed in the file `claims` (a line "tid core" each;
+    lines of threads that have ended are dropped), ties to the core it is on now; the claim is
+    added to the file under an exclusive lock. Without `claims`, the core it is on now."""
+    allowed = sorted(allowed)
+    pid = threading.get_native_id() if tid is None else int(tid)
+    here = psutil.Process(threading.get_native_id()).cpu_num()  # the calling thread's
+    here = here if here in allowed else allowed[0]
+    if claims is None or len(allowed) == 1:
+        return here
+    with _claims(claims) as taken:
+        count = {c: 0 for c in allowed}
+        for c in taken.values():
+            if c in count:
+                count[c] += 1
+        core = min(allowed, key=lambda c: (count[c], c != here))
+        taken[pid] = core
+    return core
+
+
+def _release_core(claims: str | None, tid: int | None = None) -> None:
+    """Drop the claim of thread `tid` (default: this thread) from the file `claims`."""
+    if claims is None:
+        return
+    try:
+        with _claims(claims) as taken:
+            taken.pop(threading.get_native_id() if tid is None else int(tid), None)
+    except OSError:
+        pass
+
+
+def _alive(tid: int) -> bool:
+    """Whether thread (or process) id `tid` is in use (psutil.pid_exists says False for threads)."""
+    try:
+        os.kill(tid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError, ValueError):
+        return tid > 0
+    return True
+
+
+@contextmanager
+def _claims(path: str):
+    """The claims in the file `path` as {tid: core} of live threads, locked; written back after."""
+    # in the server's private directory, which a plugin's process could also write: a symlink,
+    # a FIFO, a huge file or a lock held there costs the run its pinning (OSError), never a wait
+    fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | os.O_NONBLOCK, 0o600)
+    if not stat.S_ISREG(os.fstat(fd).st_mode):
+        os.close(fd)
+        raise OSError(f"{path}: not a regular file")
+    with os.fdopen(fd, "r+") as fh:
+        t0 = time.perf_counter()
+        while True:
+            try:
+                fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                break
+            except BlockingIOError:
+                if time.perf_counter() - t0 > CLAIMS_LOCK_S:
+                    raise
+                time.sleep(0.002)
+        taken = {}
+        for line in fh.read(CLAIMS_CHARS).split("\n"):
+            try:
+                pid, core = (int(v) for v in line.split())
+            except ValueError:
+                continue
+            if _alive(pid):
+                taken[pid] = core
+        yield taken
+        fh.seek(0)
+        fh.truncate()
+        fh.write("".join(f"{pid} {core}\n" for pid, core in taken.items()))
+
+
+def _serve(worker: _Worker, lazy: _Lazy, problem, time_limit_s, budget: int) -> tuple[str, str | None]:
     """Answer the worker's requests until the run ends; the run's (status, error)."""
     conn, n_var = worker.conn, int(problem.n_var)
+    # no request is longer than the whole budget's points (a longer one is refused unread, so a
+    # plugin cannot make this process allocate what it likes)
+    limit = MESSAGE_BYTES + 8 * n_var * int(budget)
     deadline = worker_deadline_s(time_limit_s)
     t0 = time.perf_counter()
     while True:
@@ -332,8 +472,10 @@ def _serve(worker: _Worker, lazy: _Lazy, problem, time_limit_s) -> tuple[str, st
                                f"of {time_limit_s} s without asking for an evaluation; the evaluations done until "
                                f"then are kept")
         try:
-            message = conn.recv_bytes()
-        except (EOFError, OSError):
+            message = conn.recv_bytes(limit)
+        except (EOFError, OSError) as exc:
+            if str(exc) == "bad message length":  # multiprocessing's words for a message over the limit
+                return "failed", f"protocol: the optimizer's process sent a message longer than {limit} bytes"
             code = worker.exit_code()
             how = "exited" if code is None else f"exited with code {code}"
             return "failed", (f"the optimizer's process {how} without finishing its run; the evaluations done "
@@ -352,9 +494,9 @@ def _serve(worker: _Worker, lazy: _Lazy, problem, time_limit_s) -> tuple[str, st
                 out = objective.least_squares(x, jacobian=bool(body[0]))
                 conn.send_bytes(VALUES + pickle.dumps((objective.n_evals, out.f, out.residuals, out.jacobian)))
             elif tag == DONE:
-                try:
-                    kind, text = pickle.loads(body)
-                except Exception:
+                try:  # JSON, never a pickle: unpickling would run the plugin's code here
+                    kind, text = _pair(json.loads(body))
+                except ValueError:
                     return "failed", "protocol: the optimizer's process sent an unreadable end of run"
                 if kind == "returned":
                     return ("ok" if objective.n_evals >= objective.budget else "stopped"), None

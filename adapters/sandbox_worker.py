@@ -25,6 +25,7 @@ from __future__ import annotations
 import os
 
 import importlib
+import json
 import importlib.abc
 import pickle
 import signal
@@ -46,6 +47,12 @@ BLOCKED_PACKAGES = ("fe_problem", "femu")
 EVAL, LSQ, DONE = b"E", b"L", b"D"
 #: Tags of the evaluating side's answers: values, a stop (budget or time), an error to raise.
 VALUES, STOP, ERROR = b"F", b"S", b"X"
+
+
+def send_json(conn, obj, tag: bytes = b"") -> None:
+    """Send `obj` to the evaluating process as JSON: what this process sends there is data only,
+    never a pickle (unpickling runs code, and this process is the plugin's)."""
+    conn.send_bytes(tag + json.dumps(obj).encode())
 
 #: What `ObjectiveProxy.least_squares` returns (as the problem's LeastSquares).
 LeastSquares = namedtuple("LeastSquares", "f residuals jacobian")
@@ -112,14 +119,18 @@ class ObjectiveProxy:
         super().__setattr__(name, value)
 
     def _request(self, message: bytes) -> bytes:
-        for stream in (sys.stdout, sys.stderr):  # what it printed so far is in its record, even if ended now
-            stream.flush()
+        """The evaluating side's answer to `message`: its VALUES answer (tag included)."""
+        sys.stdout.flush()  # what it printed so far is in its record, even if ended now
+        sys.stderr.flush()
         with self._lock:
             if self._stopped is not None:  # the run is over: nothing more is evaluated
                 raise self._stopped
             self._conn.send_bytes(message)
             answer = self._conn.recv_bytes()
-        tag, body = answer[:1], answer[1:]
+        tag = answer[:1]
+        if tag == VALUES:
+            return answer
+        body = answer[1:]
         if tag == STOP:
             from .harness import BudgetExhausted, TimeLimitExceeded
 
@@ -130,10 +141,16 @@ class ObjectiveProxy:
         if tag == ERROR:
             kind, text = pickle.loads(body)
             raise {"ValueError": ValueError, "FloatingPointError": FloatingPointError}.get(kind, TypeError)(text)
-        return body
+        return answer
 
     def _received(self, X, f) -> None:
         start = self._n_evals
+        if len(f) == 1:  # one point per call (most calls of such optimizers): no array work
+            v = float(f[0])
+            if v < self._best_f:  # False for NaN, as fmin.accumulate below
+                self._trace.append([start + 1, v])
+                self._best_f, self._best_x = v, X[0].copy()
+            return
         np = self._np
         running = np.fmin.accumulate(np.concatenate(([self._best_f], f)))
         new = np.flatnonzero(running[1:] < running[:-1])
@@ -143,12 +160,14 @@ class ObjectiveProxy:
 
     def __call__(self, X):
         np = self._np
-        X = np.atleast_2d(np.asarray(X, dtype=float))
+        X = np.asarray(X, dtype=float)
+        if X.ndim != 2:
+            X = np.atleast_2d(X)
         if X.ndim != 2 or X.shape[1] != self._n_var:
             raise ValueError(f"the points must have shape (n, {self._n_var}), got {X.shape}")
-        body = self._request(EVAL + np.ascontiguousarray(X).tobytes())
-        n_evals = int.from_bytes(body[:8], "little")
-        f = np.frombuffer(body[8:], dtype=float).copy()
+        answer = self._request(EVAL + X.tobytes())  # tobytes: C order whatever X's layout
+        n_evals = int.from_bytes(answer[1:9], "little")
+        f = np.frombuffer(answer, dtype=float, offset=9).copy()
         self._received(X[: len(f)], f)
         self._n_evals = n_evals
         return f
@@ -160,8 +179,8 @@ class ObjectiveProxy:
         X = np.atleast_2d(np.asarray(x, dtype=float))
         if X.shape != (1, self._n_var):
             raise ValueError(f"least_squares takes one point of {self._n_var} parameters, got shape {X.shape}")
-        body = self._request(LSQ + bytes([bool(jacobian)]) + X.tobytes())
-        n_evals, f, residuals, jac = pickle.loads(body)
+        answer = self._request(LSQ + bytes([bool(jacobian)]) + X.tobytes())
+        n_evals, f, residuals, jac = pickle.loads(answer[1:])
         self._received(X, np.array([f]))
         self._n_evals = n_evals
         return LeastSquares(f, residuals, jac)
@@ -216,7 +235,7 @@ def _capture_output(path: str) -> None:
 
 def worker(conn) -> None:
     """One run (see the module doc), on the connection `conn` to the evaluating process."""
-    conn.send(os.getpid())
+    send_json(conn, os.getpid())
     spec = conn.recv()
     _capture_output(spec["output_path"])
     # the evaluating process's path and directory now (the server's are those of its start)
@@ -228,9 +247,9 @@ def worker(conn) -> None:
         pass
     if spec.get("describe"):
         try:
-            conn.send(("described", _describe(spec)))
+            send_json(conn, ["described", _describe(spec)])
         except BaseException as exc:
-            conn.send(("refused", str(exc) if isinstance(exc, ValueError) else f"{type(exc).__name__}: {exc}"))
+            send_json(conn, ["refused", str(exc) if isinstance(exc, ValueError) else f"{type(exc).__name__}: {exc}"])
         conn.recv()  # ended by the evaluating process
         return
     try:
@@ -240,13 +259,13 @@ def worker(conn) -> None:
         described = run_description(type(optimizer), spec["options"])  # a bad capability flag: refused
     except BaseException as exc:
         message = str(exc) if isinstance(exc, ValueError) else f"{type(exc).__name__}: {exc}"
-        conn.send(("refused", message))
+        send_json(conn, ["refused", message])
         conn.recv()
         return
     import numpy as np
 
     proxy = ObjectiveProxy(conn, spec)
-    conn.send(("ready", described))
+    send_json(conn, ["ready", described])
     try:
         optimizer.minimize(proxy, proxy.bounds, proxy.budget, np.random.default_rng(spec["seed"]), **start,
                            **spec["options"])
@@ -262,7 +281,7 @@ def worker(conn) -> None:
             stream.flush()
         except Exception:
             pass
-    conn.send_bytes(DONE + pickle.dumps(outcome))
+    send_json(conn, list(outcome), DONE)
     conn.recv()  # the evaluating process ends this process and every one it started
 
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import copy
 import gc
+import json
 import os
 import pickle
 import subprocess
@@ -180,7 +181,7 @@ class ForgesItsEnd:
     def minimize(self, objective, bounds, budget, rng):
         objective(_points(bounds, rng, 3))
         conn = objective._conn
-        conn.send_bytes(b"D" + pickle.dumps(("returned", "budget spent")))
+        conn.send_bytes(b"D" + json.dumps(["returned", "budget spent"]).encode())  # the protocol's own form
         time.sleep(60)
 
 
@@ -220,3 +221,30 @@ class Hangs:
     def minimize(self, objective, bounds, budget, rng):
         objective(_points(bounds, rng, 2))
         time.sleep(3600)
+
+
+class _RunsCodeWhenUnpickled:
+    """What a pickle can carry: a call made where it is loaded (here, one that marks the process)."""
+
+    def __reduce__(self):
+        return (exec, ("import adapters; adapters.SMUGGLED_CODE_RAN = True",))
+
+
+class SmugglesCodeInItsEnd:
+    """Sends an end-of-run message that is a pickle carrying a call: if the evaluating side
+    unpickled it, the plugin's code would run there, beside the problem and its counts."""
+
+    def minimize(self, objective, bounds, budget, rng):
+        objective(_points(bounds, rng, 3))
+        objective._conn.send_bytes(b"D" + pickle.dumps(("returned", _RunsCodeWhenUnpickled())))
+        time.sleep(60)
+
+
+class SendsAHugeMessage:
+    """Sends one message far longer than its whole budget's points (64 MB), to make the
+    evaluating side allocate it."""
+
+    def minimize(self, objective, bounds, budget, rng):
+        objective(_points(bounds, rng, 3))
+        objective._conn.send_bytes(b"E" + bytes(64 << 20))
+        time.sleep(60)

@@ -320,3 +320,18 @@ class BadFlag:
         while True:
             objective(rng.uniform(bounds[0], bounds[1], (10, len(bounds[0]))))
 
+
+
+class PrintsItsCores:
+    """Honest: prints the cores its process may run on once its run is under way, then takes
+    its time (so that the runs of a parallel study overlap) and spends its budget."""
+
+    name = "prints-its-cores"
+    min_budget = 1
+
+    def minimize(self, objective, bounds, budget, rng):
+        objective(_points(bounds, rng, 1))
+        print("CORES", sorted(os.sched_getaffinity(0)), flush=True)
+        time.sleep(5.0)  # the other run has claimed its core by then, even on a loaded machine
+        while True:
+            objective(_points(bounds, rng, 1))

@@ -49,6 +49,8 @@ ROUTES = [
     (cp.PatchesTheHarness, "stopped", 3, None),  # it patched its own copies only: its 3 points charged
     (cp.ForgesItsEnd, "stopped", 3, None),  # an end it sends itself is a return, never "ok"
     (cp.ForgesValues, "failed", 3, "protocol"),
+    (cp.SmugglesCodeInItsEnd, "failed", 3, "protocol"),  # read as JSON: its pickle never runs here
+    (cp.SendsAHugeMessage, "failed", 3, "protocol"),  # refused by its length, never read
     (cp.ResetsItsCountAndBudget, "ok", BUDGET, None),
     (cp.PrintsALot, "ok", BUDGET, None),
 ]
@@ -62,6 +64,7 @@ def test_no_route_gains_anything_through_adapters_run(cls, status, n_evals, says
     assert says is None and r.error is None or says in r.error, r.error
     assert problem.points_evaluated == r.n_evals <= BUDGET  # not one point uncharged
     assert r.verified
+    assert not hasattr(adapters, "SMUGGLED_CODE_RAN")  # no plugin code ran in this process
 
 
 def test_a_suite_problems_truth_and_optimum_never_reach_the_optimizer():
@@ -216,3 +219,55 @@ def test_femu_reproduce_keeps_its_json_clean_stops_a_hanging_plugin_and_writes_o
     assert (store.runs_dir / f"{run_key('paper', '../../../../escaped', 100, 0)}.json").exists()
     written = {p for p in tmp_path.rglob("*") if p.is_file()}
     assert all(site in p.parents or out in p.parents for p in written), sorted(map(str, written))
+
+
+# -- the core a sandboxed run is pinned to ---------------------------------------------------------
+def test_core_claims_spread_runs_over_the_cores_and_forget_ended_ones(tmp_path):
+    """Runs sharing a worker server each take the least claimed core; a claim of a thread that
+    has ended counts for nothing; a claims file that is not a regular file, or whose lock
+    another process holds, is refused (the run then goes unpinned), never waited on for long."""
+    from adapters.sandbox import _release_core, claim_core
+
+    claims = str(tmp_path / "cores")
+    ended = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    dead = int(ended.stdout)
+    with open(claims, "w") as fh:
+        fh.write(f"{dead} 0\n{dead} 0\nnot a line\n")
+    mine = claim_core({0, 1, 2}, claims)  # the dead claims dropped: all free, so the core this thread is on
+    other = claim_core({0, 1, 2}, claims, tid=os.getppid())  # a live process: a core nobody holds
+    third = claim_core({0, 1, 2}, claims, tid=1)
+    assert sorted([mine, other, third]) == [0, 1, 2]
+    assert claim_core({0, 1, 2}, claims, tid=os.getpid() + 10**6) in (0, 1, 2)  # no such pid: dropped later
+    _release_core(claims, tid=os.getppid())
+    _release_core(claims, tid=1)
+    _release_core(claims)
+    assert open(claims).read() == ""  # every live claim released, the dead one dropped
+    holder = subprocess.Popen([sys.executable, "-c", "import fcntl, sys, time; fh = open(sys.argv[1]); "
+                               "fcntl.flock(fh, fcntl.LOCK_EX); print('locked', flush=True); time.sleep(30)", claims],
+                              stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline() == "locked\n"
+        with pytest.raises(BlockingIOError):  # a lock somebody holds: given up after CLAIMS_LOCK_S
+            claim_core({0, 1}, claims)
+    finally:
+        holder.kill()
+        holder.wait()
+    os.unlink(claims)
+    os.mkfifo(claims)
+    with pytest.raises(OSError, match="not a regular file"):
+        claim_core({0, 1}, claims)
+
+
+def test_a_parallel_studys_runs_are_pinned_to_different_cores(tmp_path):
+    """`femu study --workers 2`: the two runs under way at once (each optimizer with its
+    evaluating process on one core) are on two cores, not both on the core they started on."""
+    allowed = os.sched_getaffinity(0)
+    store = tmp_path / "s"
+    done = _femu("study", "--optimizers", "sample_plugins:PrintsItsCores", "--seeds", "0-1", "--budget", "20",
+                 "--store", str(store), "--workers", "2", "--no-progress")
+    assert done.returncode == 0, done.stderr
+    runs = list(Store(store).runs())
+    cores = [json.loads(r.output.split("CORES ")[1].splitlines()[0]) for r in runs]
+    assert len(runs) == 2 and all(r.status == "ok" and r.verified for r in runs)
+    assert all(len(c) == 1 and c[0] in allowed for c in cores), cores
+    assert len({c[0] for c in cores}) == min(2, len(allowed)), cores
