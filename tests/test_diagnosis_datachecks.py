@@ -168,3 +168,28 @@ def test_frequencies_only_answer_says_it_rests_on_few_degrees_of_freedom():
     if diag.causes:
         assert diag.verdict.dof <= 2
         assert any("degree(s) of freedom" in w for w in diag.warnings)
+
+
+def test_hypotheses_ranked_by_rank_one_updates_equal_their_corrected_shapes():
+    """`_hypothesis_chi2` (every reversal and exchange scored by rank-one updates of the products,
+    no corrected shapes built) against `_shape_chi2` of each hypothesis's corrected shapes, built
+    one by one: equal to rounding, with close modes, a zero channel and frequency limits."""
+    from fe_problem.diagnosis.datachecks import _hypotheses, _hypothesis_chi2, _shape_chi2, _undone
+
+    rng = np.random.default_rng(3)
+    n, m, k = 9, 4, 6
+    u_a = rng.normal(size=(n, k))
+    u_a[:, 2] = u_a[:, 1] + 0.05 * rng.normal(size=n)  # a close pair: partners change with the fault
+    u_a /= np.linalg.norm(u_a, axis=0)
+    u_m = u_a[:, [0, 1, 3, 4]] + 0.1 * rng.normal(size=(n, m))
+    u_m[5] = 0.0
+    u_m /= np.linalg.norm(u_m, axis=0)
+    ok = rng.random((m, k)) < 0.8
+    ok[:, 0] = True
+    sigma = 0.02 * np.max(np.abs(u_m), axis=0)
+    hyps = list(_hypotheses(n))
+    assert len(hyps) == n + n * (n - 1) // 2
+    fast = _hypothesis_chi2(u_m, sigma, u_a, ok, hyps)
+    exact = np.array([_shape_chi2(_undone(u_m, *h), sigma, u_a, ok)[0].sum() for h in hyps])
+    np.testing.assert_allclose(fast, exact, rtol=1e-9)
+    assert np.ptp(exact) > 100.0  # the hypotheses differ: the comparison can fail
