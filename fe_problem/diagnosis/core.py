@@ -280,7 +280,7 @@ def _evidence_notes(ev: Evidence, rounds) -> list[str]:
         notes.append(f"model form: {form[0].label} ({', '.join(f'{k} {v:.4g}' if isinstance(v, float) else f'{k} {v}' for k, v in (form[0].estimate or {}).items())}) "
                      f"explains the data {'better than' if form[0].log_evidence > chosen[0].log_evidence else 'about as well as'} "
                      f"{answer} (log evidence {form[0].log_evidence:.3g} against {chosen[0].log_evidence:.3g}): the "
-                     "named cause may be an error of the model's geometry or section, not that physics")
+                     "named cause may be an error of the model's geometry, section or supports, not that physics")
     if ev.note:
         notes.append("evidence: " + ev.note)
     return notes

@@ -1,4 +1,4 @@
-"""Model-form classes: the model's geometry or sections are wrong, not its physics.
+"""Model-form classes: the model's geometry, sections or supports are wrong, not its physics.
 
 A node a centimetre off its true place, or a member drawn a few per cent too deep, moves the
 modes as a crack, a mass or a spring would; fitted by those candidates it becomes confident

@@ -156,10 +156,10 @@ def _candidate(st: Setting, node: int, directions: tuple[str, ...], mode: str) -
     def estimate(a, s):
         r = float(ratio(a))
         unit = "rotational_stiffness_nm_per_rad" if rotation else "stiffness_n_per_m"
-        k = {d: s * kr * r for d, kr in zip(directions, k_ref)}
-        members = {d: s * kr for d, kr in zip(directions, k_ref)}
+        k = {d: float(s * kr * r) for d, kr in zip(directions, k_ref)}
+        members = {d: float(s * kr) for d, kr in zip(directions, k_ref)}
         one = len(directions) == 1
-        return {"condition": _condition(r, rotation), "fixity": r / (1.0 + r) if np.isfinite(r) else 1.0,
+        return {"condition": _condition(r, rotation), "fixity": float(r / (1.0 + r)) if np.isfinite(r) else 1.0,
                 "stiffness_ratio": r, unit: k[directions[0]] if one else k,
                 "member_" + unit: members[directions[0]] if one else members}
 
