@@ -111,6 +111,34 @@ def test_a_released_base_rotation_is_the_column_end_on_a_spring(ratio):
     np.testing.assert_array_equal(cand.forward(np.array([0.0]))[0][0], _hz(PORTAL, hz.shape[1]))
 
 
+def test_a_released_translation_is_the_node_on_a_spring_to_a_grounded_twin():
+    # the truth: the support no longer holds x at node 1, which is tied by a model spring to a new
+    # grounded node (diagnosis_cases.springs_truth), not by a spring parameter to ground
+    from fe_problem.diagnosis import plausibility
+
+    st = _setting(PORTAL)
+    cand = _candidate(st, 1, "x", "released")
+    k_members = member_stiffness(PORTAL, st.local, 1, "x")
+    for ratio in (0.3, 4.0):
+        a = 1.0 / (1.0 + ratio)
+        hz, _ = cand.forward(np.array([a]))
+        unheld = PORTAL.replace(supports=(fp.model.Support(1, ("y", "rz")), PORTAL.supports[1]))
+        truth = dc.springs_truth(unheld, [(1, "x")], [ratio * k_members])
+        np.testing.assert_allclose(hz[0], _hz(truth, hz.shape[1]), rtol=1e-9)
+        est = cand.estimate(a, 1.0)
+        assert est["stiffness_n_per_m"] == pytest.approx(ratio * k_members, rel=1e-12)
+        assert plausibility.check(PORTAL, cand.kind, cand.location, est) is None
+    # a translation is released no further than a spring of k_members / 999; below 1 % it is flagged
+    assert cand.upper == pytest.approx(0.999)
+    est = cand.estimate(cand.upper, 1.0)
+    assert est["condition"] == "free" and est["stiffness_ratio"] == pytest.approx(1 / 999)
+    why = plausibility.check(PORTAL, cand.kind, cand.location, est)
+    assert why is not None and "node 1" in why and "hardly there" in why
+    # a rotation released as far is a pinned support: plausible
+    rot = _candidate(st, 1, "rz", "released")
+    assert plausibility.check(PORTAL, rot.kind, rot.location, rot.estimate(1.0, 1.0)) is None
+
+
 @pytest.mark.parametrize("ratio", [0.1, 3.0])
 def test_a_held_pinned_base_is_the_fixed_base_with_a_sprung_column_end(ratio):
     pinned, fixed = fp.regular_frame(1, 2, base="pinned"), fp.regular_frame(1, 2, base="fixed")
