@@ -172,6 +172,29 @@ def test_the_held_rotations_first_order_term_is_the_assembled_difference():
     assert np.abs(term.dk).max() > 0
 
 
+@pytest.mark.parametrize("model_name, node, direction", [("portal", 1, "rz"), ("portal", 13, "x"),
+                                                         ("portal", 1, "y"), ("frame3d", 5, "rx+ry+rz")])
+def test_the_released_supports_reaction_term_is_the_exact_first_order_change(model_name, node, direction):
+    # the first-order eigenvalue and shape changes the sparse path screens with (screening.py, from
+    # the reaction term) against the exact modes of the candidate at a small size, differenced
+    from fe_problem.diagnosis.screening import first_order_modes
+
+    model = PORTAL if model_name == "portal" else fp.load_model("frame3d")
+    st = _setting(model)
+    cand = _candidate(st, node, direction, "released")
+    n = 6
+    lam0, phi0, dlam, dshape = first_order_modes(fp.AffineModel(model), st.coords, n, [cand.term()])
+    h = 1e-5  # a spring 1e5 times the members': smaller steps drown in the stiff system's rounding
+    hz, sh = cand.forward(np.array([0.0, h]))
+    lam = (2 * np.pi * hz[:, :n]) ** 2
+    np.testing.assert_allclose(lam[0], lam0, rtol=1e-10)
+    np.testing.assert_allclose(dlam[0], (lam[1] - lam[0]) / h, rtol=1e-3, atol=1e-6 * lam0.max())
+    assert np.abs(dlam[0]).max() > 1e-3 * lam0.max()  # the support carries these modes: a real change
+    signs = np.sign(np.sum(sh[1, :, :n] * sh[0, :, :n], axis=0))  # the solver's sign of each shape
+    np.testing.assert_allclose(dshape[0], (sh[1, :, :n] * signs - sh[0, :, :n]) / h,
+                               rtol=0, atol=5e-3 * np.abs(dshape[0]).max())
+
+
 def _opensees_frame3d(fixed=None, releases=None, n_modes=8, seed=7, freq_noise=0.001, shape_noise=0.01,
                       shapes_out=False):
     """The shipped space frame solved by OpenSees with base supports `fixed` {node: 6 ints} and

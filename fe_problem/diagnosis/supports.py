@@ -71,6 +71,35 @@ def _member_mass(model: FrameModel, local, node: int, direction: str) -> float:
     return float(np.sum(local.density[:, None] * diag * hit)) + lumped
 
 
+def reaction_term(model: FrameModel, local, node: int, directions, k_ref: np.ndarray) -> Term:
+    """The first-order term of a support released onto springs k = k_ref (1 - a) / a at a = 0.
+
+    A stiff spring of compliance c = 1 / k in place of a support moves each mode by the support's
+    dynamic reaction R_i = g^T phi_i, g = (K - lambda_i M)[dof, :] (the node's row of the
+    members' matrices): d lambda_i = -c R_i^2 to first order in c (the penalty method's
+    asymptotics), and dc / da = 1 / k_ref at a = 0. So D_i = -(1 / k_ref) g g^T, written as
+    dk - lambda dm + lambda^2 dm2 (as a joint's, local.py), summed over the directions; the
+    constrained DOFs' own entries fall away (screening maps them to a zero row)."""
+    dofmap = local.dofmap
+    rows = np.unique(np.concatenate([np.flatnonzero((dofmap.element_dofs == dofmap.dof(node, d, model)).any(axis=1))
+                                     for d in directions]))
+    dofs = np.unique(dofmap.element_dofs[rows])
+    where = np.searchsorted(dofs, dofmap.element_dofs[rows])     # (r, k) into `dofs`
+    n = len(dofs)
+    dk, dm, dm2 = np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, n))
+    for d, kr in zip(directions, k_ref):
+        g_k, g_m = np.zeros(n), np.zeros(n)
+        for j, e in enumerate(rows):  # the support DOF's row of each member's K and M
+            r = np.flatnonzero(dofmap.element_dofs[e] == dofmap.dof(node, d, model))
+            if len(r):
+                np.add.at(g_k, where[j], local.modulus[e] * local.k_el[e][r[0]])
+                np.add.at(g_m, where[j], local.density[e] * local.m_el[e][r[0]])
+        dk -= np.outer(g_k, g_k) / kr
+        dm -= (np.outer(g_m, g_k) + np.outer(g_k, g_m)) / kr
+        dm2 -= np.outer(g_m, g_m) / kr
+    return Term(dofs, dk, dm, dm2)
+
+
 def _with_support(model: FrameModel, node: int, directions: tuple[str, ...]) -> FrameModel:
     """`model` with the support at `node` holding `directions` (no support there if none)."""
     others = tuple(s for s in model.supports if s.node != node)
@@ -173,11 +202,13 @@ def _candidate(st: Setting, node: int, directions: tuple[str, ...], mode: str) -
             return _with_support(model, node, tuple(d for d in held if d not in directions))
         return sprung(k_ref * float(ratio(a)))
 
-    term = None
     if mode == "held":  # dk/da at a = 0: k_members on each DOF (a spring to ground)
         def term():
             dofs = np.array([st.local.dofmap.dof(node, d, model) for d in directions])
             return Term(dofs, np.diag(k_ref), np.zeros((len(dofs), len(dofs))))
+    else:
+        def term():
+            return reaction_term(model, st.local, node, directions, k_ref)
 
     grid = 1.0 / (1.0 + RATIOS) if mode == "released" else RATIOS / (1.0 + RATIOS)
     grid = np.unique(np.concatenate([[0.0, upper], grid[grid < upper]]))
