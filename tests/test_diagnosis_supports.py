@@ -312,6 +312,18 @@ def test_diagnose_names_a_pinned_space_base_from_opensees(tmp_path, capsys):
     assert best["estimate"]["condition"] == "pinned" and best["n_parameters"] == 1
 
 
+def test_diagnose_names_another_pinned_space_base_from_opensees():
+    """The same with an edge column's base (node 8) pinned, other noise, through `diagnose()` with
+    one round (`max_causes=1`, as the planar pinned case)."""
+    record = json.loads(dumps(diagnose(fp.load_model("frame3d"), _opensees_frame3d(fixed={8: (1, 1, 1, 0, 0, 0)},
+                                                                                  seed=9), max_causes=1)))
+    assert _support_named(record, 8), (record["warnings"], record["evidence"]["classes"][:3])
+    best = record["evidence"]["classes"][0]
+    assert best["label"] == "support_condition@node=8,direction=rx+ry+rz(released)"
+    assert best["estimate"]["condition"] == "pinned"
+    assert not _confident(record) or record["cause"]["kind"] == "support_condition"
+
+
 def test_diagnose_names_a_sprung_space_base_from_opensees():
     """The centre column's base (node 5) on rotational springs (OpenSees zeroLength, half of the
     column's own end stiffness about each axis): the support at node 5 is first by evidence, its
