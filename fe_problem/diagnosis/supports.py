@@ -119,6 +119,7 @@ def support_candidates(st: Setting, nodes=None) -> list[Candidate]:
     when given)."""
     model, lay = st.model, st.model.layout
     out: list[Candidate] = []
+    baseline = lazy_system(lambda: _own(model))  # a = 0 of every support: the model as it is
     for sup in model.supports:
         if nodes is not None and sup.node not in nodes:
             continue
@@ -135,11 +136,20 @@ def support_candidates(st: Setting, nodes=None) -> list[Candidate]:
             for dirs, mode in (([d for d in fixed if d in lay.rotations], "released"), (free, "held")):
                 if len(dirs) > 1:
                     groups.append((tuple(dirs), mode))
-        out += [_candidate(st, sup.node, dirs, mode) for dirs, mode in groups]
+        out += [_candidate(st, sup.node, dirs, mode, baseline) for dirs, mode in groups]
     return out
 
 
-def _candidate(st: Setting, node: int, directions: tuple[str, ...], mode: str) -> Candidate:
+def _own(model: FrameModel, parameters=()) -> AffineModel:
+    """A support's own system, solved in this process: it serves a few batches of a few sizes,
+    and shipping it to the sparse path's worker pool cost more than it saved (5 sizes of a
+    1,092-DOF frame's support: 8.5 s through the pool, 0.6 s here)."""
+    system = AffineModel(model, tuple(parameters))
+    system.workers = 1
+    return system
+
+
+def _candidate(st: Setting, node: int, directions: tuple[str, ...], mode: str, baseline) -> Candidate:
     """One support candidate: `directions` of the support at `node` released (held by springs
     k = k_members (1 - a) / a) or held (k = k_members a / (1 - a))."""
     model, lay = st.model, st.model.layout
@@ -154,11 +164,10 @@ def _candidate(st: Setting, node: int, directions: tuple[str, ...], mode: str) -
         return base.replace(springs=model.springs + tuple(Spring(sid + j, (node, d), None, float(k[j]))
                                                           for j, d in enumerate(directions)))
 
-    system = lazy_system(lambda: AffineModel(sprung(k_ref), tuple(
+    system = lazy_system(lambda: _own(sprung(k_ref), (
         Parameter("spring", (sid + j,), 0.0, 1e6 * k_ref[j], k_ref[j]) for j in range(len(directions)))))
-    baseline = lazy_system(lambda: AffineModel(model))
     held_model = _with_support(model, node, tuple(held) + directions)
-    end = lazy_system(lambda: AffineModel(held_model))  # a = 1 of a held rotation: fixed in it
+    end = lazy_system(lambda: _own(held_model))  # a = 1 of a held rotation: fixed in it
 
     def ratio(a):
         """k / k_members at sizes a (inf where the DOF stays held, 0 where it is free)."""
