@@ -26,8 +26,10 @@ it: ``pinned`` (a rotation) or ``free`` (a translation) when the spring is below
 rule by which a spring to ground that stiff is called a support), else ``spring``.
 
 Every size is a solve of the support's own system with the springs as parameters (affine, so a
-batch of sizes is one batched solve); a held rotation also has a first-order term (a spring to
-ground, local.py), so the sparse path screens it from one set of modes.
+batch of sizes is one batched solve). Each candidate also has a first-order term (local.Term) for
+the sparse path's screen from one set of modes: a held rotation's is a spring to ground, a
+released direction's the support's dynamic reaction (`reaction_term`). They are ranked for
+fitting with a look along their grid as well (modelform.screen_forms).
 """
 
 from __future__ import annotations
