@@ -52,7 +52,7 @@ from . import plausibility
 from .datachecks import DataCheck, check_data, spurious_modes
 from .evidence import FACTOR_10, Evidence, ScoredClass, occam_log_factor, ranked
 from .groups import distributed_candidates
-from .modelform import model_form_candidates
+from .modelform import model_form_candidates, screen_forms
 from .plausibility import few_dof_note
 from .fit import Fit, chi2_batch, fit, look_along, profiled, screen
 from . import sparse_class
@@ -162,7 +162,7 @@ def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str 
     fits += [(distributed[i], fit(obs, distributed[i], promise[i][1]), "distributed") for i in top]
     if rounds is not None:  # the model-form alternatives: every node and element screened, the best fitted
         forms = model_form_candidates(cal.setting)
-        drops = [d for d, _ in screen_steps(obs, base, cal.setting, forms)]
+        drops = [d for d, _ in screen_forms(obs, base, cal.setting, forms)]
         fits += [(forms[i], coarse_fit(obs, forms[i]), "model_form")
                  for i in sorted(range(len(forms)), key=lambda i: -drops[i])[:N_FORM_FIT]]
     several = rounds is not None and len(rounds.sized) > 1
@@ -280,7 +280,7 @@ def _evidence_notes(ev: Evidence, rounds) -> list[str]:
         notes.append(f"model form: {form[0].label} ({', '.join(f'{k} {v:.4g}' if isinstance(v, float) else f'{k} {v}' for k, v in (form[0].estimate or {}).items())}) "
                      f"explains the data {'better than' if form[0].log_evidence > chosen[0].log_evidence else 'about as well as'} "
                      f"{answer} (log evidence {form[0].log_evidence:.3g} against {chosen[0].log_evidence:.3g}): the "
-                     "named cause may be an error of the model's geometry or section, not that physics")
+                     "named cause may be an error of the model's geometry, section or supports, not that physics")
     if ev.note:
         notes.append("evidence: " + ev.note)
     return notes

@@ -16,7 +16,11 @@ structure of the model's kind carries, not what is merely unusual.
 - a member stiffer than its model by more than `MAX_GAIN_RATIO` (3x);
 - a spring to ground stiffer than `MAX_SPRING_PER_MEMBER` times the stiffest member meeting the
   node (axial E A / L): the node is held, a support condition, not a soft spring;
-- Timoshenko shear beyond `MAX_SHEAR_FACTOR` times the section's own.
+- Timoshenko shear beyond `MAX_SHEAR_FACTOR` times the section's own;
+- a support released in a translation onto a spring below 1 / `MAX_SPRING_PER_MEMBER` of the
+  members' own stiffness there (supports.py): the support would hardly hold at all, a support the
+  model has and the structure lacks, not a soft support. (A rotation released that far is a
+  pinned support, common physics; a spring stiffer than the members is a fixed support.)
 """
 
 from __future__ import annotations
@@ -85,6 +89,10 @@ def check(model: FrameModel, kind: str, location: dict | None, estimate: dict) -
         if k_member > 0 and k > MAX_SPRING_PER_MEMBER * k_member:
             return (f"a spring to ground of {k:.4g} N/m is {k / k_member:.3g} times the stiffest member at node "
                     f"{loc['node']} (E A / L {k_member:.4g} N/m): the node is held, a support, not a spring")
+    if kind == "support_condition" and estimate.get("condition") == "free":
+        return (f"the support at node {loc.get('node')} would hold in {loc.get('direction')} with "
+                f"{100 * estimate['fixity']:.2g} % fixity (a spring {estimate['stiffness_ratio']:.3g} times the members' "
+                f"stiffness there): a support that is hardly there, not a soft support; check the model's supports")
     if kind == "shear_deformation" and estimate.get("shear_factor", 0.0) > MAX_SHEAR_FACTOR:
         return (f"shear deformation {estimate['shear_factor']:.3g} times the section's own (beyond "
                 f"{MAX_SHEAR_FACTOR:g}x)")
