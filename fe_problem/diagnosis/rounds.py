@@ -87,7 +87,7 @@ def further_causes(cal, found, sel, cause: Cause, kinds, n_fit, alpha: float, ma
 
     st = cal.setting
     states = []
-    for i in joint.starts(found, sel):  # the best first cause and the runner-up of another place
+    for i in joint.starts(found, sel, st):  # the best first cause and the runner-up of another place
         c0, f0 = found.candidates[i], found.fitted[i]
         # a first round whose candidates tie goes on with its best: a second effect's misfit can be
         # what blurs the first choice; the revisit below chooses it again once the second is in
@@ -183,7 +183,7 @@ def _next_cause(cal, st: Setting, picks, sizes, kinds, n_fit, alpha: float, skip
     step = Step((ck.kind, ck.label), found_k.fitted[sel_k.best].a, sel_k.selection.p_adjusted,
                 () if one else labels)
     # a new cause: chosen again by its joint fit with the causes found (their sizes free)
-    return joint.choose(cal, st, picks, sizes, skip, cal_k, found_k, step) if skip < 0 else step
+    return joint.choose(cal, st, picks, sizes, skip, cal_k, found_k, step) if skip < 0 and joint.applies(st) else step
 
 
 def _tied(found, sel) -> list[int]:
