@@ -323,7 +323,7 @@ def test_first_round_finds_the_hidden_mass_beside_a_hidden_column_loss(element_i
     time; compared as their cluster (residuals.py), the first-order screen ranks the mass's node
     among those it fits (it ranked it 118th of 724 before, from a base pairing that swapped the
     close pair) and the best single cause is the mass: at its node, or spread over a member that
-    ends there. (The column loss is not yet named as the second cause: see docs/diagnosis.md.)"""
+    ends there (the rounds then name the column loss too: the test below)."""
     from fe_problem.diagnosis import core
 
     model = fp.load_model("frame3d")
@@ -338,3 +338,28 @@ def test_first_round_finds_the_hidden_mass_beside_a_hidden_column_loss(element_i
     ends = {e.id for e in model.elements if node in (e.node_i, e.node_j)}
     assert (best.kind, best.location) == ("added_mass", {"node": node}) or \
         (best.kind == "distributed_mass" and best.location["element"] in ends), (best.label, labels[:5])
+
+
+@pytest.mark.parametrize("element_id, ratio, node, kg, seed", [(2, 0.7, 45, 1500.0, 7), (23, 0.6, 37, 1200.0, 11)])
+def test_diagnose_names_a_column_loss_and_a_roof_mass_hidden_together(tmp_path, capsys, element_id, ratio, node, kg,
+                                                                       seed):
+    """The issue's "done when": a column's loss and a mass at a roof corner hidden together in the
+    shipped frame (modes built and solved by OpenSees, 0.1 % / 1 % noise; two placements and
+    seeds): `femu diagnose` names exactly these two causes, both identifiable, the loss within 5
+    points of its percentage and the mass within 10 % of its kg, each 95 % interval holding the
+    truth. A round holding the first cause at its single-cause size ranks the loss far down (the
+    mass fitted alone has taken part of its effect); the rounds choose a further cause by its
+    joint fit with the earlier ones and start from the runner-up first cause too (joint.py)."""
+    data = opensees_data(element_id=element_id, stretch=(0.0, 1.0), ratio=ratio, mass=(node, kg), seed=seed)
+    record = _diagnose_cli(tmp_path, capsys, data)
+    named = sorted((c["kind"], c["location"]) for c in record["causes"])
+    assert named == [("added_mass", {"node": node}), ("stiffness_loss", {"element": element_id})], record["causes"]
+    assert all(c["identifiable"] for c in record["causes"])
+    mass = next(c for c in record["causes"] if c["kind"] == "added_mass")
+    loss = next(c for c in record["causes"] if c["kind"] == "stiffness_loss")
+    assert abs(loss["estimate"]["stiffness_loss_pct"] - 100.0 * (1.0 - ratio)) < 5.0, loss["estimate"]
+    assert abs(mass["estimate"]["mass_kg"] / kg - 1.0) < 0.1, mass["estimate"]
+    low, high = mass["interval"]["mass_kg"]
+    assert low < kg < high
+    low, high = loss["interval"]["stiffness_loss_pct"]
+    assert low < 100.0 * (1.0 - ratio) < high

@@ -13,7 +13,8 @@ Kinds (the set is open: add a function to `CANDIDATE_KINDS` that yields Candidat
 - ``added_mass`` at a node: a lumped mass of a kg (x and y), a up to half the model's mass.
 - ``joint_flexibility`` at a node where members meet: one element end released and tied to
   the node by a rotational spring k = (E I / L)_element / a (a: the joint's compliance
-  relative to the element's own bending compliance).
+  relative to the element's own bending compliance); on a space frame about each bending
+  axis and in torsion (k = (G J / L)_element / a).
 - ``shear_deformation`` (no place): every element Timoshenko, with shear parameter
   phi = a * phi_nominal (a = 1: the section's own shear coefficient).
 - ``stiffness_gain`` at an element: its modulus times (1 + a), a in [0, 3] (a member stiffer
@@ -121,11 +122,15 @@ def scale_stiffness(model: FrameModel, s: float) -> FrameModel:
 
 
 def _bending_compliance_ref(model: FrameModel, element_id: int, rotation: str = "rz") -> float:
-    """(E I / L) of an element for bending about its local axis `rotation`, N m/rad: the scale
-    of a joint spring at its end."""
+    """The element's own end stiffness about its local axis `rotation`, N m/rad: E I / L for
+    bending (ry, rz), G J / L for torsion (rx; G scales with the element's modulus, the
+    material's G / E fixed as the space element takes it): the scale of a joint spring at its end."""
     e = model.element(element_id)
-    return (model.element_modulus_pa(element_id) * model.sections[e.section].inertia_about(rotation)
-            / model.element_length_m(element_id))
+    modulus = model.element_modulus_pa(element_id)
+    if rotation == "rx":
+        mat = model.materials[e.material]
+        modulus *= mat.shear_modulus / mat.youngs_modulus_pa
+    return modulus * model.sections[e.section].inertia_about(rotation) / model.element_length_m(element_id)
 
 
 def stiffness_loss(st: Setting) -> Iterator[Candidate]:
@@ -250,14 +255,17 @@ def _last_rigid_end(model: FrameModel, node: int, rotation: str) -> bool:
 
 def joint_flexibility(st: Setting) -> Iterator[Candidate]:
     """A rotational spring between an element end and its joint node, at every element end of
-    every joint, in each bending rotation (a space frame's two bending planes, local ry and rz,
-    each its own candidate; the planar frame's rz); at a corner (two ends) one candidate per
-    rotation: releasing either end is the same model."""
+    every joint, in each rotation the end may turn in apart from the node: the planar frame's
+    rz; a space frame's two bending planes (local ry, rz) and its torsion (local rx, a member
+    twisting in a connection that does not hold it: a spring of G J / L / a), each its own
+    candidate. At a corner (two ends) one candidate per rotation: releasing either end is the
+    same model."""
     baseline = lazy_system(lambda: AffineModel(st.model))
     planar = len(st.model.layout.hinges) == 1
+    rotations = bending_hinges(st.model) + tuple(r for r in st.model.layout.hinges if r not in bending_hinges(st.model))
     for node in joint_nodes(st.model):
         ends = [e for e in st.model.elements if node in (e.node_i, e.node_j)]
-        for e, local in ((e, r) for e in (ends[:1] if len(ends) == 2 else ends) for r in bending_hinges(st.model)):
+        for e, local in ((e, r) for e in (ends[:1] if len(ends) == 2 else ends) for r in rotations):
             try:
                 rot = release_rotation(st.model, e, local)
             except ValueError:  # a skew member's end: a release there is not modelled (terms.py)

@@ -23,7 +23,7 @@ from scipy.stats import chi2 as chi2_dist
 
 from ..assembly import AffineModel
 from ..model import FrameModel
-from . import zones
+from . import joint, zones
 from .candidates import Candidate, Setting, all_candidates, scale_stiffness, zone_candidate, zone_profile
 from .fit import Fit, fit
 from .record import Cause, Found, Gain
@@ -86,15 +86,18 @@ def further_causes(cal, found, sel, cause: Cause, kinds, n_fit, alpha: float, ma
     from .core import gain
 
     st = cal.setting
-    c0, f0 = found.candidates[sel.best], found.fitted[sel.best]
-    # a first round whose candidates tie goes on with its best: a second effect's misfit can be
-    # what blurs the first choice; the revisit below chooses it again once the second is in
-    picks, sizes, ps = [(c0.kind, c0.label)], [f0.a], [cause.p_adjusted]
-    ties: list[tuple[str, ...]] = [() if cause.identifiable else cause.indistinguishable]
-    # its size refitted on the modes that pair with the model it extends (a spring to ground
-    # brings a suspension mode the first round could not fit)
-    picks, sizes, _ = _joint_refit(cal, st, picks, sizes)
-    state = _search(cal, st, (picks, sizes, ps, ties), kinds, n_fit, alpha, max_causes)
+    states = []
+    for i in joint.starts(found, sel, st):  # the best first cause and the runner-up of another place
+        c0, f0 = found.candidates[i], found.fitted[i]
+        # a first round whose candidates tie goes on with its best: a second effect's misfit can be
+        # what blurs the first choice; the revisit below chooses it again once the second is in
+        picks, sizes, ps = [(c0.kind, c0.label)], [f0.a], [cause.p_adjusted]
+        ties: list[tuple[str, ...]] = [() if cause.identifiable or i != sel.best else cause.indistinguishable]
+        # its size refitted on the modes that pair with the model it extends (a spring to ground
+        # brings a suspension mode the first round could not fit)
+        picks, sizes, _ = _joint_refit(cal, st, picks, sizes)
+        states.append(_search(cal, st, (picks, sizes, ps, ties), kinds, n_fit, alpha, max_causes))
+    state = joint.better(cal, st, states, alpha, len(found.candidates))
     if len(cal.unpaired):
         # a measured mode the model has no partner for (a suspension mode; a mode a deep crack
         # moved past pairing): every cause chosen again on every measured mode, so that a cause
@@ -177,8 +180,10 @@ def _next_cause(cal, st: Setting, picks, sizes, kinds, n_fit, alpha: float, skip
     tied = _tied(found_k, sel_k)
     labels = tuple(found_k.candidates[i].label for i in tied)
     one = len({_answer(lab) for lab in labels}) == 1
-    return Step((ck.kind, ck.label), found_k.fitted[sel_k.best].a, sel_k.selection.p_adjusted,
+    step = Step((ck.kind, ck.label), found_k.fitted[sel_k.best].a, sel_k.selection.p_adjusted,
                 () if one else labels)
+    # a new cause: chosen again by its joint fit with the causes found (their sizes free)
+    return joint.choose(cal, st, picks, sizes, skip, cal_k, found_k, step) if skip < 0 and joint.applies(st) else step
 
 
 def _tied(found, sel) -> list[int]:

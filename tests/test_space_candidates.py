@@ -1,0 +1,121 @@
+"""Diagnosis candidates on space frames (issue 24): the joint candidates in torsion as well as
+in both bending planes, each checked by a diagnosis of data from an independent reference
+(OpenSeesPy builds and solves the truth; tests/test_beam3d.py `opensees_modes`).
+"""
+
+from __future__ import annotations
+
+import collections
+
+import numpy as np
+
+import fe_problem as fp
+from fe_problem.diagnosis.candidates import Setting, _bending_compliance_ref, joint_flexibility
+
+from test_frame3d import frame_of
+from test_beam3d import mac_diagonal, opensees_modes
+
+STEEL = {"youngs_modulus_pa": 2.1e11, "shear_modulus_pa": 8.1e10, "density_kg_m3": 7850}
+
+
+def chs(diameter_m: float, wall_m: float) -> dict:
+    """A circular hollow section: J = Iy + Iz (a closed tube twists as stiffly as it bends)."""
+    inner = diameter_m - 2 * wall_m
+    i = np.pi / 64 * (diameter_m ** 4 - inner ** 4)
+    return {"area_m2": np.pi / 4 * (diameter_m ** 2 - inner ** 2), "iy_m4": i, "iz_m4": i, "j_m4": 2 * i,
+            "shear_coefficient": 0.5}
+
+
+def umbrella() -> fp.FrameModel:
+    """A tube column (two elements, 4 m) carrying four 2.5 m arms (two elements each) at its top,
+    a 300 kg mass at each arm's tip: the structure's twist about the column is held by the
+    column's torsion alone (no other path), so a torsionally flexible column head is seen in
+    its torsional mode. Measured: x, y, z at every node above the base."""
+    nodes = [(1, 0.0, 0.0, 0.0), (2, 0.0, 0.0, 2.0), (3, 0.0, 0.0, 4.0)]
+    elements = [(1, 2, "col"), (2, 3, "col")]
+    k = 4
+    for dx, dy in ((1, 0), (0, 1), (-1, 0), (0, -1)):
+        nodes += [(k, 1.25 * dx, 1.25 * dy, 4.0), (k + 1, 2.5 * dx, 2.5 * dy, 4.0)]
+        elements += [(3, k, "arm"), (k, k + 1, "arm")]
+        k += 2
+    d = {"format": "femu.model/1", "name": "umbrella", "dimension": 3, "materials": {"steel": dict(STEEL)},
+         "sections": {"col": chs(0.2, 0.008), "arm": chs(0.12, 0.005)},
+         "nodes": [{"id": n, "x": x, "y": y, "z": z} for n, x, y, z in nodes],
+         "elements": [{"id": j + 1, "nodes": [a, b], "section": s, "material": "steel",
+                       "orientation": [1.0, 0.0, 0.0] if s == "col" else [0.0, 0.0, 1.0]}
+                      for j, (a, b, s) in enumerate(elements)],
+         "masses": [{"node": n, "mass_kg": 300.0} for n in (5, 7, 9, 11)],
+         "supports": [{"node": 1, "directions": ["x", "y", "z", "rx", "ry", "rz"]}],
+         "measured_dofs": [[n, c] for n, *_ in nodes[1:] for c in ("x", "y", "z")]}
+    return fp.model.model_from_dict(d, "umbrella.model.json")
+
+
+def opensees_released(model: fp.FrameModel, releases: dict, n_modes: int):
+    """The lowest `n_modes` modes of `model` with end `releases` ({(element, node): {global
+    rotation 4|5|6: N m/rad}}) in OpenSees. The released end's own rotation carries no mass, and
+    OpenSees' full generalised solver returns its infinite eigenvalues as a few complex ones
+    (NaN frequencies): those are dropped."""
+    f, shapes = opensees_modes(frame_of(model), False, n_modes + 6, releases=releases)
+    real = np.flatnonzero(np.isfinite(f))
+    assert len(real) >= n_modes
+    return f[real[:n_modes]], shapes[:, real[:n_modes]]
+
+
+def opensees_data(model: fp.FrameModel, releases: dict, n_modes: int = 10, seed: int = 5) -> fp.ModalData:
+    """Modes of `model` with end `releases` built and solved by OpenSees (`opensees_released`),
+    at the model's measured DOFs, 0.1 % / 1 % seeded noise."""
+    f, shapes = opensees_released(model, releases, n_modes)
+    ids = [n.id for n in model.nodes]
+    rows = [6 * ids.index(n) + model.layout.position(d) for n, d in model.measured_dofs]
+    rng = np.random.default_rng(seed)
+    s = shapes[rows]
+    s = s + 0.01 * np.abs(s).max(axis=0) * rng.standard_normal(s.shape)
+    f = f * (1.0 + 0.001 * rng.standard_normal(n_modes))
+    order = np.argsort(f)
+    return fp.ModalData(model.name, model.measured_dofs, f[order], s[:, order], meta={"source": "OpenSeesPy"})
+
+
+def test_space_joints_are_candidates_in_torsion_and_both_bending_planes():
+    """Every joint end of the shipped frame is a candidate in local rx, ry and rz; the torsional
+    one's reference stiffness is the element's G J / L (the bending ones' E I / L)."""
+    model = fp.load_model("frame3d")
+    cands = list(joint_flexibility(Setting(model, model.measured_dofs, 14)))
+    counts = collections.Counter(c.location["rotation"] for c in cands)
+    assert set(counts) == {"rx", "ry", "rz"} and len(set(counts.values())) == 1, counts
+    e = model.elements[0]
+    mat, sec = model.materials[e.material], model.sections[e.section]
+    length = model.element_length_m(e.id)
+    assert _bending_compliance_ref(model, e.id, "rx") == mat.shear_modulus * sec.j_m4 / length
+    assert _bending_compliance_ref(model, e.id, "ry") == mat.youngs_modulus_pa * sec.iy_m4 / length
+
+
+def test_our_released_column_head_matches_opensees():
+    """The umbrella with its column's top end tied to the head by a torsion spring (local rx of a
+    vertical column: global rz) has OpenSees' frequencies to 1e-8: the truth below is the model
+    the candidate builds."""
+    model = umbrella()
+    k = _bending_compliance_ref(model, 2, "rx") / 4.0
+    ours = fp.modal_analysis(fp.release_element_end(model, 2, 3, k, ("rx",)), 10)
+    f_os, s_os = opensees_released(model, {(2, 3): {6: k}}, 10)
+    np.testing.assert_allclose(ours.frequencies_hz, f_os, rtol=1e-8)
+    ids = [n.id for n in model.nodes]
+    rows = [6 * ids.index(n) + model.layout.position(d) for n, d in model.measured_dofs]
+    single = np.append(np.abs(np.diff(f_os)) > 1e-6 * f_os[1:], True) & np.insert(np.abs(np.diff(f_os)) > 1e-6 * f_os[1:], 0, True)
+    assert mac_diagonal(ours.at(model.measured_dofs)[:, single], s_os[rows][:, single]).min() > 1 - 1e-8
+    nominal = fp.modal_analysis(model, 10).frequencies_hz
+    assert np.max(np.abs(ours.frequencies_hz / nominal - 1)) > 0.05  # the twist mode moves
+
+
+def test_diagnose_names_a_torsionally_flexible_column_head():
+    """The umbrella's column head twisting in its connection (a torsion spring of a quarter of
+    the column's G J / L, compliance ratio 4), modes from OpenSees with noise: `femu diagnose`
+    names a joint flexibility at the head, of the column's end, in torsion (local rx), its
+    compliance ratio's 95 % interval holding 4."""
+    model = umbrella()
+    k = _bending_compliance_ref(model, 2, "rx") / 4.0
+    data = opensees_data(model, {(2, 3): {6: k}})
+    d = fp.diagnose(model, data, kinds=("stiffness_loss", "added_mass", "joint_flexibility"))
+    assert d.cause.kind == "joint_flexibility", d.cause
+    assert d.cause.location == {"node": 3, "element": 2, "rotation": "rx"}, d.cause.location
+    low, high = d.causes[0].interval["compliance_ratio"]
+    assert low < 4.0 < high, (low, high)
