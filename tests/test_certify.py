@@ -128,3 +128,29 @@ def test_femu_report_finds_no_run_below_the_certified_minima(tmp_path, capsys):
     for r in Store(store).runs():
         p = facts[r.problem]
         assert 0.0 <= r.best_f - p.f_opt + p.f_opt_precision and r.best_f - p.f_opt < 1e-9
+
+
+def test_below_f_opt_allows_each_certified_instance_its_own_precision_and_no_more():
+    from types import SimpleNamespace
+
+    from femu.reports.benchmark import below_f_opt
+    from femu.studies.store import J_ROUNDING
+
+    def runs(pid, *best):
+        return [SimpleNamespace(optimizer="x", variant=pid, seed=k, best_f=b) for k, b in enumerate(best)]
+
+    certs = fs.certificates()
+    # one certificate per size of the family whose minima are not 0 (192 included once certified)
+    pids = sorted({pid.rsplit("/", 1)[0]: pid for pid in certs if pid.startswith("hframe-shape-noisy/")}.values())
+    assert len(pids) >= 4 and min(certs[pid]["precision"] for pid in pids) < 1e-12
+    for pid in pids:
+        f, prec = certs[pid]["f_opt"], certs[pid]["precision"]
+        assert 0 < prec < 1e-8 * f, (pid, prec)
+        # within its precision: honest; beyond it by the smallest visible amount: flagged, though
+        # far inside the absolute 1e-12 the report allowed before
+        flagged = below_f_opt(runs(pid, f, f - prec, f - 2 * prec - 4 * EPS * f, None))
+        assert [b["seed"] for b in flagged] == [2], pid
+        assert flagged[0]["precision"] == prec and flagged[0]["f_opt"] == f
+    # an exact f_opt (0): only the store's rounding allowance below 0 (older records), nothing else
+    assert below_f_opt(runs("hframe-freq/12/1", 0.0, -J_ROUNDING / 3)) == []
+    assert [b["seed"] for b in below_f_opt(runs("hframe-freq/12/1", -2 * J_ROUNDING))] == [0]
