@@ -14,7 +14,7 @@ import fe_problem as fp
 import fe_problem.suite as fs
 from adapters import run
 from fe_problem.assembly import solver_path
-from fe_problem.certify import JAC_RTOL, ModalJacobian, certify_minimum, projected_gradient
+from fe_problem.certify import JAC_RTOL, NOISE_FACTOR, ModalJacobian, certify_minimum, projected_gradient
 from femu.cli import main
 
 EPS = np.finfo(float).eps
@@ -69,11 +69,11 @@ def test_the_analytic_solve_agrees_across_starts_to_rounding_and_is_first_order_
     assert c.jacobian_check < 1e-6 and c.projected_gradient < 1e-10
     # every start ends in one basin: they agree to a relative 1e-12 (measured: 1.1e-13)
     assert max(c.ends) - c.f_min < 1e-12 * c.f_min
-    # the precision: that spread, or J's own noise at the point where it is larger (measured:
-    # 4e-15 on 16 points within a relative 1e-12 of it, the rounding of 1 - MAC)
+    # the precision: that spread, or twice J's own noise at the point where larger (measured:
+    # 5e-15 on 64 points within a relative 1e-12 of it, the rounding of 1 - MAC)
     assert c.solved_on == "dense" and 0 < c.noise < 1e-13
     at = float(p.evaluate(c.x)[0])
-    assert c.precision == max(max(c.ends) - c.f_min, c.noise, abs(at - c.f_min), 4 * EPS * c.f_min)
+    assert c.precision == max(max(c.ends) - c.f_min, NOISE_FACTOR * c.noise, abs(at - c.f_min), 4 * EPS * c.f_min)
     assert at == c.f_min
     with pytest.raises(ValueError, match="jacobian must be"):
         certify_minimum(p, jacobian="exact")
