@@ -171,3 +171,35 @@ def test_below_f_opt_allows_each_certified_instance_its_own_precision_and_no_mor
     # an exact f_opt (0): only the store's rounding allowance below 0 (older records), nothing else
     assert below_f_opt(runs("hframe-freq/12/1", 0.0, -J_ROUNDING / 3)) == []
     assert [b["seed"] for b in below_f_opt(runs("hframe-freq/12/1", -2 * J_ROUNDING))] == [0]
+
+
+def test_a_solve_on_the_twin_of_another_path_certifies_the_reported_problem():
+    # the reference solve of a sparse-path instance runs on its dense twin; here the other way
+    # round on a small instance (cheap): starts on the sparse twin, the minimum reported on the
+    # suite's dense path at the best point, the two paths' difference inside the precision
+    p = fp.suite_problem("hframe-shape-noisy/12/1")
+    twin = fp.suite_problem("hframe-shape-noisy/12/1", solver="sparse")
+    assert (p.system.path, twin.system.path) == ("dense", "sparse")
+    c = certify_minimum(twin, starts=0, seed=0, truth=p.truth, reported=p)
+    assert c.solved_on == "sparse" and c.kinds == ("x0", "truth")
+    # J of the reported problem at the point (evaluated in the noise batch: equal to rounding)
+    assert c.f_min == pytest.approx(float(p.evaluate(c.x)[0]), rel=4 * EPS)
+    assert abs(c.f_min - min(c.ends)) <= c.precision and NOISE_FACTOR * c.noise <= c.precision
+    # the same minimum as the stored certificate (solved on the dense path) within both precisions
+    stored = fs.certificates()["hframe-shape-noisy/12/1"]
+    assert abs(c.f_min - stored["f_opt"]) <= c.precision + stored["precision"]
+
+
+def test_a_forced_solver_path_is_the_same_problem_within_the_certified_precision():
+    # 96 parameters: the suite's sparse path and the dense twin the 192 instances are solved on
+    pid = "hframe-shape-noisy/96/5"
+    c = fs.certificates()[pid]
+    p, dense = fp.suite_problem(pid), fp.suite_problem(pid, solver="dense")
+    assert (p.system.path, dense.system.path) == ("sparse", "dense")
+    assert (p.f_opt, p.f_opt_kind) == (dense.f_opt, dense.f_opt_kind)
+    x = np.array(c["x_best_pa"])
+    # at the certificate's point the paths differ by less than its precision (measured 1.3e-12)
+    assert abs(float(p.evaluate(x)[0]) - float(dense.evaluate(x)[0])) <= c["precision"]
+    # elsewhere by ARPACK's tolerance: a relative 6.5e-10 at the truth, 2.3e-10 at x0
+    X = np.vstack([p.truth, p.x0])
+    assert np.all(np.abs(p.evaluate(X) - dense.evaluate(X)) <= 1e-9 * dense.evaluate(X))
