@@ -33,7 +33,7 @@ RTOL = 1e-10
 METHOD = ("fe_problem.certify.certify_minimum from x0, the truth, perturbed truths and seeded uniform starts: "
           "scipy least_squares (trf, bounds), then L-BFGS-B and Levenberg-Marquardt on the free variables (the bounded "
           "trust region where they outnumber the residuals), repeated while a round lowers J by more than 4 eps J (at "
-          "most 6 rounds in entries with 'solved_on', 3 before), on the dense solver path where the suite's is sparse "
+          "most 6 rounds in entries with 'solved_on', 3 before; with the bound variables whose gradient points into the box freed for the polish), on the dense solver path where the suite's is sparse "
           "('solved_on'; f_opt is then J on the suite's path at the best point); Jacobian analytic (eigenvalue derivatives; shapes by Nelson's "
           "method, checked against a central difference at every start: jacobian_check) where an entry says "
           "jacobian 'analytic', else a central difference (entries without it); precision: the spread of the ends "
