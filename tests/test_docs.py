@@ -8,6 +8,7 @@ as written). A failure names the page and the line of the block.
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -98,3 +99,13 @@ def test_the_script_lists_the_blocks():
     out = subprocess.run([sys.executable, str(Path(db.__file__)), "--list", str(db.ROOT / "README.md")],
                          capture_output=True, text=True, check=True).stdout
     assert "README.md:" in out and "\tpython\truns" in out
+
+
+def test_no_block_installs_into_the_environment_the_tests_run_in():
+    """A block run as written by the tests must not `pip install` (a `pip install -e .` from the
+    page's fresh copy would point the test environment's own install at that temporary copy, so
+    that every later test imports the copy, and none once it is deleted): an install block
+    carries a `docs-test: ci:` replacement that checks its result instead."""
+    installs = [b.where for page in db.pages() for b in db.blocks(page)
+                if b.lang == "bash" and re.search(r"(^|[\s/])pip3? install", b.code(FULL))]
+    assert installs == []
