@@ -201,7 +201,7 @@ def _opensees_frame3d(fixed=None, releases=None, n_modes=8, seed=7, freq_noise=0
     column-end `releases` (test_beam3d.opensees_modes: a zeroLength spring per released global
     rotation 4-6), measured at the model's DOFs with seeded noise."""
     from test_beam3d import Frame, opensees_modes
-    from test_frame3d import frame_of
+    from test_frame3d import frame_of, measured
 
     model = fp.load_model("frame3d")
     frame = frame_of(model)
@@ -210,14 +210,8 @@ def _opensees_frame3d(fixed=None, releases=None, n_modes=8, seed=7, freq_noise=0
     f, shapes = opensees_modes(Frame(frame.nodes, frame.members, fx, frame.masses), False, n_modes, releases=releases)
     if shapes_out:
         return f, shapes
-    rows = [6 * list(frame.nodes).index(n) + model.layout.position(d) for n, d in model.measured_dofs]
-    rng = np.random.default_rng(seed)
-    s = shapes[rows]
-    s = s + shape_noise * np.abs(s).max(axis=0) * rng.standard_normal(s.shape)
-    f = f * (1.0 + freq_noise * rng.standard_normal(n_modes))
-    order = np.argsort(f)
-    return fp.ModalData("frame3d", model.measured_dofs, f[order], s[:, order],
-                        meta={"source": "OpenSeesPy", "freq_noise": freq_noise, "shape_noise": shape_noise})
+    return measured(model, list(frame.nodes), f, shapes, seed, freq_noise, shape_noise,
+                    meta={"source": "OpenSeesPy", "freq_noise": freq_noise, "shape_noise": shape_noise})
 
 
 def test_space_base_released_in_its_rotations_matches_opensees_zero_length_springs():

@@ -234,15 +234,22 @@ def opensees_data(element_id: int | None = None, stretch=(0.0, 1.0 / 3.0), ratio
     if mass is not None:
         masses[mass[0]] = masses.get(mass[0], 0.0) + mass[1]
     f, shapes = opensees_modes(Frame(nodes, members, frame.fixed, masses), False, n_modes)
-    ids = list(nodes)
-    rows = [6 * ids.index(n) + model.layout.position(d) for n, d in model.measured_dofs]
+    return measured(model, list(nodes), f, shapes, seed, freq_noise, shape_noise,
+                    meta={"source": "OpenSeesPy", "freq_noise": freq_noise, "shape_noise": shape_noise})
+
+
+def measured(model: fp.FrameModel, node_ids, f, shapes, seed: int, freq_noise: float, shape_noise: float,
+             meta: dict) -> fp.ModalData:
+    """Modes solved outside femu (`f`, and `shapes` with 6 rows per node in the order of
+    `node_ids`) as measured data of `model`: its measured DOFs, seeded Gaussian noise
+    (frequencies relative, shapes a fraction of each mode's largest entry), sorted by frequency."""
+    rows = [6 * list(node_ids).index(n) + model.layout.position(d) for n, d in model.measured_dofs]
     rng = np.random.default_rng(seed)
     s = shapes[rows]
     s = s + shape_noise * np.abs(s).max(axis=0) * rng.standard_normal(s.shape)
-    f = f * (1.0 + freq_noise * rng.standard_normal(n_modes))
+    f = f * (1.0 + freq_noise * rng.standard_normal(len(f)))
     order = np.argsort(f)
-    return fp.ModalData("frame3d", model.measured_dofs, f[order], s[:, order],
-                        meta={"source": "OpenSeesPy", "freq_noise": freq_noise, "shape_noise": shape_noise})
+    return fp.ModalData(model.name, model.measured_dofs, f[order], s[:, order], meta=meta)
 
 
 def _diagnose_cli(tmp_path, capsys, data: fp.ModalData) -> dict:

@@ -12,7 +12,7 @@ import numpy as np
 import fe_problem as fp
 from fe_problem.diagnosis.candidates import Setting, _bending_compliance_ref, joint_flexibility
 
-from test_frame3d import frame_of
+from test_frame3d import frame_of, measured
 from test_beam3d import mac_diagonal, opensees_modes
 
 STEEL = {"youngs_modulus_pa": 2.1e11, "shear_modulus_pa": 8.1e10, "density_kg_m3": 7850}
@@ -65,14 +65,7 @@ def opensees_data(model: fp.FrameModel, releases: dict, n_modes: int = 10, seed:
     """Modes of `model` with end `releases` built and solved by OpenSees (`opensees_released`),
     at the model's measured DOFs, 0.1 % / 1 % seeded noise."""
     f, shapes = opensees_released(model, releases, n_modes)
-    ids = [n.id for n in model.nodes]
-    rows = [6 * ids.index(n) + model.layout.position(d) for n, d in model.measured_dofs]
-    rng = np.random.default_rng(seed)
-    s = shapes[rows]
-    s = s + 0.01 * np.abs(s).max(axis=0) * rng.standard_normal(s.shape)
-    f = f * (1.0 + 0.001 * rng.standard_normal(n_modes))
-    order = np.argsort(f)
-    return fp.ModalData(model.name, model.measured_dofs, f[order], s[:, order], meta={"source": "OpenSeesPy"})
+    return measured(model, [n.id for n in model.nodes], f, shapes, seed, 0.001, 0.01, meta={"source": "OpenSeesPy"})
 
 
 def test_space_joints_are_candidates_in_torsion_and_both_bending_planes():
