@@ -17,9 +17,9 @@ from scipy.linalg import blas
 from scipy.optimize import least_squares
 from scipy.sparse.linalg import LinearOperator
 
-import fe_problem as fp
 from fe_problem.diagnosis import screening
 from fe_problem.diagnosis.core import _pinned_moduli, calibrate
+from test_bench_diagnosis_scale import cracked_frame
 
 
 def triangular(r: np.ndarray) -> LinearOperator:
@@ -33,11 +33,7 @@ def triangular(r: np.ndarray) -> LinearOperator:
 
 
 def main() -> None:
-    model = fp.split_elements(fp.regular_frame(3, 56, floor_mass_kg=2000.0), 3).replace(name="frame3024")
-    e = model.element(40)
-    ei_l = model.element_modulus_pa(40) * model.sections[e.section].inertia_m4 / model.element_length_m(40)
-    truth = fp.split_element(model, 40, 0.5, 0.5 * ei_l)
-    data = fp.synthetic_measurement(truth, 8, freq_noise=0.002, shape_noise=0.02, model_name=model.name, seed=1)
+    model, data = cracked_frame(3, 56, "frame3024")
     cal = calibrate(model, data, 0.002, 0.02)
     captured = {}
     fit = screening.bounded_linear_fit
