@@ -72,16 +72,22 @@ def _receive(conn, limit: int = MESSAGE_BYTES):
     it is data only, never a pickle (unpickling runs code, here, beside the problem). ValueError
     ("protocol: ...") when it is not JSON or longer than `limit` bytes; EOFError/OSError when the
     process is gone."""
-    try:
-        raw = conn.recv_bytes(limit)
-    except OSError as exc:
-        if str(exc) == "bad message length":  # multiprocessing's words for a message over the limit
-            raise ValueError(f"protocol: the optimizer's process sent a message longer than {limit} bytes") from None
-        raise
+    raw = _receive_bytes(conn, limit)
     try:
         return json.loads(raw)
     except ValueError:  # not UTF-8 JSON (json's own error is a ValueError too)
         raise ValueError("protocol: the optimizer's process sent a message that is not JSON") from None
+
+
+def _receive_bytes(conn, limit: int) -> bytes:
+    """A worker's message of at most `limit` bytes; ValueError ("protocol: ...") when it is
+    longer (refused before it is read), EOFError/OSError when the process is gone."""
+    try:
+        return conn.recv_bytes(limit)
+    except OSError as exc:
+        if str(exc) == "bad message length":  # multiprocessing's words for a message over the limit
+            raise ValueError(f"protocol: the optimizer's process sent a message longer than {limit} bytes") from None
+        raise
 
 
 def _pair(message) -> tuple[str, object]:
@@ -472,10 +478,10 @@ def _serve(worker: _Worker, lazy: _Lazy, problem, time_limit_s, budget: int) -> 
                                f"of {time_limit_s} s without asking for an evaluation; the evaluations done until "
                                f"then are kept")
         try:
-            message = conn.recv_bytes(limit)
-        except (EOFError, OSError) as exc:
-            if str(exc) == "bad message length":  # multiprocessing's words for a message over the limit
-                return "failed", f"protocol: the optimizer's process sent a message longer than {limit} bytes"
+            message = _receive_bytes(conn, limit)
+        except ValueError as exc:
+            return "failed", str(exc)
+        except (EOFError, OSError):
             code = worker.exit_code()
             how = "exited" if code is None else f"exited with code {code}"
             return "failed", (f"the optimizer's process {how} without finishing its run; the evaluations done "
