@@ -41,12 +41,13 @@ import numpy as np
 from ..modal import frequencies_hz
 from ..model import FrameModel, Spring, add_mass, release_element_end, with_formulation
 from ..model.edits import bending_hinges
-from ..assembly import AffineModel
+from ..assembly import AffineModel, solver_path
 from ..elements import formulation, formulations
 from ..parameters import Parameter
 from ..terms import release_rotation
 from . import zones
 from .local import LocalMatrices, Term
+from .reduced import SharedBasis
 
 KINDS = ("stiffness_loss", "added_mass", "joint_flexibility", "shear_deformation", "stiffness_gain",
          "boundary_stiffness", "distributed_mass")
@@ -73,6 +74,15 @@ class Setting:
     def local(self) -> LocalMatrices:
         """The model's element matrices and DOFs, for the candidates' first-order terms."""
         return LocalMatrices(self.model)
+
+    @functools.cached_property
+    def basis(self) -> SharedBasis | None:
+        """The reduced basis the candidates' searches share (reduced.py), or None where it does
+        not apply: a model on the dense path, or one with zero-energy modes."""
+        if solver_path(len(self.local.dofmap.free)) != "sparse":
+            return None
+        system = AffineModel(self.model)
+        return None if system.n_rigid else SharedBasis(system, self.coords, self.n_modes)
 
 
 def lazy_system(build: Callable[[], AffineModel]) -> Callable[[], AffineModel]:
@@ -101,12 +111,31 @@ class Candidate:
     step: float                        # a small effect size for first-order sensitivities
     meta: dict = field(default_factory=dict)
     term: Callable[[], Term] | None = None  # dK/da, dM/da at a = 0 (local.py); None: a global effect
+    #: () -> the reduced forward (reduced.py: the modes from the diagnosis's shared basis, for the
+    #: fit's search only; built on each call), or None where the basis does not apply; None: no
+    #: reduced form
+    reduced: Callable[[], Callable | None] | None = None
 
     @property
     def label(self) -> str:
         where = "" if self.location is None else "@" + ",".join(f"{k}={v}" for k, v in self.location.items())
         profile = self.meta.get("profile", "uniform")
         return self.kind + where + ("" if profile == "uniform" else f"({profile})")
+
+
+def reduced_linear(st: Setting, term: Callable[[], Term]) -> Callable[[], Callable | None]:
+    """The reduced-forward factory (`Candidate.reduced`) of a change linear in a with the term
+    `term()` (K0 + a dk, M0 + a dm on the term's DOFs: exact for a modulus, a density, a mass, a
+    spring). Each call builds the forward afresh (a few solves with the shared factor): kept, the
+    bases of every candidate searched would hold n_free x ~70 floats each."""
+    def make():
+        if st.basis is None:
+            return None
+        t = term()
+        dm = t.dm if np.any(t.dm) else None
+        return st.basis.local(t.dofs, lambda a: (a[:, None, None] * t.dk,
+                                                 None if dm is None else a[:, None, None] * dm))
+    return make
 
 
 def scale_stiffness(model: FrameModel, s: float) -> FrameModel:
@@ -155,7 +184,8 @@ def stiffness_loss(st: Setting) -> Iterator[Candidate]:
                                   0.8, 0.9]),
                         forward, estimate, lambda a, e=e, e0=e0: st.model.with_element_moduli({e.id: e0 * (1.0 - a)}),
                         step=0.01, meta={"profile": "uniform"},
-                        term=lambda e=e, e0=e0: st.local.stiffness(e.id, -e0, "uniform"))
+                        term=lambda e=e, e0=e0: st.local.stiffness(e.id, -e0, "uniform"),
+                        reduced=reduced_linear(st, lambda e=e, e0=e0: st.local.stiffness(e.id, -e0, "uniform")))
         # a weak zone is built by the planar beam's flexibility formulation (zones.py)
         if (st.model.layout.dimension != 2 or not formulation(e.formulation, st.model.layout).supports_crack
                 or e.crack_position is not None or e.weak_zone is not None):
@@ -195,9 +225,17 @@ def _zone_candidates(st: Setting, e, e0: float, shared: dict, places=None) -> It
         def extend(a, start=start, end=end):
             return zones.with_zone(st.model, e.id, start, end, 1.0 - a)
 
+        def reduced(start=start, end=end):
+            if st.basis is None:
+                return None
+            nominal = zones.zone_stiffness(st.model, e.id, 0.0, 1.0, np.ones(1))[0]
+            return st.basis.local(st.local.dofmap.element_dofs[st.local.row[e.id]], lambda a: (
+                zones.zone_stiffness(st.model, e.id, start, end, 1.0 - np.clip(a, 0.0, zones.UPPER)) - nominal, None))
+
         yield Candidate("stiffness_loss", {"element": e.id}, zones.UPPER, zones.GRID, forward, estimate, extend,
                         step=0.01, meta={"profile": zone_profile(centre)},
-                        term=lambda start=start, end=end: st.local.zone(e.id, start, end))
+                        term=lambda start=start, end=end: st.local.zone(e.id, start, end),
+                        reduced=reduced)
 
 
 def added_mass(st: Setting) -> Iterator[Candidate]:
@@ -221,7 +259,8 @@ def added_mass(st: Setting) -> Iterator[Candidate]:
 
         yield Candidate("added_mass", {"node": node}, 0.5 * total,
                         np.concatenate([[0.0], total * np.geomspace(1e-3, 0.5, 15)]),
-                        forward, estimate, extend, step=0.005 * total, term=lambda node=node: st.local.node_mass(node))
+                        forward, estimate, extend, step=0.005 * total, term=lambda node=node: st.local.node_mass(node),
+                        reduced=reduced_linear(st, lambda node=node: st.local.node_mass(node)))
 
 
 def joint_nodes(model: FrameModel) -> tuple[int, ...]:
@@ -342,7 +381,8 @@ def stiffness_gain(st: Setting) -> Iterator[Candidate]:
         yield Candidate("stiffness_gain", {"element": e.id}, 3.0,
                         np.array([0.0, 0.01, 0.02, 0.05, 0.1, 0.2, 0.35, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0]),
                         forward, estimate, lambda a, e=e, e0=e0: st.model.with_element_moduli({e.id: e0 * (1 + a)}),
-                        step=0.01, term=lambda e=e, e0=e0: st.local.stiffness(e.id, e0))
+                        step=0.01, term=lambda e=e, e0=e0: st.local.stiffness(e.id, e0),
+                        reduced=reduced_linear(st, lambda e=e, e0=e0: st.local.stiffness(e.id, e0)))
 
 
 def _reference_stiffness(st: Setting) -> float:
@@ -392,7 +432,9 @@ def boundary_stiffness(st: Setting) -> Iterator[Candidate]:
             yield Candidate("boundary_stiffness", {"node": node, "direction": direction}, 100.0,
                             np.concatenate([[0.0], np.geomspace(1e-4, 100.0, 16)]), forward, estimate, extend,
                             step=1e-3, term=lambda node=node, direction=direction:
-                            st.local.ground_spring(node, direction, k_ref))
+                            st.local.ground_spring(node, direction, k_ref),
+                            reduced=reduced_linear(st, lambda node=node, direction=direction:
+                                                   st.local.ground_spring(node, direction, k_ref)))
 
 
 def distributed_mass(st: Setting) -> Iterator[Candidate]:
@@ -421,7 +463,8 @@ def distributed_mass(st: Setting) -> Iterator[Candidate]:
 
         yield Candidate("distributed_mass", {"element": e.id}, upper,
                         np.concatenate([[0.0], upper * np.geomspace(1e-3, 1.0, 14)]), forward, estimate, extend,
-                        step=0.01 * upper, term=lambda e=e, rho0=rho0: st.local.density_change(e.id, rho0))
+                        step=0.01 * upper, term=lambda e=e, rho0=rho0: st.local.density_change(e.id, rho0),
+                        reduced=reduced_linear(st, lambda e=e, rho0=rho0: st.local.density_change(e.id, rho0)))
 
 
 #: kind -> function(Setting) yielding Candidates. Extend this to add a kind.

@@ -63,10 +63,11 @@ def profiled_paired(obs: Observations, hz: np.ndarray, shapes: np.ndarray, pairi
     return obs.residuals_paired(hz * np.sqrt(s)[:, None], shapes, pairing)
 
 
-def chi2_batch(obs: Observations, cand: Candidate, a: np.ndarray, pairing=None) -> list[Fit]:
-    """Profiled fits for a batch of effect sizes, one batched eigen-solve."""
+def chi2_batch(obs: Observations, cand: Candidate, a: np.ndarray, pairing=None, forward=None) -> list[Fit]:
+    """Profiled fits for a batch of effect sizes, one batched eigen-solve (of the candidate's
+    own system, or `forward`: its reduced form, `reduced_forward`)."""
     a = np.asarray(a, dtype=float)
-    hz, shapes = cand.forward(a)
+    hz, shapes = (cand.forward if forward is None else forward)(a)
     out = []
     for i in range(a.shape[0]):
         f = profiled(obs, hz[i], shapes[i], pairing)
@@ -95,16 +96,61 @@ def look_along(obs: Observations, cand: Candidate, base: Fit) -> tuple[float, fl
     doubled a diagnosis's time). A first-order screen misjudges an effect far from linear in
     its size: a crack through 3/4 of a building column (a zone losing 95 % of its bending
     stiffness, chi^2 88 where the best candidate fitted reached 923) was not fitted."""
-    best = min(chi2_batch(obs, cand, cand.grid[1::3], pairing=base.pairing), key=lambda f: f.chi2)
+    sizes = cand.grid[1::3]
+    reduced = reduced_forward(cand)
+    if reduced is None:
+        best = min(chi2_batch(obs, cand, sizes, pairing=base.pairing), key=lambda f: f.chi2)
+    else:  # the sizes on the shared basis, the best of them solved in full: the promise is the full model's
+        approx = chi2_batch(obs, cand, sizes, pairing=base.pairing, forward=reduced)
+        k = int(np.argmin([f.chi2 for f in approx]))
+        best = chi2_batch(obs, cand, sizes[k:k + 1], pairing=base.pairing)[0]
     return max(base.chi2 - best.chi2, 0.0), best.a
 
 
-def fit(obs: Observations, cand: Candidate, a_hint: float | None = None) -> Fit:
-    """The best a in [0, upper]: a batched grid (plus the screening hint), then a bounded
-    scalar refinement in the bracket around the best grid point."""
-    grid = np.unique(np.concatenate([cand.grid, [] if a_hint is None else [a_hint]]))
+def reduced_forward(cand: Candidate):
+    """The candidate's reduced forward on the diagnosis's shared basis (reduced.py), or None
+    where it has none."""
+    return None if cand.reduced is None else cand.reduced()
+
+
+#: A reduced grid is trusted only where its best point beats every point outside its bracket
+#: by this many times the largest difference from the full solves seen in the bracket (plus
+#: `GRID_SLACK` in chi^2).
+GRID_MARGIN, GRID_SLACK = 10.0, 1e-6
+
+
+def _grid_fits(obs: Observations, cand: Candidate, grid: np.ndarray):
+    """The best grid point, the full fits the bracket around it needs (index -> Fit), and the
+    reduced forward when the search may use it (else None).
+
+    With a reduced forward the grid is solved on the shared basis, and only the best point and
+    its two neighbours with the candidate's own system; the reduced grid is used only if the
+    full solves confirm the best point and every other point lies clear of it by
+    `GRID_MARGIN` times the reduced solves' largest error seen; otherwise the whole grid is
+    solved in full (as without a reduced forward)."""
+    reduced = reduced_forward(cand)
+    if reduced is not None:
+        approx = np.array([f.chi2 for f in chi2_batch(obs, cand, grid, forward=reduced)])
+        k = int(np.argmin(approx))
+        near = list(range(max(k - 1, 0), min(k + 2, len(grid))))
+        full = dict(zip(near, chi2_batch(obs, cand, grid[near])))
+        error = max(abs(full[i].chi2 - approx[i]) for i in near)
+        others = np.delete(approx, near)
+        if full[k].chi2 <= min(full[i].chi2 for i in near) and \
+                (others.size == 0 or others.min() > full[k].chi2 + GRID_MARGIN * error + GRID_SLACK):
+            return k, full, reduced
     fits = chi2_batch(obs, cand, grid)
-    k = int(np.argmin([f.chi2 for f in fits]))
+    return int(np.argmin([f.chi2 for f in fits])), dict(enumerate(fits)), None
+
+
+def fit(obs: Observations, cand: Candidate, a_hint: float | None = None) -> Fit:
+    """The best a in [0, upper]: a batched grid (plus the screening hint), then a bounded scalar
+    refinement in the bracket around the best grid point. Where the candidate has a reduced
+    forward that the grid's full solves confirm (`_grid_fits`), the grid and the refinement
+    run on the shared basis and the refinement's answer is solved again with the candidate's
+    own system: the Fit returned (a, s, chi^2, residuals) is always the full model's."""
+    grid = np.unique(np.concatenate([cand.grid, [] if a_hint is None else [a_hint]]))
+    k, fits, reduced = _grid_fits(obs, cand, grid)
     lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)]
     best = fits[k]
     if hi > lo:
@@ -113,12 +159,12 @@ def fit(obs: Observations, cand: Candidate, a_hint: float | None = None) -> Fit:
         def chi2_at(v: float) -> float:
             v = float(v)
             if v not in tried:
-                tried[v] = chi2_batch(obs, cand, np.array([v]))[0]
+                tried[v] = chi2_batch(obs, cand, np.array([v]), forward=reduced)[0]
             return tried[v].chi2
 
         res = minimize_scalar(chi2_at, bounds=(lo, hi), method="bounded", options={"xatol": 1e-4 * max(hi, 1e-9)})
         chi2_at(res.x)
-        cand_fit = tried[float(res.x)]
+        cand_fit = tried[float(res.x)] if reduced is None else chi2_batch(obs, cand, np.array([float(res.x)]))[0]
         if cand_fit.chi2 < best.chi2:
             best = cand_fit
     return best

@@ -135,6 +135,12 @@ def _candidate(st, system, ids, e0, kind, where, w) -> Candidate:
             out["modulus_ratio"] = float(1.0 + a * (1.0 if kind.endswith("gain") else -1.0))
         return out
 
+    def reduced():  # the reduced forward: the change along dK = sum_e E0_e w_e dK_e/dE_e
+        if st.basis is None:
+            return None
+        s = system()._solver
+        return st.basis.along(s.matrix(s.gk @ (e0 * w)))
+
     grid = upper * np.concatenate([[0.0], np.geomspace(2e-3, 1.0, 15)])
     return Candidate(kind, where, upper, grid, forward, estimate, lambda a: st.model.with_element_moduli(moduli(a)),
-                     step=0.01 * upper)
+                     step=0.01 * upper, reduced=reduced)

@@ -1,0 +1,112 @@
+"""The shared reduced basis of the diagnosis's candidate searches (fe_problem/diagnosis/reduced.py),
+checked against full sparse solves of each candidate's own system (`Candidate.forward`: the
+model edited and assembled, solved by ARPACK), and the fits that use it against fits without it.
+
+The data hide a crack built differently from every candidate: the element split in two and
+joined by a rotational spring (`split_element`)."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+import fe_problem as fp
+from fe_problem.assembly import solver_path
+from fe_problem.diagnosis.candidates import all_candidates
+from fe_problem.diagnosis.core import calibrate
+from fe_problem.diagnosis.fit import chi2_batch, fit
+from fe_problem.diagnosis.groups import distributed_candidates
+
+#: Frequencies of the reduced solve against the full one, relative: over each candidate's whole
+#: grid (to a mass of half the model's at one node, a modulus down to 0.1 of its value; measured
+#: at most 3e-7, a mass), and for a change of stiffness (a modulus, a weak zone, a spring) up to
+#: half its upper size (measured at most 2e-9). The basis serves the fit's search only; its
+#: answer is solved in full (`fit.fit`).
+FREQ_RTOL_GRID, FREQ_RTOL_STIFFNESS = 1e-6, 1e-8
+
+
+@pytest.fixture(scope="module")
+def case():
+    """A 2-bay 8-storey frame, each member in three elements (sparse path), measured with a
+    crack at the middle of element 20: the calibration and its candidates."""
+    model = fp.split_elements(fp.regular_frame(2, 8, floor_mass_kg=2000.0), 3).replace(name="frame2x8")
+    e = model.element(20)
+    ei_l = model.element_modulus_pa(20) * model.sections[e.section].inertia_m4 / model.element_length_m(20)
+    truth = fp.split_element(model, 20, 0.5, 0.5 * ei_l)
+    data = fp.synthetic_measurement(truth, 8, freq_noise=0.002, shape_noise=0.02, model_name=model.name, seed=1)
+    cal = calibrate(model, data, 0.002, 0.02)
+    assert solver_path(len(cal.setting.local.dofmap.free)) == "sparse"
+    return cal, all_candidates(cal.setting)
+
+
+def _one(cands, kind, profile="uniform", **where):
+    return next(c for c in cands if c.kind == kind and c.meta.get("profile", "uniform").startswith(profile)
+                and all(c.location.get(k) == v for k, v in where.items()))
+
+
+@pytest.mark.parametrize("kind,profile,where", [
+    ("stiffness_loss", "uniform", {"element": 20}),         # a member's loss
+    ("stiffness_loss", "zone", {"element": 20}),            # a crack: a weak zone, nonlinear in a
+    ("stiffness_loss", "zone", {"element": 1}),             # a crack at a column's foot
+    ("stiffness_gain", "uniform", {"element": 41}),
+    ("added_mass", "uniform", {"node": 30}),
+    ("distributed_mass", "uniform", {"element": 50}),
+    ("boundary_stiffness", "uniform", {"node": 12, "direction": "x"}),  # a support's spring
+])
+def test_reduced_frequencies_agree_with_full_sparse_solves(case, kind, profile, where):
+    cal, cands = case
+    c = _one(cands, kind, profile, **where)
+    reduced = c.reduced()
+    assert reduced is not None
+    a = np.asarray(c.grid, dtype=float)
+    hz_full, sh_full = c.forward(a)
+    hz, sh = reduced(a)
+    assert hz.shape == hz_full.shape and sh.shape == sh_full.shape
+    np.testing.assert_allclose(hz, hz_full, rtol=FREQ_RTOL_GRID, atol=0.0)
+    if "mass" not in kind:
+        half = a <= 0.5 * c.upper
+        np.testing.assert_allclose(hz[half], hz_full[half], rtol=FREQ_RTOL_STIFFNESS, atol=0.0)
+    # shapes are first order in the basis' error (frequencies second): held to 1e-4 of the largest entry
+    np.testing.assert_allclose(sh, sh_full, atol=1e-4 * np.abs(sh_full).max())
+
+
+def test_the_basis_holds_the_calibrated_model_exactly(case):
+    cal, cands = case
+    c = _one(cands, "stiffness_loss", "uniform", element=20)
+    hz, sh = c.reduced()(np.zeros(1))
+    np.testing.assert_allclose(hz[0], cal.hz0, rtol=1e-12)
+    np.testing.assert_allclose(sh[0], cal.sh0, atol=1e-10 * np.abs(cal.sh0).max())
+
+
+@pytest.mark.parametrize("pick", ["zone", "group"])
+def test_a_fit_with_the_basis_is_the_full_fit(case, pick):
+    """The fit's answer is solved with the candidate's own system: chi^2 and scale are the full
+    model's at its a, and a moves from the fit without the basis by less than the search's own
+    tolerance (xatol = 1e-4 of the bracket's upper end)."""
+    cal, cands = case
+    if pick == "zone":
+        c = _one(cands, "stiffness_loss", "zone 0.50", element=20)
+    else:
+        c = next(d for d in distributed_candidates(cal.setting)
+                 if d.kind == "group_stiffness_gain" and d.location == {"group": "storey3"})
+    with_basis = fit(cal.obs, c)
+    without = fit(cal.obs, dataclasses.replace(c, reduced=None))
+    assert with_basis.a > 0.0 and with_basis.chi2 < cal.base.chi2
+    full_at_a = chi2_batch(cal.obs, c, np.array([with_basis.a]))[0]
+    assert with_basis.chi2 == full_at_a.chi2 and with_basis.s == full_at_a.s
+    grid = np.asarray(c.grid)
+    bracket_top = grid[grid > max(with_basis.a, without.a)].min()
+    assert abs(with_basis.a - without.a) < 1e-4 * bracket_top  # the search's xatol
+    assert abs(with_basis.chi2 - without.chi2) <= 1e-6 * without.chi2
+
+
+def test_a_wrong_basis_is_caught_and_the_grid_solved_in_full(case):
+    """A reduced forward that answers for another candidate (a mass far away) is refused by the
+    grid's full solves: the fit is the full one, bit for bit."""
+    cal, cands = case
+    c = _one(cands, "stiffness_loss", "zone 0.50", element=20)
+    other = _one(cands, "added_mass", "uniform", node=30).reduced
+    wrong = dataclasses.replace(c, reduced=other)
+    full = fit(cal.obs, dataclasses.replace(c, reduced=None))
+    got = fit(cal.obs, wrong)
+    assert (got.a, got.s, got.chi2) == (full.a, full.s, full.chi2)
