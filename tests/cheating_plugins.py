@@ -248,3 +248,21 @@ class SendsAHugeMessage:
         objective(_points(bounds, rng, 3))
         objective._conn.send_bytes(b"E" + bytes(64 << 20))
         time.sleep(60)
+
+
+#: What RemembersEarlierRuns keeps in its module: the points and values of its earlier runs.
+_REMEMBERED: list = []
+
+
+class RemembersEarlierRuns:
+    """Keeps every point and value it was given in its module and in its process's environment,
+    hoping that a later run finds them in the same process (a worker kept for the next run) and
+    starts from the best of them without paying. Prints what it found, and its pid."""
+
+    def minimize(self, objective, bounds, budget, rng):
+        print("PID", os.getpid(), "REMEMBERED", len(_REMEMBERED), "ENV", os.environ.get("FEMU_CHEAT_MEMORY"),
+              flush=True)
+        os.environ["FEMU_CHEAT_MEMORY"] = "here"
+        while True:
+            X = _points(bounds, rng, 10)
+            _REMEMBERED.extend(zip(X.tolist(), objective(X).tolist()))
