@@ -593,8 +593,10 @@ def _claims(path: str):
                 taken[pid] = core
         yield taken
         fh.seek(0)
-        fh.truncate()
+        # written, then cut at its end: a file cut to nothing and written again is flushed to
+        # disk when closed (ext4's auto_da_alloc), 0.5-3 ms of every run's end
         fh.write("".join(f"{pid} {core}\n" for pid, core in taken.items()))
+        fh.truncate()
 
 
 def _serve(worker: _Worker, lazy: _Lazy, problem, time_limit_s, budget: int) -> tuple[str, str | None]:
