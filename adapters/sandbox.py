@@ -300,6 +300,15 @@ def fork_spare(preload=()) -> None:
     _discard(old)
 
 
+def drop_spare() -> None:
+    """End this process's spare worker if it has one (`fork_spare`): for a process that ends
+    without running its exit handlers (a study's run process) and whose run did not take it."""
+    global _spare
+    with _spare_lock:
+        spare, _spare = _spare, None
+    _discard(spare)
+
+
 def _discard(worker: _Worker | None) -> None:
     """End an unused spare of this process (one inherited through a fork is its parent's: left)."""
     if worker is not None and worker.owner == os.getpid():
@@ -324,7 +333,7 @@ def _fresh_worker(preload=()) -> _Worker:
     return _Worker(preload)
 
 
-atexit.register(lambda: _discard(_spare))
+atexit.register(drop_spare)
 
 
 def describe(name: str, n_vars, options: dict | None = None) -> dict:
