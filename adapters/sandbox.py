@@ -326,7 +326,8 @@ def _fresh_worker(preload=()) -> _Worker:
     if spare is not None and spare.owner == os.getpid() and spare.address == address:
         try:
             spare.pid  # noqa: B018  (forked, and said so)
-            return spare
+            if not spare.conn.poll(0):  # and quiet since: not ended by anyone (its end would read as EOF)
+                return spare
         except (RuntimeError, ValueError, EOFError, OSError):
             pass
     _discard(spare)
@@ -447,7 +448,10 @@ def run_isolated(name: str, problem, budget: int, seed: int, time_limit_s: float
 def _load(worker: _Worker, name: str, spec: dict) -> dict:
     """Send the run's `spec` to `worker` and wait until its optimizer is loaded and ready; the
     run-record fields it describes (`_description`), or ValueError saying why it cannot run."""
-    worker.conn.send(spec)
+    try:
+        worker.conn.send(spec)
+    except OSError:
+        raise ValueError(f"optimizer {name!r}: its process ended before it was loaded") from None
     if not worker.conn.poll(READY_S):
         raise ValueError(f"optimizer {name!r}: loading it took more than {READY_S:.0f} s")
     try:

@@ -139,6 +139,23 @@ def test_a_worker_forked_before_its_run_finds_the_callers_directory_and_modules_
         assert f"CWD {where}" in r.output, r.output
 
 
+def test_a_spare_worker_killed_before_its_run_is_replaced_and_the_run_loses_nothing():
+    """A process a plugin left running could kill the worker forked for the next run: that run
+    forks another and gets the record it earns."""
+    import signal
+
+    from adapters import sandbox
+
+    assert adapters.run("random-search", make_problem("paper"), 20, 0).status == "ok"
+    spare = sandbox._spare
+    assert spare is not None and spare.owner == os.getpid()
+    os.kill(spare.pid, signal.SIGKILL)
+    assert _ended(spare.pid)
+    problem = make_problem("paper")
+    r = adapters.run("random-search", problem, 20, 1)
+    assert r.status == "ok" and r.n_evals == problem.points_evaluated == 20 and r.verified, r.error
+
+
 def test_the_worker_server_keeps_no_file_for_the_workers_its_runs_ended():
     from adapters.sandbox import server_address
 
