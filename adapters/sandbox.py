@@ -41,6 +41,7 @@ import fcntl
 import json
 import os
 import pickle
+import select
 import shutil
 import signal
 import stat
@@ -58,7 +59,7 @@ import psutil
 from .budget import check_budget, check_seed, check_x0_mode, jacobian_cost
 from .capabilities import CAPABILITIES
 from .harness import RunResult, BudgetedObjective, BudgetExhausted, TimeLimitExceeded, _problem_count, record
-from .processes import kill_tree
+from .processes import GRACE_S, kill_tree
 from .registry import check_name
 from .sandbox_worker import DONE, ERROR, EVAL, LSQ, STOP, VALUES
 
@@ -244,10 +245,11 @@ class _Worker:
         return None
 
     def end(self) -> None:
-        """End the worker with every process it started. One that started none (the common
-        case) is sent SIGKILL with its process group, which no process can ignore or outlive;
-        one that did goes through `kill_tree` (SIGTERM, the grace, SIGKILL, waited for). Its
-        server is told first that this end is no news (no exit code kept)."""
+        """End the worker with every process it started, and return once they have exited. One
+        that started none (the common case) is sent SIGKILL with its process group and its exit
+        awaited on a pidfd (no polling of the process table); one that did goes through
+        `kill_tree` (SIGTERM, the grace, SIGKILL). Its server is told first that this end is no
+        news (no exit code kept)."""
         try:
             pid = self.pid
         except (RuntimeError, ValueError, EOFError, OSError):  # never forked (its server is gone)
@@ -262,13 +264,20 @@ class _Worker:
                 started = psutil.Process(pid).children(recursive=True)
             except psutil.Error:
                 started = []
-            if started:
+            try:
+                handle = None if started else os.pidfd_open(pid)  # readable once the process has exited
+            except (AttributeError, OSError):  # gone already, or no pidfd (not Linux)
+                handle = None
+            if handle is None:
                 kill_tree(pid)
             else:
-                try:  # final: not waited for (its exit, unmapping a copy of the server, is ~1-4 ms)
+                try:
                     os.killpg(pid, signal.SIGKILL)  # the worker is its own group's leader (setsid)
+                    select.select([handle], [], [], GRACE_S)
                 except OSError:
                     pass
+                finally:
+                    os.close(handle)
             if os.path.exists(exited):  # it had ended before (its server kept the code): both go
                 for path in (exited, ended):
                     try:

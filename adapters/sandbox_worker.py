@@ -360,9 +360,35 @@ def _watch_owner() -> None:
         os._exit(0)
 
 
+#: prctl's option that makes a process the "child subreaper" of its descendants (linux/prctl.h).
+PR_SET_CHILD_SUBREAPER = 36
+_prctl = None  # libc's prctl, looked up by the server (once, before it forks any worker)
+
+
+def _find_prctl():
+    """libc's prctl, or None (not Linux)."""
+    try:
+        import ctypes
+
+        return ctypes.CDLL(None, use_errno=True).prctl
+    except (OSError, AttributeError):
+        return None
+
+
+def adopt_orphans() -> None:
+    """Make this process the child subreaper of what it starts: a descendant whose parent ends
+    (a daemon forked twice, in a session of its own) is re-parented to it instead of to init,
+    so it stays in the worker's tree, which the evaluating process ends with the run (without
+    it, such a daemon outlived the run, free to kill later runs' workers). Not Linux: nothing."""
+    if _prctl is not None:
+        _prctl(PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0)
+
+
 def serve(address: str, preload: list[str]) -> None:
     """The worker server: import hook, preloads, then one forked worker per connection."""
+    global _prctl
     sys.meta_path.insert(0, _Refused())
+    _prctl = _find_prctl()
     import numpy  # noqa: F401
 
     import adapters.harness  # noqa: F401
@@ -387,6 +413,7 @@ def serve(address: str, preload: list[str]) -> None:
             listener.close()
             signal.signal(signal.SIGINT, signal.SIG_IGN)  # a Ctrl-C is the evaluating process's
             os.setsid()  # its own process group: ended as one when the evaluating side is gone
+            adopt_orphans()
             pid, _, _ = struct.unpack("3i", sock.getsockopt(socket.SOL_SOCKET, socket.SO_PEERCRED,
                                                            struct.calcsize("3i")))
             threading.Thread(target=_watch_evaluator, args=(pid,), daemon=True).start()

@@ -266,3 +266,25 @@ class RemembersEarlierRuns:
         while True:
             X = _points(bounds, rng, 10)
             _REMEMBERED.extend(zip(X.tolist(), objective(X).tolist()))
+
+
+class LeavesADaemon:
+    """Starts a daemon the classic way (fork, setsid, fork again, the middle process exits: the
+    daemon has no parent in the run's process tree) that would outlive the run, free to kill
+    the workers of later runs or take their cores; writes its pid, then spends its budget."""
+
+    def minimize(self, objective, bounds, budget, rng, pid_file):
+        middle = os.fork()
+        if middle == 0:
+            os.setsid()
+            if os.fork() == 0:
+                with open(pid_file + ".tmp", "w") as fh:
+                    fh.write(str(os.getpid()))
+                os.rename(pid_file + ".tmp", pid_file)
+                time.sleep(600)
+            os._exit(0)
+        os.waitpid(middle, 0)
+        while not os.path.exists(pid_file):
+            time.sleep(0.01)
+        while True:
+            objective(_points(bounds, rng, 10))

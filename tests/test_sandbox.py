@@ -90,20 +90,22 @@ def test_a_plugin_that_patches_the_harness_changes_no_later_run():
     assert honest_after.best_f > 0
 
 
-def _ended(pid: int, wait_s: float = 10.0) -> bool:
-    """Whether process `pid` is gone (or a zombie) within `wait_s` (SIGKILL is sent, its exit
-    may take a moment on a loaded machine)."""
+def _ended(pid: int, wait_s: float = 0.0) -> bool:
+    """Whether process `pid` is gone (or a zombie), now or within `wait_s` (a process this test
+    killed itself may take a moment to exit on a loaded machine; a run returns only once its
+    worker has exited)."""
     import psutil
 
     deadline = time.time() + wait_s
-    while time.time() < deadline:
+    while True:
         try:
             if psutil.Process(pid).status() == psutil.STATUS_ZOMBIE:
                 return True
         except psutil.NoSuchProcess:
             return True
+        if time.time() > deadline:
+            return False
         time.sleep(0.05)
-    return False
 
 
 def test_every_run_has_a_fresh_worker_that_keeps_nothing_for_the_next():
@@ -139,6 +141,16 @@ def test_a_worker_forked_before_its_run_finds_the_callers_directory_and_modules_
         assert f"CWD {where}" in r.output, r.output
 
 
+def test_a_daemon_a_plugin_leaves_ends_with_its_run(tmp_path):
+    """Its worker adopts the processes whose parents end (a child subreaper), so a daemon
+    (forked twice, its own session) is still in the worker's tree when the run ends."""
+    pid_file = tmp_path / "daemon.pid"
+    problem = make_problem("paper")
+    r = adapters.run(plugin(cp.LeavesADaemon), problem, BUDGET, 0, pid_file=str(pid_file))
+    assert r.status == "ok" and r.n_evals == problem.points_evaluated == BUDGET, r.error
+    assert _ended(int(pid_file.read_text()))
+
+
 def test_a_spare_worker_killed_before_its_run_is_replaced_and_the_run_loses_nothing():
     """A process a plugin left running could kill the worker forked for the next run: that run
     forks another and gets the record it earns."""
@@ -150,7 +162,7 @@ def test_a_spare_worker_killed_before_its_run_is_replaced_and_the_run_loses_noth
     spare = sandbox._spare
     assert spare is not None and spare.owner == os.getpid()
     os.kill(spare.pid, signal.SIGKILL)
-    assert _ended(spare.pid)
+    assert _ended(spare.pid, wait_s=10.0)
     problem = make_problem("paper")
     r = adapters.run("random-search", problem, 20, 1)
     assert r.status == "ok" and r.n_evals == problem.points_evaluated == 20 and r.verified, r.error
