@@ -30,8 +30,10 @@ waits; a study's run process (one run each) has its worker forked when it starts
 builds its problem. A spare has run no optimizer code, serves exactly one run and is ended with
 it, so nothing of one run reaches another. What a run's times include: `wall_s` and `cpu_s`
 start once its optimizer is loaded and ready (the evaluating process's CPU and the worker's
-from then on) and end with the run; the worker's fork and settling are in no run's times (nor
-in an `adapters.run` call's), its optimizer's loading only in the call's.
+from then on) and end with the run; the worker's fork and settling are in no run's times, nor
+in an `adapters.run` call's but for a process's first run (a call spends ~0.3 ms asking for
+the next run's spare; the server forks it meanwhile); its optimizer's loading and its end are
+in the call's only.
 """
 
 from __future__ import annotations
