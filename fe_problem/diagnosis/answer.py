@@ -83,13 +83,12 @@ def undecided_note(a: Answer) -> str | None:
     ru = a.runner_up
     if a.decisive or ru is None:
         return None
-    said = (f"cannot tell apart {a.label} from {ru['label']} (log evidence {a.log_evidence:.4g} against "
-            f"{ru['log_evidence']:.4g}")
     if ru["log_evidence"] > a.log_evidence:
-        return said + ("): the other has more evidence, but no candidate is significant" if a.family == "none" else
-                       "): the other has more evidence; the local search's rounds chose the answer within the local "
-                       "family")
-    return said + ", within a factor of 10): the answer is the best class, not a decisive one"
+        return (f"{ru['label']} has more evidence than {a.label} (log evidence {ru['log_evidence']:.4g} against "
+                f"{a.log_evidence:.4g}), but " + ("no candidate is significant" if a.family == "none" else
+                                                  "the local search's rounds chose the answer within the local family"))
+    return (f"cannot tell apart {a.label} from {ru['label']} (log evidence {a.log_evidence:.4g} against "
+            f"{ru['log_evidence']:.4g}, within a factor of 10): the answer is the best class, not a decisive one")
 
 
 @dataclass(frozen=True, eq=False)

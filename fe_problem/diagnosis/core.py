@@ -224,9 +224,9 @@ def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str 
     if rounds is not None:  # the model-form alternatives: every node and element screened, the best fitted
         fits += [(c, f, "model_form") for c, f in (model_form_fits(cal) if forms is None else forms)]
     # the local search's result as a class of its own: several causes, or one at a place the first
-    # round did not fit (a revisit moved it)
+    # round did not fit better than no effect (a revisit moved it): `_one_per_answer` keeps no row of it
     several = rounds is not None and (len(rounds.sized) > 1 or answer.search_key(rounds)[1] not in {
-        c.label.split("(")[0] for c, _, family in fits if family == "local"})
+        c.label.split("(")[0] for c, f, family in fits if family == "local" and f.chi2 < base.chi2 - 1e-9})
     sparse = sparse_class.fit_sparse(cal.setting, obs, base.pairing)  # "every member", sparse (None: n/a)
     # the sparse class does not set the dispersion: with many members and few data its misfit says
     # little about the noise (it would move every other class's evidence)

@@ -90,12 +90,18 @@ def answer_lines(diag: Diagnosis) -> list[str]:
     a = getattr(diag, "answer", None)
     if a is None:
         return []
-    lines = [f"best class by evidence: {a.label} ({a.family}), log evidence {fmt(a.log_evidence)}"
-             + (", decisive (the next answer more than a factor of 10 below)" if a.decisive and a.runner_up else "")]
     ru = a.runner_up
-    if not a.decisive and ru is not None:
+    best = ru is None or ru["log_evidence"] <= a.log_evidence
+    lines = [f"{'best class by evidence' if best else 'answer, though not the best class by evidence'}: {a.label} "
+             f"({a.family}), log evidence {fmt(a.log_evidence)}"
+             + (", decisive (the next answer more than a factor of 10 below)" if a.decisive and ru else "")]
+    if not a.decisive and ru is not None and best:
         lines.append(f"cannot tell apart {a.label} from {ru['label']} (log evidence {fmt(a.log_evidence)} against "
                      f"{fmt(ru['log_evidence'])})")
+    elif ru is not None and not best:
+        lines.append(f"{ru['label']} has more evidence (log evidence {fmt(ru['log_evidence'])} against "
+                     f"{fmt(a.log_evidence)}), but " + ("no candidate is significant" if a.family == "none" else
+                                                        "the local search chose within the local family"))
     if not a.is_local:
         found = ", ".join(c.label or f"{c.kind} ({len(c.indistinguishable)} candidates tie)" for c in diag.causes)
         lines.append(f"the local search named {found} (the local class; its causes are in the record's causes)")
