@@ -3,7 +3,7 @@ and the gain on held-out modes. See core.py for the method, record.py for the an
 
 from .candidates import CANDIDATE_KINDS, KINDS, Candidate, Setting, all_candidates
 from .core import diagnose
-from .record import CandidateFit, Cause, Diagnosis, Gain, PinnedParameter, Residuals, Selection
+from .record import Answer, CandidateFit, Cause, Diagnosis, Gain, PinnedParameter, Residuals, Selection
 
-__all__ = ["CANDIDATE_KINDS", "KINDS", "Candidate", "CandidateFit", "Cause", "Diagnosis", "Gain",
+__all__ = ["CANDIDATE_KINDS", "KINDS", "Answer", "Candidate", "CandidateFit", "Cause", "Diagnosis", "Gain",
            "PinnedParameter", "Residuals", "Selection", "Setting", "all_candidates", "diagnose"]

@@ -55,7 +55,7 @@ from .groups import distributed_candidates
 from .modelform import model_form_candidates, screen_forms
 from .plausibility import few_dof_note
 from .fit import Fit, chi2_batch, fit, look_along, profiled, screen
-from . import sparse_class
+from . import answer, sparse_class
 from .nested import require_dynesty, rescored
 from .record import Cause, CandidateFit, Diagnosis, Gain, Noise, PinnedParameter, Residuals, Selection
 from .verdict import profile_interval, verdict
@@ -110,33 +110,58 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
         if not v.adequate:
             warnings.append(v.explanation)
         checks = checks + spurious_modes(cal.unpaired, cal.unpaired, cal.obs_all.frequencies_hz, _explained(checks))
-        ev = score_classes(cal, found, None, evidence)
+        scored = score_classes(cal, found, None, evidence)
+        ev = scored.evidence
+        row, runner, decisive = answer.choose(ev, answer.search_key(None), False)
+        answered = answer.record(row, runner, decisive, cause)
+        undecided = answer.undecided_note(answered)
         return Diagnosis(cause, alternatives, residuals_of(cal), gain(cal, None), tuple(sel.rows.values()),
-                         sel.selection, None, tuple(warnings + _fault_notes(checks) + _evidence_notes(ev, None)), (),
-                         v, noise, checks, ev)
+                         sel.selection, None, tuple(warnings + _fault_notes(checks) + _evidence_notes(ev, None, row)
+                                                    + ([f"answer not decisive: {undecided}"] if undecided else [])),
+                         (), v, noise, checks, ev, answered)
     cause, alternatives, _ = extend(cal, found, sel)
     from .rounds import further_causes  # it uses this module's steps
 
-    rounds = further_causes(cal, found, sel, cause, kinds, n_fit, alpha, max_causes)
-    causes = tuple(_judged(model, c) for c in rounds.causes)
-    cause = _judged(model, _first(cause, causes[0]))
+    forms = model_form_fits(cal)
+    explained = _form_explains(cal, forms, found.fitted[sel.best], sel.dispersion, alpha)
+    if explained is not None and max_causes > 1:
+        warnings.append(f"the local search stopped after its first cause: the model-form class {explained} alone "
+                        "fits within the stated noise and better than that cause by a likelihood ratio above 10")
+    rounds = further_causes(cal, found, sel, cause, kinds, n_fit, alpha, 1 if explained else max_causes)
+    causes = tuple(plausibility.judged(model, c) for c in rounds.causes)
+    cause = plausibility.judged(model, _first(cause, causes[0]))
+    scored = score_classes(cal, found, rounds, evidence, forms)
+    ev = scored.evidence
+    row, runner, decisive = answer.choose(ev, answer.search_key(rounds), True)
+    gained, n_params = rounds.gain, 1 + len(rounds.causes)
+    if row.family in answer.NON_LOCAL:  # the best class by evidence is not the local search's
+        other = answer.non_local(cal, row, scored.fitted, scored.sparse, sel.selection.p_adjusted, alpha, model,
+                                 gain, [c.label or f"{c.kind} ({len(c.indistinguishable)} candidates tie)"
+                                        for c in causes])
+        cause, gained, v, n_params = other.cause, other.gain, other.verdict, other.n_params
+        extended = _named(cal.setting.model, other.extended_model, [cause])
+    else:
+        v = verdict(rounds.obs, rounds.final, n_params, alpha)
+        extended = _named(cal.setting.model, rounds.model, rounds.causes)
     if cause.explanation:
         warnings.append(cause.explanation)
-    v = verdict(rounds.obs, rounds.final, 1 + len(rounds.causes), alpha)
     if not v.adequate:
         warnings.append(v.explanation)
-    warnings += [f"implausible estimate: {c.label}: {c.implausible_because}" for c in causes if not c.plausible]
-    few = few_dof_note(v.dof, 1 + len(rounds.causes))
+    judged = causes + ((cause,) if row.family in answer.NON_LOCAL else ())
+    warnings += [f"implausible estimate: {c.label}: {c.implausible_because}" for c in judged if not c.plausible]
+    few = few_dof_note(v.dof, n_params)
     if few:
         warnings.append(few)
-    extended = _named(cal.setting.model, rounds.model, rounds.causes)
+    answered = answer.record(row, runner, decisive, cause)
+    undecided = answer.undecided_note(answered)
+    if undecided:
+        warnings.append(f"answer not decisive: {undecided}")
     if len(cal.unpaired):
         final_unpaired = calibrate(rounds.model, data, noise.freq_noise, noise.shape_noise, model).unpaired
         checks = checks + spurious_modes(cal.unpaired, final_unpaired, cal.obs_all.frequencies_hz, _explained(checks))
-    ev = score_classes(cal, found, rounds, evidence)
-    return Diagnosis(cause, alternatives, residuals_of(cal), rounds.gain, tuple(sel.rows.values()), sel.selection,
-                     extended, tuple(warnings + _fault_notes(checks) + _evidence_notes(ev, rounds)), causes, v, noise,
-                     checks, ev)
+    return Diagnosis(cause, alternatives, residuals_of(cal), gained, tuple(sel.rows.values()), sel.selection,
+                     extended, tuple(warnings + _fault_notes(checks) + _evidence_notes(ev, rounds, row)), causes, v,
+                     noise, checks, ev, answered)
 
 
 # == evidence between model classes (evidence.py, groups.py) ====================================
@@ -148,12 +173,48 @@ N_FORM_FIT = 6
 EVIDENCE_METHODS = ("laplace", "nested")
 
 
-def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str = "laplace") -> Evidence:
+@dataclass(frozen=True, eq=False)
+class Scored:
+    """The evidence table, and what its classes were fitted with: label -> (candidate, Fit) of every
+    fitted one-parameter class, and the sparse class's fit (None: not scored)."""
+
+    evidence: Evidence
+    fitted: dict
+    sparse: object = None
+
+
+def model_form_fits(cal: "Calibration") -> list[tuple[Candidate, Fit]]:
+    """The model-form classes (modelform.py: every node, element and support) screened by one step
+    (`screen_forms`), the `N_FORM_FIT` most promising fitted (`coarse_fit`)."""
+    obs, base = cal.obs, cal.base
+    forms = model_form_candidates(cal.setting)
+    drops = [d for d, _ in screen_forms(obs, base, cal.setting, forms)]
+    return [(forms[i], coarse_fit(obs, forms[i])) for i in sorted(range(len(forms)), key=lambda i: -drops[i])[:N_FORM_FIT]]
+
+
+def _form_explains(cal: "Calibration", forms, first: Fit, dispersion: float, alpha: float) -> str | None:
+    """The label of the best model-form class when it alone fits within the noise (the verdict's
+    test) and its chi^2 lies below the first cause's by more than 2 ln 10 times the dispersion (a
+    likelihood ratio above 10, one parameter each): then further local causes would only mend a
+    model-form error (a pinned base drew four causes and minutes), and the rounds stop. Else None."""
+    if not forms:
+        return None
+    cand, f = min(forms, key=lambda x: x[1].chi2)
+    if f.chi2 < first.chi2 - 2.0 * FACTOR_10 * dispersion and verdict(cal.obs, f, 2, alpha).adequate:
+        return cand.label
+    return None
+
+
+def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str = "laplace",
+                  forms: list | None = None) -> Scored:
     """Every class scored by its Laplace evidence against the calibrated model: no effect, each
     fitted local candidate, the best-screened distributed classes (groups.py), "every member"
-    sparse (sparse_class.py) and, with several causes, the model with all of them; the best few
-    with their held-out prediction error. evidence ``nested``: the best classes by Laplace
-    scored again by nested sampling (nested.py; the several-cause model keeps its Laplace value)."""
+    sparse (sparse_class.py), the model-form classes (when a cause was found; `forms`, as
+    `model_form_fits` gives them, when already fitted) and the local
+    search's result: with several causes the model with all of them, with one its cause when no
+    first-round fit is at its place; the best few with their held-out prediction error. evidence
+    ``nested``: the best classes by Laplace scored again by nested sampling (nested.py; the
+    local search's model keeps its Laplace value)."""
     obs, base = cal.obs, cal.base
     distributed = distributed_candidates(cal.setting)
     promise = [max(screen(obs, c, base), look_along(obs, c, base), key=lambda x: x[0]) for c in distributed]
@@ -161,11 +222,11 @@ def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str 
     fits = [(found.candidates[i], f, "local") for i, f in found.fitted.items()]
     fits += [(distributed[i], fit(obs, distributed[i], promise[i][1]), "distributed") for i in top]
     if rounds is not None:  # the model-form alternatives: every node and element screened, the best fitted
-        forms = model_form_candidates(cal.setting)
-        drops = [d for d, _ in screen_forms(obs, base, cal.setting, forms)]
-        fits += [(forms[i], coarse_fit(obs, forms[i]), "model_form")
-                 for i in sorted(range(len(forms)), key=lambda i: -drops[i])[:N_FORM_FIT]]
-    several = rounds is not None and len(rounds.sized) > 1
+        fits += [(c, f, "model_form") for c, f in (model_form_fits(cal) if forms is None else forms)]
+    # the local search's result as a class of its own: several causes, or one at a place the first
+    # round did not fit better than no effect (a revisit moved it): `_one_per_answer` keeps no row of it
+    several = rounds is not None and (len(rounds.sized) > 1 or answer.search_key(rounds)[1] not in {
+        c.label.split("(")[0] for c, f, family in fits if family == "local" and f.chi2 < base.chi2 - 1e-9})
     sparse = sparse_class.fit_sparse(cal.setting, obs, base.pairing)  # "every member", sparse (None: n/a)
     # the sparse class does not set the dispersion: with many members and few data its misfit says
     # little about the noise (it would move every other class's evidence)
@@ -179,17 +240,22 @@ def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str 
                                  cand.upper, d)
         classes.append(ScoredClass(cand.label, family, 1, f.chi2, -(f.chi2 - base.chi2) / (2 * d) + occam,
                                    cand.estimate(f.a, f.s)))
+    search = []
     if several:
         # judged on the modes that pair with the final model; the calibrated model on the same modes
         base_r = profiled(rounds.obs, cal.hz0, cal.sh0)
         occam = sum(occam_log_factor(lambda a, c=c: [x.chi2 for x in chi2_batch(rounds.obs, c, np.asarray(a))], a_j,
                                      c.upper, d) for c, a_j in rounds.sized)
-        classes.append(ScoredClass(" + ".join(c.label for c, _ in rounds.sized), "several", len(rounds.sized),
-                                   rounds.final.chi2, -(rounds.final.chi2 - base_r.chi2) / (2 * d) + occam))
+        one = len(rounds.sized) == 1
+        search.append(ScoredClass(" + ".join(c.label for c, _ in rounds.sized), "local" if one else "several",
+                                  len(rounds.sized), rounds.final.chi2,
+                                  -(rounds.final.chi2 - base_r.chi2) / (2 * d) + occam,
+                                  rounds.causes[0].estimate if one else None))
     if sparse is not None:
         classes.append(sparse_class.with_dispersion(sparse, d).scored(base.chi2, d, sparse_class.held_out_error(
             cal.setting, cal.data, cal.used, sparse, obs.freq_noise, obs.shape_noise)))
-    ev = ranked(_one_per_answer(classes), "laplace", d)
+    # the search's result is significant by its own tests: never merged away (its key is its own)
+    ev = ranked(_one_per_answer(classes) + search, "laplace", d)
     by_label = {c.label: c for c, _, _ in fits}
     out = []
     for k, c in enumerate(ev.classes):
@@ -205,7 +271,7 @@ def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str 
                                         np.full(len(sparse.members), sparse_class.LOW),
                                         np.full(len(sparse.members), sparse_class.HIGH), -sparse.support_log_penalty)
         ev = rescored(ev, integrands, base.chi2, d)
-    return ev
+    return Scored(ev, answer.fitted_candidates(fits), sparse)
 
 
 def coarse_fit(obs: Observations, cand: Candidate) -> Fit:
@@ -260,38 +326,38 @@ def _held_out_error(cal: "Calibration", cand: Candidate | None) -> float | None:
     return correlate(hz * np.sqrt(s), sh, obs_hold).mean_abs_error_pct
 
 
-def _evidence_notes(ev: Evidence, rounds) -> list[str]:
-    """A sentence when a distributed class has clearly more evidence than the answer given, and the
-    factor-of-10 note."""
+def _evidence_notes(ev: Evidence, rounds, answered: ScoredClass | None = None) -> list[str]:
+    """A sentence when a distributed or sparse class has clearly more evidence than the local search's
+    result, one when a model-form class is within a factor of 10 of it or above, each saying whether
+    that class is the answer (`answered`), and the factor-of-10 note."""
     notes = []
     best = ev.best
-    answer = "no effect" if rounds is None else ("the causes found" if len(rounds.sized) > 1 else "the cause found")
-    chosen = [c for c in ev.classes if c.family == ("none" if rounds is None else
-                                                     ("several" if len(rounds.sized) > 1 else "local"))]
-    if rounds is not None and len(rounds.sized) == 1:
-        chosen = [c for c in ev.classes if c.label == rounds.sized[0][0].label] or chosen
+    found = "no effect" if rounds is None else ("the causes found" if len(rounds.sized) > 1 else "the cause found")
+    key = answer.search_key(rounds)
+    chosen = [c for c in ev.classes if answer.answer_key(c) == key]
+
+    def tail(c: ScoredClass, why: str, as_answer: str) -> str:
+        if answered is not None and c.label == answered.label:
+            return (f": it is the answer ({as_answer}); {found} by the local search "
+                    f"{'stay' if found.startswith('the causes') else 'stays'} in the record (`causes`)")
+        return f": {why}"
+
     if best is not None and best.family in ("distributed", "sparse") and chosen and \
             best.log_evidence - chosen[0].log_evidence >= FACTOR_10:
-        notes.append(f"evidence: the {best.family} class {best.label} explains the data better than {answer} (log "
-                     f"evidence {best.log_evidence:.3g} against {chosen[0].log_evidence:.3g}): the change may be "
-                     "spread over several members")
+        notes.append(f"evidence: the {best.family} class {best.label} explains the data better than {found} (log "
+                     f"evidence {best.log_evidence:.3g} against {chosen[0].log_evidence:.3g})"
+                     + tail(best, "the change may be spread over several members",
+                            "the change is spread over several members"))
     form = [c for c in ev.classes if c.family == "model_form"]
     if rounds is not None and form and chosen and form[0].log_evidence > chosen[0].log_evidence - FACTOR_10:
         notes.append(f"model form: {form[0].label} ({', '.join(f'{k} {v:.4g}' if isinstance(v, float) else f'{k} {v}' for k, v in (form[0].estimate or {}).items())}) "
                      f"explains the data {'better than' if form[0].log_evidence > chosen[0].log_evidence else 'about as well as'} "
-                     f"{answer} (log evidence {form[0].log_evidence:.3g} against {chosen[0].log_evidence:.3g}): the "
-                     "named cause may be an error of the model's geometry, section or supports, not that physics")
-    if ev.note:
-        notes.append("evidence: " + ev.note)
+                     f"{found} (log evidence {form[0].log_evidence:.3g} against {chosen[0].log_evidence:.3g})"
+                     + tail(form[0], "the named cause may be an error of the model's geometry, section or supports, "
+                                     "not that physics", "an error of the model's geometry, section or supports"))
+    if ev.note and (answered is None or answered.label != ev.classes[0].label):
+        notes.append("evidence: " + ev.note)  # else the answer's own note says it (answer.undecided_note)
     return notes
-
-
-def _judged(model: FrameModel, cause):
-    """A cause (`Cause` or `Found`) with its estimate checked against physical bounds."""
-    if not cause.estimate:
-        return cause
-    why = plausibility.check(model, cause.kind, cause.location, cause.estimate)
-    return cause if why is None else dataclasses.replace(cause, plausible=False, implausible_because=why)
 
 
 def data_checks(cal: "Calibration") -> tuple[DataCheck, ...]:

@@ -25,6 +25,8 @@ structure of the model's kind carries, not what is merely unusual.
 
 from __future__ import annotations
 
+import dataclasses
+
 from ..model import FrameModel
 
 MASS_PER_TRIBUTARY = 10.0
@@ -106,3 +108,12 @@ def few_dof_note(dof: int, n_params: int) -> str | None:
         return None
     return (f"the answer rests on {dof} degree(s) of freedom ({n_params} fitted parameters): the data can hardly "
             "test it; more modes or measured shapes are needed before it can be trusted")
+
+
+def judged(model: FrameModel, cause):
+    """A cause (`record.Cause` or `record.Found`) with its estimate checked against physical
+    bounds (`check`): `plausible` False and `implausible_because` set when beyond one."""
+    if not cause.estimate:
+        return cause
+    why = check(model, cause.kind, cause.location, cause.estimate)
+    return cause if why is None else dataclasses.replace(cause, plausible=False, implausible_because=why)

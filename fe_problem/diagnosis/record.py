@@ -66,6 +66,50 @@ class Cause:
         return out
 
 
+#: Families whose class, as the answer, stands in place of the local search's result.
+NON_LOCAL = ("distributed", "sparse", "model_form")
+
+
+@dataclass(frozen=True)
+class Answer:
+    """The answer: the best model class by evidence (evidence.py), and whether the data decide it.
+
+    label, family (``none``, ``local``, ``several``, ``distributed``, ``sparse``, ``model_form``),
+    kind and location (as in `Cause`; a sparse class's ``{"members": [...]}``, a group's
+    ``{"group": name}``), estimate (None for several causes: see `Diagnosis.causes`),
+    log_evidence against the calibrated model; decisive: False when a class that is a different
+    answer (another family, or another place or kind) has a log evidence within ln 10 of it
+    (`evidence.FACTOR_10`) or above it; runner_up: that class's ``{"label", "family", "estimate",
+    "log_evidence"}`` (the best different answer, decisive or not; None when there is none);
+    plausible, implausible_because: as in `Cause`. Within the local family (one cause or several)
+    the local search's rounds choose; between families the evidence does (core.diagnose)."""
+
+    label: str
+    family: str
+    kind: str
+    location: dict | None
+    estimate: dict | None
+    log_evidence: float
+    decisive: bool
+    runner_up: dict | None = None
+    plausible: bool = True
+    implausible_because: str | None = None
+
+    @property
+    def is_local(self) -> bool:
+        """The answer is the local search's result (none, one cause or several), not another class."""
+        return self.family not in NON_LOCAL
+
+    def to_dict(self) -> dict:
+        out = {k: getattr(self, k) for k in ("label", "family", "kind", "location", "estimate", "log_evidence",
+                                              "decisive", "runner_up")}
+        if self.estimate:
+            out["plausible"] = self.plausible
+            if not self.plausible:
+                out["implausible_because"] = self.implausible_because
+        return out
+
+
 @dataclass(frozen=True)
 class Found:
     """One cause of a diagnosis with several: kind, location (as in `Cause`), estimate, and its
@@ -292,10 +336,15 @@ class Diagnosis:
     candidates: every candidate in screening order (fitted ones first); alternatives: the
     fitted candidates shown beside the cause; extended_model: the calibrated model with every
     cause's effect (None when the cause is none); warnings: sentences for the user; causes:
-    every cause found, in order of evidence (`cause` is the first); verdict: the final model's
-    goodness of fit; noise: the noise model used; data_checks: faults found in the data before
-    the diagnosis (`datachecks.DataCheck`), which ran on the data as given; evidence: every model
-    class (none, local, distributed, sparse, model_form, several) ranked by its evidence (`evidence.Evidence`).
+    every cause the local search found, in order of evidence (the local class's causes; `cause` is
+    the first when the answer is local); verdict: the final model's goodness of fit; noise: the
+    noise model used; data_checks: faults found in the data before the diagnosis
+    (`datachecks.DataCheck`), which ran on the data as given; evidence: every model class (none,
+    local, distributed, sparse, model_form, several) ranked by its evidence (`evidence.Evidence`);
+    answer: the best class by evidence (`Answer`). When the answer is not a local class (a
+    distributed, sparse or model-form class) `cause`, `extended_model`, `gain` and `verdict` are
+    that class's and `causes` stay the local search's. Records written before `answer` existed
+    have none (None here).
     """
 
     cause: Cause
@@ -311,6 +360,7 @@ class Diagnosis:
     noise: Noise | None = None
     data_checks: tuple = ()
     evidence: object = None
+    answer: Answer | None = None
 
     @property
     def adequate(self) -> bool | None:
@@ -333,4 +383,5 @@ class Diagnosis:
                          "causes": list(self.causes), "adequate": self.adequate,
                          "goodness_of_fit": self.verdict, "noise": self.noise,
                          "data_checks": [c.to_dict() for c in self.data_checks],
-                         "evidence": None if self.evidence is None else self.evidence.to_dict()})
+                         "evidence": None if self.evidence is None else self.evidence.to_dict(),
+                         "answer": self.answer})

@@ -297,10 +297,18 @@ def with_dispersion(sf: SparseFit, dispersion: float) -> SparseFit:
     return replace(sf, theta_std=sf.theta_std * np.sqrt(dispersion))
 
 
-def held_out_error(st: Setting, data, used: np.ndarray, sf: SparseFit, freq_noise: float,
-                   shape_noise: float) -> float | None:
-    """Mean |frequency error| (%) on the held-out modes (the highest quarter of `used`, as
-    core.gain splits them) of the sparse class refitted, same members, on the other modes."""
+def fit_at(st: Setting, obs: Observations, sf: SparseFit):
+    """The class's profiled fit (`fit.Fit`: chi^2, residuals, scale) at its members' fitted changes."""
+    am = _AllMembers(st)
+    theta = np.zeros(len(am.ids))
+    theta[[am.ids.index(e) for e in sf.members]] = sf.theta
+    return am.residuals(obs, theta[None])[0]
+
+
+def held_out(st: Setting, data, used: np.ndarray, sf: SparseFit, freq_noise: float, shape_noise: float):
+    """The held-out modes (the highest quarter of `used`, as core.gain splits them) predicted by
+    the class refitted, same members, on the other modes: (their correlation, the refit's
+    estimate), or None when too few modes to hold any out."""
     n_hold = max(1, int(round(len(used) / 4)))
     if len(used) - n_hold < 2:
         return None
@@ -313,4 +321,11 @@ def held_out_error(st: Setting, data, used: np.ndarray, sf: SparseFit, freq_nois
     theta = np.zeros(len(am.ids))
     theta[support] = f.theta
     hz, sh = am.modes(theta[None])
-    return correlate(hz[0] * np.sqrt(f.s), sh[0], obs_hold).mean_abs_error_pct
+    return correlate(hz[0] * np.sqrt(f.s), sh[0], obs_hold), f.estimate()
+
+
+def held_out_error(st: Setting, data, used: np.ndarray, sf: SparseFit, freq_noise: float,
+                   shape_noise: float) -> float | None:
+    """Mean |frequency error| (%) on the held-out modes of the class refitted without them (`held_out`)."""
+    out = held_out(st, data, used, sf, freq_noise, shape_noise)
+    return None if out is None else out[0].mean_abs_error_pct

@@ -25,9 +25,9 @@ from typing import TYPE_CHECKING
 # the diagnosis and its reports load when the command runs, not for `femu --help` (issue 25)
 if TYPE_CHECKING:
     from fe_problem.diagnosis import Diagnosis
-from femu.reports.diagnosis_text import (cause_text, causes_lines, coordinate_labels, data_check_lines, estimate_text,
-                                         evidence_lines, fmt, hz, mode_ranges, noise_text, pct, threshold_chi2_drop,
-                                         verdict_lines)
+from femu.reports.diagnosis_text import (answer_lines, cause_text, causes_lines, coordinate_labels, data_check_lines,
+                                         estimate_text, evidence_lines, fmt, hz, mode_ranges, noise_text, pct,
+                                         threshold_chi2_drop, verdict_lines)
 
 #: How many alternatives and COMAC coordinates the terminal summary lists.
 N_ALTERNATIVES = 5
@@ -148,7 +148,7 @@ def summary_text(diag: Diagnosis, data_source: str, model_name: str) -> str:
 def _cause_lines(diag: Diagnosis) -> list[str]:
     cause, sel = diag.cause, diag.selection
     head = "CAUSE" if diag.adequate is not False or cause.is_none else "CAUSE (best explanation, NOT an adequate fit)"
-    lines = [f"{head}: {cause_text(cause)}",
+    lines = [f"{head}: {cause_text(cause)}"] + [f"  {line}" for line in answer_lines(diag)] + [
              f"  p {_p_text(cause.p_adjusted)} (adjusted over {sel.n_candidates} candidates; "
              f"significant below {fmt(sel.alpha, 2)})"]
     best, needed = diag.best, threshold_chi2_drop(sel)

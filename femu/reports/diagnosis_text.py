@@ -83,6 +83,31 @@ def implausible_text(cause) -> str:
     return "" if getattr(cause, "plausible", True) else f" [IMPLAUSIBLE: {cause.implausible_because}]"
 
 
+def answer_lines(diag: Diagnosis) -> list[str]:
+    """The answer as the best class by evidence: its family and log evidence, whether the data
+    decide it ('cannot tell apart A from B (log evidence a against b)'), and, when it is not a
+    local class, where the local search's causes are."""
+    a = getattr(diag, "answer", None)
+    if a is None:
+        return []
+    ru = a.runner_up
+    best = ru is None or ru["log_evidence"] <= a.log_evidence
+    lines = [f"{'best class by evidence' if best else 'answer, though not the best class by evidence'}: {a.label} "
+             f"({a.family}), log evidence {fmt(a.log_evidence)}"
+             + (", decisive (the next answer more than a factor of 10 below)" if a.decisive and ru else "")]
+    if not a.decisive and ru is not None and best:
+        lines.append(f"cannot tell apart {a.label} from {ru['label']} (log evidence {fmt(a.log_evidence)} against "
+                     f"{fmt(ru['log_evidence'])})")
+    elif ru is not None and not best:
+        lines.append(f"{ru['label']} has more evidence (log evidence {fmt(ru['log_evidence'])} against "
+                     f"{fmt(a.log_evidence)}), but " + ("no candidate is significant" if a.family == "none" else
+                                                        "the local search chose within the local family"))
+    if not a.is_local:
+        found = ", ".join(c.label or f"{c.kind} ({len(c.indistinguishable)} candidates tie)" for c in diag.causes)
+        lines.append(f"the local search named {found} (the local class; its causes are in the record's causes)")
+    return lines
+
+
 #: How many model classes the evidence table shows.
 N_CLASSES = 6
 
@@ -144,9 +169,13 @@ def verdict_lines(diag: Diagnosis) -> list[str]:
 
 def causes_lines(diag: Diagnosis) -> list[str]:
     """Every cause found, in order of evidence, with its estimate's interval."""
-    if len(diag.causes) < 2 and not any(c.interval for c in diag.causes):
+    answer = getattr(diag, "answer", None)
+    local = answer is None or answer.is_local
+    if local and len(diag.causes) < 2 and not any(c.interval for c in diag.causes):
         return []
-    lines = [f"Causes found, in order of evidence ({len(diag.causes)}):"]
+    lines = [f"Causes found, in order of evidence ({len(diag.causes)}):" if local else
+             f"Causes the local search found, in order of evidence ({len(diag.causes)}; the local class, not the "
+             "answer):"]
     for k, c in enumerate(diag.causes, 1):
         if not c.identifiable:
             lines.append(f"  {k}. cannot tell apart: {', '.join(c.indistinguishable)}")
@@ -232,6 +261,7 @@ def _cause_section(diag: Diagnosis, extended_file: str | None) -> list[str]:
     if best is not None and needed is not None:
         md.append(f"- the best candidate, {best.label}, lowers chi^2 by {fmt(best.chi2_drop)}; significance needs "
                   f"{fmt(needed, 3)}")
+    md += [f"- {line}" for line in answer_lines(diag)]
     if cause.explanation and not cause.is_none:
         md.append(f"- {cause.explanation}")
     if extended_file:

@@ -1,0 +1,140 @@
+"""The answer of a diagnosis: the best model class by evidence, and whether the data decide it.
+
+The likelihood-ratio test answers "is there anything at all" (core.select); when it finds nothing
+the answer is the calibrated model (no effect). Otherwise the classes of the evidence table
+(evidence.py) compete: the local search's result (one cause, or several: rounds.py, whose own
+tests with joint refits choose within the local family), the distributed classes (groups.py),
+"every member" sparse (sparse_class.py) and the model-form classes (modelform.py, supports.py).
+The answer is the best of them by log evidence; when the best is the local family's, the answer
+is the local search's result.
+
+Decisive: the best class that is a different answer (another family, or another kind or place:
+the profiles of one element's loss are one answer) must lie at least ln 10 below the answer in
+log evidence (a factor of 10, `evidence.FACTOR_10`); otherwise the answer is still named, marked
+not decisive, and the text says which class it cannot be told apart from. (Naming "cannot tell
+apart" alone would lose a crack whose thinner-member twin is within 1.6 of it: the crack is the
+best, its evidence only not decisive.)
+
+When the answer is not local, its class gives the extended model (the calibrated model with the
+class's effect), the held-out prediction (the class refitted without the held-out modes) and the
+verdict (its goodness of fit); the local search's causes stay in the record as the local class's.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ..model import FrameModel
+from . import plausibility, sparse_class
+from .candidates import Candidate, scale_stiffness
+from .evidence import FACTOR_10, Evidence, ScoredClass
+from .record import NON_LOCAL, Answer, Cause, Gain, Verdict
+from .verdict import verdict
+
+#: The calibrated model's row in the evidence table (core.score_classes).
+NONE_LABEL = "calibrated model (no effect)"
+
+
+def answer_key(c: ScoredClass) -> tuple[str, str]:
+    """(family, kind@place) of a class: classes with one key are one answer (the profiles of one
+    element's loss, a member thinner or deeper); several causes are one answer as a whole."""
+    return c.family, (c.label if c.family in ("none", "several") else c.label.split("(")[0])
+
+
+def search_key(rounds) -> tuple[str, str]:
+    """The key of the local search's result: none (`rounds` None), its one cause, or several."""
+    if rounds is None:
+        return "none", NONE_LABEL
+    if len(rounds.sized) > 1:
+        return "several", " + ".join(c.label for c, _ in rounds.sized)
+    return "local", rounds.sized[0][0].label.split("(")[0]
+
+
+def choose(ev: Evidence, search: tuple[str, str], significant: bool) -> tuple[ScoredClass, ScoredClass | None, bool]:
+    """(the answer's row, the runner-up's row or None, decisive). The answer is the best class when
+    it is non-local and the test found something (`significant`), else the local search's row."""
+    rows = list(ev.classes)
+    own = next((c for c in rows if answer_key(c) == search), None)
+    best = rows[0] if rows else None
+    if own is None or (significant and best is not None and best.family in NON_LOCAL):
+        own = best
+    if own is None:
+        return None, None, True
+    runner = next((c for c in rows if answer_key(c) != answer_key(own)), None)
+    decisive = runner is None or own.log_evidence - runner.log_evidence >= FACTOR_10
+    return own, runner, decisive
+
+
+def record(row: ScoredClass, runner: ScoredClass | None, decisive: bool, cause: Cause) -> Answer:
+    """The record's `Answer` for the chosen row; kind, location and plausibility from `cause`
+    (the answer's cause: the local search's first, or the non-local class's)."""
+    estimate = None if row.family == "several" else (cause.estimate or row.estimate)
+    up = None if runner is None else {"label": runner.label, "family": runner.family, "estimate": runner.estimate,
+                                      "log_evidence": runner.log_evidence}
+    label = cause.label if row.family == "local" and cause.label else row.label  # a crack's refined zone
+    return Answer(label, row.family, "none" if row.family == "none" else (cause.kind if row.family != "several"
+                                                                              else "several"),
+                  cause.location if row.family not in ("none", "several") else None, estimate, row.log_evidence,
+                  decisive, up, cause.plausible, cause.implausible_because)
+
+
+def undecided_note(a: Answer) -> str | None:
+    """The sentence for an answer that is not decisive, else None."""
+    ru = a.runner_up
+    if a.decisive or ru is None:
+        return None
+    if ru["log_evidence"] > a.log_evidence:
+        return (f"{ru['label']} has more evidence than {a.label} (log evidence {ru['log_evidence']:.4g} against "
+                f"{a.log_evidence:.4g}), but " + ("no candidate is significant" if a.family == "none" else
+                                                  "the local search's rounds chose the answer within the local family"))
+    return (f"cannot tell apart {a.label} from {ru['label']} (log evidence {a.log_evidence:.4g} against "
+            f"{ru['log_evidence']:.4g}, within a factor of 10): the answer is the best class, not a decisive one")
+
+
+@dataclass(frozen=True, eq=False)
+class NonLocal:
+    """What a non-local answer's class gives the record: its cause, extended model, held-out gain,
+    verdict, and its number of fitted parameters (the global scale included)."""
+
+    cause: Cause
+    extended_model: FrameModel
+    gain: Gain
+    verdict: Verdict
+    n_params: int
+
+
+def non_local(cal, row: ScoredClass, fitted: dict, sparse, p_adjusted: float, alpha: float, user: FrameModel,
+              gain_of, search_labels: list[str]) -> NonLocal:
+    """The answer's class (a Candidate with its fit in `fitted`, label -> (candidate, Fit), or the
+    sparse class `sparse`) as the record's cause, extended model, gain and verdict. p_adjusted: the
+    significance test's (core.select); gain_of: core.gain; search_labels: the local search's causes."""
+    what = f"the best class by evidence, {row.label},"
+    found = ", ".join(search_labels) or "none"
+    why = (f"the answer is the best class by evidence ({row.family}: {row.label}); the local search's "
+           f"cause(s), {found}, are in `causes` (the local class's)")
+    if row.family == "sparse":
+        st = cal.setting
+        moduli = {e: st.model.element_modulus_pa(e) * float(1.0 + t) for e, t in zip(sparse.members, sparse.theta)}
+        extended = scale_stiffness(st.model.with_element_moduli(moduli), sparse.s)
+        fit = sparse_class.fit_at(st, cal.obs, sparse)
+        cause = Cause(sparse_class.KIND, {"members": list(sparse.members)}, sparse.estimate(), True, p_adjusted,
+                      row.label, explanation=why)
+        gain = gain_of(cal, None)
+        held = sparse_class.held_out(st, cal.data, cal.used, sparse, cal.obs.freq_noise, cal.obs.shape_noise)
+        if held is not None:  # no prediction interval: the class has no profile of one size
+            gain = Gain(gain.held_out_modes, gain.fit_modes, gain.before, held[0], held[1])
+        n = 1 + len(sparse.members)
+    else:
+        cand, fit = fitted[row.label]
+        extended = scale_stiffness(cand.extend(fit.a), fit.s)
+        cause = plausibility.judged(user, Cause(cand.kind, cand.location, cand.estimate(fit.a, fit.s), True, p_adjusted,
+                                    row.label, explanation=why))
+        gain = gain_of(cal, cand)
+        n = 2
+    return NonLocal(cause, extended, gain, verdict(cal.obs, fit, n, alpha, what=what), n)
+
+
+def fitted_candidates(fits) -> dict[str, tuple[Candidate, object]]:
+    """label -> (candidate, Fit) of the scored classes' fits (core.score_classes)."""
+    return {c.label: (c, f) for c, f, _ in fits}
+
