@@ -6,7 +6,8 @@ every weak-zone candidate of a space frame (each element, each of its places, ea
 plane) through one call of the formulation's vectorised `zone_stiffness`; the alternative is
 `zones.zone_stiffness` called once per zone (what `LocalMatrices.zone` does for a place off the
 grid). Both give the same terms (checked before timing). The frame: `regular_frame_3d(3, 3, 6)`
-(240 elements, 3,360 zones). Run:
+(240 elements, 3,360 zones). Measured 2026-11-26, one run at load 4.7 (median): batched 77 ms,
+one call per zone 2,100 ms, 27x. Run:
 
     OPENBLAS_NUM_THREADS=1 python -m pytest benchmarks/test_bench_space_zones.py --benchmark-only -q
 """
