@@ -254,6 +254,9 @@ class AffineModel:
             for rot, dof in dofs.items():
                 names[dof] = f"the released end of element {eid} at node {node}" + (
                     f" ({rot})" if len(m.layout.hinges) > 1 else "")
+        for (eid, node), rel in self.dofmap.relative.items():
+            for local, (dof, _) in rel.items():
+                names[dof] = f"the released end of element {eid} at node {node} (local {local})"
         return [names[i] for i in self.dofmap.free]
 
     # -- parameter vectors ------------------------------------------------------------

@@ -12,10 +12,19 @@ DOFs: the model's nodal DOFs (its `layout`, node-major), then one extra rotation
 rotation of an element end (the element's own end rotation, tied to the node's rotation by a
 rotational spring; a space element's release is named in its local axes, and acts on the
 global rotation that local axis lies along). Supported DOFs are removed by `Terms.free`.
+
+A release about a local axis along no global axis (a skew member's, `release_rotation`
+refuses it) cannot take the place of one of the node's rotations: its extra DOF is the end's
+rotation h relative to the node about that axis a, the element end turning by theta_node +
+h a. The element's matrix then acts on its nodal DOFs and its h's through B = [I | E] (E
+holds a in the end's rotation rows): B^T K_e B (`DofMap.element_block`), and the spring is
+k h^2 / 2 on h alone. Both forms are exact; a release along a global axis keeps the first
+(planar results unchanged).
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -36,6 +45,10 @@ class DofMap:
     free: np.ndarray                   # indices of unsupported DOFs
     node_dofs: dict[int, np.ndarray]   # node id -> its nodal DOFs (layout order)
     hinge_stiffness: dict[tuple[int, int], dict[str, float]]  # the same keys -> the release's N m/rad
+    #: releases about a skew local axis: (element id, node id) -> {local rotation: (h DOF, N m/rad)}
+    relative: dict[tuple[int, int], dict[str, tuple[int, float]]] = dataclasses.field(default_factory=dict)
+    #: element row -> (its relative DOFs (m,), B (k, k + m)): its DOFs' values are B (nodal, h)
+    extended: dict[int, tuple[np.ndarray, np.ndarray]] = dataclasses.field(default_factory=dict)
 
     @classmethod
     def of(cls, model: FrameModel) -> "DofMap":
@@ -47,40 +60,76 @@ class DofMap:
         nxt = model.n_dof
         hinges: dict[tuple[int, int], dict[str, int]] = {}
         stiffness: dict[tuple[int, int], dict[str, float]] = {}
+        relative: dict[tuple[int, int], dict[str, tuple[int, float]]] = {}
+        extended: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         edofs = np.zeros((len(model.elements), 2 * per), dtype=int)
         for k, e in enumerate(model.elements):
+            columns = []  # the skew releases' columns of E
             for o, node, rel in zip((0, per), (e.node_i, e.node_j), model.end_releases(e)):
                 edofs[k, o:o + per] = node_dofs[node]
-                if rel:
-                    hinges[(e.id, node)], stiffness[(e.id, node)] = {}, {}
-                    for local, value in rel.items():
+                for local, value in rel.items():
+                    axis = release_axis(model, e, local)
+                    if axis is None:
                         rot = release_rotation(model, e, local)
-                        hinges[(e.id, node)][rot] = edofs[k, o + lay.position(rot)] = nxt
-                        stiffness[(e.id, node)][rot] = value
-                        nxt += 1
+                        hinges.setdefault((e.id, node), {})[rot] = edofs[k, o + lay.position(rot)] = nxt
+                        stiffness.setdefault((e.id, node), {})[rot] = value
+                    else:
+                        relative.setdefault((e.id, node), {})[local] = (nxt, value)
+                        col = np.zeros(2 * per)
+                        col[[o + lay.position(r) for r in ("rx", "ry", "rz")]] = axis
+                        columns.append((nxt, col))
+                    nxt += 1
+            if columns:
+                b = np.hstack([np.eye(2 * per), np.stack([c for _, c in columns], axis=1)])
+                extended[k] = (np.array([d for d, _ in columns]), b)
         fixed = np.zeros(nxt, dtype=bool)
         for s in model.supports:
             fixed[[node_dofs[s.node][lay.position(d)] for d in s.directions]] = True
-        return cls(model.n_dof, nxt, edofs, hinges, np.flatnonzero(~fixed), node_dofs, stiffness)
+        return cls(model.n_dof, nxt, edofs, hinges, np.flatnonzero(~fixed), node_dofs, stiffness, relative, extended)
 
     def dof(self, node: int, direction: str, model: FrameModel) -> int:
         """The global index of a nodal DOF."""
         return int(self.node_dofs[node][model.layout.position(direction)])
 
+    def element_block(self, row: int, mats: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The DOFs and matrices (..., n, n) through which element matrices `mats` (..., k, k) of
+        the element at `row` (its position in model.elements) act on the global DOF vector:
+        its `element_dofs` and `mats` themselves, or, for an element with a skew release, those
+        DOFs and its relative rotations h with B^T mats B (see the module docstring)."""
+        if row not in self.extended:
+            return self.element_dofs[row], mats
+        return self.block_dofs(row), self.extended[row][1].T @ mats @ self.extended[row][1]
+
+    def block_dofs(self, row: int) -> np.ndarray:
+        """The DOFs of `element_block` of the element at `row`."""
+        if row not in self.extended:
+            return self.element_dofs[row]
+        return np.concatenate([self.element_dofs[row], self.extended[row][0]])
+
+
+def release_axis(model: FrameModel, e, local: str) -> np.ndarray | None:
+    """The unit axis (3,) in global components of an element end's release in local rotation
+    `local`, when that axis lies along no global axis (a skew member's: the release gets a
+    relative rotation DOF, see the module docstring); None when it lies along one (a planar
+    element's always), where `release_rotation` names that global rotation."""
+    if model.layout.dimension == 2:
+        return None
+    axis = model.local_axes(e.id)[("rx", "ry", "rz").index(local)]
+    return None if abs(np.max(np.abs(axis)) - 1.0) <= 1e-9 else axis
+
 
 def release_rotation(model: FrameModel, e, local: str) -> str:
     """The node rotation an element end's release in local rotation `local` acts on: the
     global rotation about the axis that local axis lies along (a planar element's rz is the
-    global rz). A space element's local axis must lie along a global axis: a release about a
-    skew axis would couple the node's rotations (ValueError naming the element)."""
+    global rz). ValueError naming the element when that axis is skew: such a release turns
+    about no one node rotation (`release_axis`; the assembly gives it a relative rotation)."""
     if model.layout.dimension == 2:
         return local
     axis = model.local_axes(e.id)[("rx", "ry", "rz").index(local)]
     g = int(np.argmax(np.abs(axis)))
     if abs(abs(axis[g]) - 1.0) > 1e-9:
         raise ValueError(f"{model.source}: element {e.id}: its release in local {local!r} turns about "
-                         f"{np.round(axis, 6).tolist()}, not along a global axis; releases are supported on "
-                         "members whose local axes lie along global axes")
+                         f"{np.round(axis, 6).tolist()}, not along a global axis, so about no one node rotation")
     return ("rx", "ry", "rz")[g]
 
 
@@ -152,6 +201,26 @@ class Terms:
     def _hinge(self, term: int, element_id: int, node: int, rotation: str, value: float) -> None:
         self.k.two_dof(term, self._dof(node, rotation), self.dofmap.hinges[(element_id, node)][rotation], value)
 
+    def _relative(self, term: int, key: tuple[int, int], value: float | None) -> None:
+        """The springs k h^2 / 2 of an element end's skew releases (`value` None: each its own k)."""
+        for dof, k in self.dofmap.relative.get(key, {}).values():
+            self.k.two_dof(term, dof, None, k if value is None else value)
+
+    def _blocks(self, fam: Triplets, term: int, rows, mats: np.ndarray) -> None:
+        """Element matrices `mats` (e, k, k) of the elements at `rows` into `fam`, each through
+        its `DofMap.element_block` (an element with a skew release on its relative DOFs too)."""
+        edofs, ext = self.dofmap.element_dofs, self.dofmap.extended
+        rows = np.arange(len(edofs)) if rows is None else np.asarray(rows)
+        special = [j for j, r in enumerate(rows) if int(r) in ext]
+        if not special:
+            fam.blocks(term, edofs[rows], mats)
+            return
+        plain = np.setdiff1d(np.arange(len(rows)), special)
+        fam.blocks(term, edofs[rows[plain]], mats[plain])
+        for j in special:
+            dofs, m = self.dofmap.element_block(int(rows[j]), mats[j])
+            fam.blocks(term, dofs[None], m[None])
+
     def _translations(self, node: int) -> list[int]:
         return [self._dof(node, d) for d in self.model.layout.translations]
 
@@ -165,14 +234,14 @@ class Terms:
                     k_w = profile_stiffness(model, model.element(par.targets[0]), par.profile)
                 except ValueError as exc:
                     raise ValueError(f"parameter {par.label}: {exc}") from None
-                self.k.blocks(p, edofs[rows], k_w)
-                self.k.blocks(-1, edofs[rows], -self.modulus[rows[0]] * k_w)
+                self._blocks(self.k, p, rows, k_w)
+                self._blocks(self.k, -1, rows, -self.modulus[rows[0]] * k_w)
             elif par.kind == "modulus":
                 self.k_weight[rows] = 0.0
-                self.k.blocks(p, edofs[rows], self.k_el[rows])
+                self._blocks(self.k, p, rows, self.k_el[rows])
             else:
                 self.m_weight[rows] = 0.0
-                self.m.blocks(p, edofs[rows], self.m_el[rows])
+                self._blocks(self.m, p, rows, self.m_el[rows])
         elif par.kind == "mass":
             for node in par.targets:
                 if node not in self.dofmap.node_dofs:
@@ -187,17 +256,18 @@ class Terms:
                 self.taken["spring"].add(sid)
         elif par.kind == "release":
             key = tuple(par.targets)
-            if key not in self.dofmap.hinges:
+            if key not in self.dofmap.hinges and key not in self.dofmap.relative:
                 raise ValueError(f"parameter {par.label}: element end {key} is not released in the model")
-            for rot in self.dofmap.hinges[key]:  # every released rotation of that end
+            for rot in self.dofmap.hinges.get(key, {}):  # every released rotation of that end
                 self._hinge(p, key[0], key[1], rot, 1.0)
+            self._relative(p, key, 1.0)
             self.taken["release"].add(key)
 
     def _constant(self) -> None:
         """K0, M0: everything no parameter holds."""
-        model, edofs = self.model, self.dofmap.element_dofs
-        self.k.blocks(-1, edofs, self.k_el * self.k_weight[:, None, None])
-        self.m.blocks(-1, edofs, self.m_el * self.m_weight[:, None, None])
+        model = self.model
+        self._blocks(self.k, -1, None, self.k_el * self.k_weight[:, None, None])
+        self._blocks(self.m, -1, None, self.m_el * self.m_weight[:, None, None])
         for lm in model.masses:
             if lm.node not in self.taken["mass"]:
                 t = self._translations(lm.node)
@@ -212,6 +282,9 @@ class Terms:
             if key not in self.taken["release"]:
                 for rot, value in released.items():
                     self._hinge(-1, key[0], key[1], rot, value)
+        for key in self.dofmap.relative:
+            if key not in self.taken["release"]:
+                self._relative(-1, key, None)
 
     def free_arrays(self):
         """The K and M triplets on the free DOFs: ((rows, cols, vals, term), (...))."""
@@ -227,4 +300,4 @@ def dense_terms(trip, n: int, p: int) -> tuple[np.ndarray, np.ndarray]:
     return out[0], out[1:]
 
 
-__all__ = ["DofMap", "Terms", "Triplets", "dense_terms", "release_rotation"]
+__all__ = ["DofMap", "Terms", "Triplets", "dense_terms", "release_axis", "release_rotation"]

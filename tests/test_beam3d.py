@@ -174,8 +174,10 @@ def our_modes(frame: Frame, timoshenko: bool, n_modes: int = N_MODES):
 # --- OpenSees ---------------------------------------------------------------------------
 
 def opensees_modes(frame: Frame, timoshenko: bool, n_modes: int = N_MODES, map_torsional_mass: bool = True,
-                   releases: dict | None = None):
+                   releases: dict | None = None, inertia: dict | None = None):
     """The lowest modes of `frame` in OpenSees (Hz, shapes on the 6 DOFs of every frame node).
+
+    inertia: {node id: kg m^2}, a lumped rotary inertia on that node's rx, ry and rz.
 
     releases: {(member id, node id): {global rotation 4 | 5 | 6: stiffness N m/rad}}: that end
     of the member is a second node at the joint, tied by ``equalDOF`` in the translations and
@@ -187,8 +189,9 @@ def opensees_modes(frame: Frame, timoshenko: bool, n_modes: int = N_MODES, map_t
         ops.node(nid, *map(float, xyz))
     for nid, fix in frame.fixed.items():
         ops.fix(nid, *fix)
-    for nid, kg in frame.masses.items():
-        ops.mass(nid, kg, kg, kg, 0.0, 0.0, 0.0)
+    for nid in dict.fromkeys([*frame.masses, *(inertia or {})]):
+        kg, j = frame.masses.get(nid, 0.0), (inertia or {}).get(nid, 0.0)
+        ops.mass(nid, kg, kg, kg, j, j, j)
     extra_node, extra_element = 10 * max(frame.nodes) + 1, 10 * max(m[0] for m in frame.members) + 1
     for eid, i, j, p, vec in frame.members:
         ends = []

@@ -22,7 +22,7 @@ import space_elements  # noqa: F401  (registers the test-only 3-D formulations)
 from femu import cli
 from fe_problem.identification import FRFFileError, read_frf
 from fe_problem.modal_data.uff import read_uff55
-from fe_problem.terms import DofMap
+from fe_problem.terms import DofMap, release_rotation
 
 STEEL = {"youngs_modulus_pa": 2.0e11, "shear_modulus_pa": 7.69e10, "density_kg_m3": 7850}
 SEC = {"area_m2": 1.133e-3, "iy_m4": 1.97e-6, "iz_m4": 0.664e-6, "j_m4": 8.01e-9}
@@ -187,10 +187,23 @@ def test_releases_act_on_the_global_rotation_their_local_axis_lies_along():
     assert fp.model.model_from_dict(fp.model.model_to_dict(m), "again") == m
 
 
-def test_a_release_about_a_skew_axis_is_refused_with_the_element_named():
+def test_a_release_about_a_skew_axis_is_the_ends_relative_rotation():
+    """The rod along (0.8, 0.6, 0), both nodes clamped, its end at node 1 released in torsion
+    (local rx, a skew axis): one DOF is left, the end's rotation h about the rod's axis relative
+    to the node, with stiffness k_r + G J / L and the rod's torsional mass at that end,
+    rho Ip L / 3 (closed form, to 1e-12); `release_rotation` still names no node rotation."""
+    length, g = 1.5, STEEL["shear_modulus_pa"]
+    k_t = g * SEC["j_m4"] / length
+    polar = 7850 * (SEC["iy_m4"] + SEC["iz_m4"]) * length / 6
+    k_r = 1e3
+    m = torsion_model(release=k_r, skew=True)
+    dm = DofMap.of(m)
+    assert not dm.hinges and list(dm.relative) == [(1, 1)] and list(dm.relative[(1, 1)]) == ["rx"]
+    res = fp.modal_analysis(m, 1)
+    np.testing.assert_allclose(res.frequencies_hz, [np.sqrt((k_t + k_r) / (2 * polar)) / (2 * np.pi)], rtol=1e-12)
     with pytest.raises(ValueError, match=r"rod.model.json: element 1: its release in local 'rx' turns about "
                                          r"\[0.8, 0.6, 0.0\], not along a global axis"):
-        fp.AffineModel(torsion_model(release=1e3, skew=True))
+        release_rotation(m, m.element(1), "rx")
 
 
 # -- measured data and FRFs with the six directions ---------------------------------------

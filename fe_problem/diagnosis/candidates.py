@@ -9,7 +9,8 @@ Kinds (the set is open: add a function to `CANDIDATE_KINDS` that yields Candidat
 
 - ``stiffness_loss`` at an element: its modulus times (1 - a), a in [0, 0.9]; or a weak zone
   about a section depth wide at one of seven positions along it, its bending stiffness times
-  (1 - a), a in [0, 0.99] (a crack; zones.py).
+  (1 - a), a in [0, 0.99] (a crack; zones.py); on a space frame in each bending plane (local
+  ry, rz), each its own candidate.
 - ``added_mass`` at a node: a lumped mass of a kg (x and y), a up to half the model's mass.
 - ``joint_flexibility`` at a node where members meet: one element end released and tied to
   the node by a rotational spring k = (E I / L)_element / a (a: the joint's compliance
@@ -186,55 +187,66 @@ def stiffness_loss(st: Setting) -> Iterator[Candidate]:
                         step=0.01, meta={"profile": "uniform"},
                         term=lambda e=e, e0=e0: st.local.stiffness(e.id, -e0, "uniform"),
                         reduced=reduced_linear(st, lambda e=e, e0=e0: st.local.stiffness(e.id, -e0, "uniform")))
-        # a weak zone is built by the planar beam's flexibility formulation (zones.py)
-        if (st.model.layout.dimension != 2 or not formulation(e.formulation, st.model.layout).supports_crack
+        # a weak zone is built by the beam's flexibility formulation (zones.py), in each bending plane
+        if (not formulation(e.formulation, st.model.layout).supports_weak_zone
                 or e.crack_position is not None or e.weak_zone is not None):
             continue
-        yield from _zone_candidates(st, e, e0, shared)
+        for about in zones.bending_rotations(st.model):
+            yield from _zone_candidates(st, e, e0, shared, about=about)
 
 
-def zone_candidate(st: Setting, element_id: int, centre: float, shared: dict | None = None) -> Candidate:
-    """The weak-zone loss of one element centred at `centre` (a fraction of its length), at any
-    position, not only the grid's: the crack's position is refined once the element is chosen.
-    `shared`: the solver cache of zones.zone_forwards, to share among positions."""
+def zone_candidate(st: Setting, element_id: int, centre: float, shared: dict | None = None,
+                   about: str = "rz") -> Candidate:
+    """The weak-zone loss of one element centred at `centre` (a fraction of its length),
+    bending about `about`, at any position, not only the grid's: the crack's position is
+    refined once the element is chosen. `shared`: the solver cache of zones.zone_forwards, to
+    share among positions."""
     e = st.model.element(element_id)
-    place = zones.zone_place(st.model, element_id, centre)
+    place = zones.zone_place(st.model, element_id, centre, about)
     return next(_zone_candidates(st, e, st.model.element_modulus_pa(element_id), {} if shared is None else shared,
-                                 [place]))
+                                 [place], about))
 
 
-def zone_profile(centre: float) -> str:
-    """The profile of a zone candidate's label: 'zone 0.30' on the grid, 'zone 0.353' refined."""
-    return f"zone {centre:.2f}" if abs(centre - round(centre, 2)) < 1e-9 else f"zone {centre:.3f}"
+def zone_profile(centre: float, about: str | None = None) -> str:
+    """The profile of a zone candidate's label: 'zone 0.30' on the grid, 'zone 0.353' refined;
+    a space frame's names its bending rotation too: 'zone 0.30 ry'."""
+    at = f"zone {centre:.2f}" if abs(centre - round(centre, 2)) < 1e-9 else f"zone {centre:.3f}"
+    return at if about is None else f"{at} {about}"
 
 
-def _zone_candidates(st: Setting, e, e0: float, shared: dict, places=None) -> Iterator[Candidate]:
-    """The weak-zone losses of element e (see zones.py) at the grid's places or at `places`;
-    a: the zone's loss of bending stiffness."""
-    for start, end, forward in zones.zone_forwards(st.model, e.id, st.coords, st.n_modes, shared, places):
+def _zone_candidates(st: Setting, e, e0: float, shared: dict, places=None, about: str = "rz") -> Iterator[Candidate]:
+    """The weak-zone losses of element e (see zones.py) bending about `about`, at the grid's
+    places or at `places`; a: the zone's loss of bending stiffness."""
+    space = st.model.layout.dimension == 3
+    for start, end, forward in zones.zone_forwards(st.model, e.id, st.coords, st.n_modes, shared, places, about):
         centre = round(0.5 * (start + end), 6)
 
         def estimate(a, s, start=start, end=end, centre=centre):
-            ei = s * e0 * st.model.sections[e.section].inertia_about("rz")
+            ei = s * e0 * st.model.sections[e.section].inertia_about(about)
             width = (end - start) * st.model.element_length_m(e.id)
-            return {"stiffness_loss_pct": 100.0 * a, "modulus_ratio": 1.0 - a, "profile": "zone",
-                    "zone_position": centre, "zone_start": start, "zone_end": end,
-                    "modulus_pa": s * e0 * (1.0 - a),
-                    "equivalent_crack_stiffness_nm_per_rad": ei * (1.0 - a) / (a * width) if a > 0 else float("inf")}
+            out = {"stiffness_loss_pct": 100.0 * a, "modulus_ratio": 1.0 - a, "profile": "zone",
+                   "zone_position": centre, "zone_start": start, "zone_end": end,
+                   "modulus_pa": s * e0 * (1.0 - a),
+                   "equivalent_crack_stiffness_nm_per_rad": ei * (1.0 - a) / (a * width) if a > 0 else float("inf")}
+            return {**out, "zone_about": about} if space else out
 
         def extend(a, start=start, end=end):
-            return zones.with_zone(st.model, e.id, start, end, 1.0 - a)
+            return zones.with_zone(st.model, e.id, start, end, 1.0 - a, about)
 
         def reduced(start=start, end=end):
             if st.basis is None:
                 return None
-            nominal = zones.zone_stiffness(st.model, e.id, 0.0, 1.0, np.ones(1))[0]
-            return st.basis.local(st.local.dofmap.element_dofs[st.local.row[e.id]], lambda a: (
-                zones.zone_stiffness(st.model, e.id, start, end, 1.0 - np.clip(a, 0.0, zones.UPPER)) - nominal, None))
+            row, dofmap = st.local.row[e.id], st.local.dofmap
+            nominal = zones.zone_stiffness(st.model, e.id, 0.0, 1.0, np.ones(1), about)[0]
+
+            def change(a):
+                dk = zones.zone_stiffness(st.model, e.id, start, end, 1.0 - np.clip(a, 0.0, zones.UPPER), about)
+                return dofmap.element_block(row, dk - nominal)[1], None
+            return st.basis.local(dofmap.block_dofs(row), change)
 
         yield Candidate("stiffness_loss", {"element": e.id}, zones.UPPER, zones.GRID, forward, estimate, extend,
-                        step=0.01, meta={"profile": zone_profile(centre)},
-                        term=lambda start=start, end=end: st.local.zone(e.id, start, end),
+                        step=0.01, meta={"profile": zone_profile(centre, about if space else None)},
+                        term=lambda start=start, end=end: st.local.zone(e.id, start, end, about),
                         reduced=reduced)
 
 

@@ -62,7 +62,7 @@ def _candidate_on(model: FrameModel, st: Setting, kind: str, label: str) -> Cand
     setting = Setting(model, st.coords, st.n_modes, st.nominal)
     centre = _zone_centre(label)
     if centre is not None:
-        return zone_candidate(setting, _location(label)["element"], centre)
+        return zone_candidate(setting, _location(label)["element"], centre, about=_zone_about(label) or "rz")
     return next(c for c in all_candidates(setting, [kind]) if c.label == label)
 
 
@@ -70,6 +70,12 @@ def _zone_centre(label: str) -> float | None:
     """The centre of a weak-zone label ('stiffness_loss@element=7(zone 0.353)'), else None."""
     profile = label.partition("(")[2].rstrip(")")
     return float(profile.split()[1]) if profile.startswith("zone ") else None
+
+
+def _zone_about(label: str) -> str | None:
+    """The bending rotation of a space frame's weak-zone label ('...(zone 0.30 ry)'), else None."""
+    words = label.partition("(")[2].rstrip(")").split()
+    return words[2] if len(words) > 2 and words[0] == "zone" else None
 
 
 def _with(base: FrameModel, st: Setting, picks: list[tuple[str, str]], sizes: list[float], skip: int = -1):
@@ -318,7 +324,7 @@ def _refine_zone(obs, st: Setting, base: FrameModel, pick: tuple[str, str], a: f
     cause to take. Returns the pick, relabelled at the refined centre, and its fit. On the
     sparse path (a large model: every trial a model assembled afresh) the position stays."""
     kind, label = pick
-    element, centre = _location(label)["element"], _zone_centre(label)
+    element, centre, about = _location(label)["element"], _zone_centre(label), _zone_about(label)
     setting = Setting(base, st.coords, st.n_modes, st.nominal)
     shared = {"system": AffineModel(base)}  # one solver for every trial position
     fits: dict[float, Fit] = {}
@@ -326,7 +332,7 @@ def _refine_zone(obs, st: Setting, base: FrameModel, pick: tuple[str, str], a: f
     def chi2_at(c: float) -> float:
         c = round(float(c), 3)
         if c not in fits:
-            fits[c] = fit(obs, zone_candidate(setting, element, c, shared), a)
+            fits[c] = fit(obs, zone_candidate(setting, element, c, shared, about or "rz"), a)
         return fits[c].chi2
 
     chi2_at(centre)
@@ -334,7 +340,7 @@ def _refine_zone(obs, st: Setting, base: FrameModel, pick: tuple[str, str], a: f
         lo, hi = max(ZONE_RANGE[0], centre - ZONE_REACH), min(ZONE_RANGE[1], centre + ZONE_REACH)
         minimize_scalar(chi2_at, bounds=(lo, hi), method="bounded", options={"xatol": ZONE_XTOL})
     best = min(fits, key=lambda c: fits[c].chi2)
-    return (kind, label.partition("(")[0] + f"({zone_profile(best)})"), fits[best]
+    return (kind, label.partition("(")[0] + f"({zone_profile(best, about)})"), fits[best]
 
 
 def _finish(cal, st, picks, sizes, ps, ties, gain) -> Rounds:

@@ -33,6 +33,8 @@ class ElementFormulation(ABC):
     supports_crack: bool = False
     #: whether a modulus profile along the element (`PROFILES`) can be assembled
     supports_profile: bool = False
+    #: whether an element of this formulation may hold a weak zone (``weak_zone``)
+    supports_weak_zone: bool = False
 
     @abstractmethod
     def stiffness(self, model: FrameModel, elements: Sequence[Element]) -> np.ndarray:
@@ -47,6 +49,14 @@ class ElementFormulation(ABC):
                   xi: np.ndarray) -> np.ndarray:
         """Displacement (n, n_points, layout.dimension) in metres along each element at length
         fractions `xi` (n_points,), from its end DOF values `ends` (n, k) (for drawing)."""
+
+    def zone_stiffness(self, model: FrameModel, elements: Sequence[Element], start: np.ndarray, end: np.ndarray,
+                       ratio: np.ndarray, about: Sequence[tuple[str, ...]]) -> np.ndarray:
+        """Global-axis stiffness (b, k, k) per unit modulus of `elements` (b, repeats allowed),
+        each with a weak zone from start to end (fractions of its length from node_i) whose
+        bending stiffness about the local rotations `about` (per element, e.g. ("ry",)) is
+        ratio times E I (a space frame's formulation; the planar one: diagnosis/zones.py)."""
+        raise ValueError(f"formulation {self.name!r} has no weak zones")
 
     def profile_stiffness(self, model: FrameModel, element: Element, weights: tuple) -> np.ndarray:
         """Global-axis stiffness (1, k, k) per unit modulus of one element whose modulus varies

@@ -138,6 +138,24 @@ def local_mass(length: np.ndarray, area: np.ndarray, iy: np.ndarray, iz: np.ndar
     return m
 
 
+def zone_stiffness(length: np.ndarray, area: np.ndarray, iy: np.ndarray, iz: np.ndarray, torsion: np.ndarray,
+                   start: np.ndarray, end: np.ndarray, ratio_y: np.ndarray, ratio_z: np.ndarray) -> np.ndarray:
+    """Local Euler-Bernoulli stiffness per unit E (n, 12, 12) of elements with a weak zone from
+    `start` to `end` (fractions of the length from node i): the bending stiffness about local y
+    is ratio_y * E Iy there, about local z ratio_z * E Iz (1: that plane unchanged), E I
+    elsewhere; axial and torsion bars as `local_stiffness`. Each bending plane is the planar
+    flexibility formulation (beam2d.zone_flexibility, flexibility_bending_stiffness: exact for
+    the piecewise constant E I), placed as `local_stiffness` places the planar element."""
+    n = length.shape[0]
+    k = np.zeros((n, 12, 12))
+    _bar(k, AXIAL, area / length, -1.0)
+    _bar(k, TORSION, torsion / length, -1.0)
+    for inertia, ratio, plane, sign in ((iz, ratio_z, PLANE_XY, np.ones(4)), (iy, ratio_y, PLANE_XZ, _XZ_SIGN)):
+        extra = beam2d.zone_flexibility(length, inertia, start, end, ratio)
+        _bending(beam2d.flexibility_bending_stiffness(length, inertia, extra), plane, sign, k)
+    return k
+
+
 def weighted_stiffness(length: np.ndarray, area: np.ndarray, iy: np.ndarray, iz: np.ndarray,
                        torsion: np.ndarray, w: tuple) -> np.ndarray:
     """Local Euler-Bernoulli stiffness per unit E (n, 12, 12) of elements whose modulus varies as

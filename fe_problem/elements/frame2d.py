@@ -89,6 +89,7 @@ class EulerBernoulli(_PlanarBeam):
     name = "euler-bernoulli"
     supports_crack = True
     supports_profile = True
+    supports_weak_zone = True
 
     def stiffness(self, model, elements):
         g = Geometry.of(model, elements)

@@ -77,7 +77,7 @@ class _SpaceBeam(ElementFormulation):
 
     def displaced(self, model, elements, ends, xi):
         g = Geometry.of(model, elements)
-        smooth = np.array([not any(model.end_releases(e)) for e in elements], dtype=bool)
+        smooth = np.array([not any(model.end_releases(e)) and e.weak_zone is None for e in elements], dtype=bool)
         return beam3d.interpolate(g.length, g.r, ends, smooth, xi)
 
 
@@ -85,13 +85,36 @@ class EulerBernoulli3d(_SpaceBeam):
     """Hermite-cubic bending in both planes with consistent mass (axial, bending, torsional
     inertia rho (Iy + Iz)) and no rotary inertia of the section: OpenSees' elasticBeamColumn
     with -cMass, save its torsional mass (rho J there). A modulus profile along the element
-    (`PROFILES`) scales axial, both bending planes and torsion alike (beam3d.weighted_stiffness);
-    cracks and weak zones are planar only."""
+    (`PROFILES`) scales axial, both bending planes and torsion alike (beam3d.weighted_stiffness).
+    A weak zone (``weak_zone``, ``weak_zone_about``: a stretch whose bending stiffness about
+    local y, local z or both is reduced) is built into the element by the flexibility
+    formulation of each bending plane (beam3d.zone_stiffness, exact); the mass stays the
+    beam's. Cracks (a rotational spring inside the element) are planar only."""
 
     name = "euler-bernoulli"
     supports_profile = True
+    supports_weak_zone = True
+
+    def stiffness(self, model, elements):
+        k = super().stiffness(model, elements)
+        rows = [r for r, e in enumerate(elements) if e.weak_zone is not None]
+        if rows:
+            zoned = [elements[r] for r in rows]
+            start, end, ratio = (np.array([e.weak_zone[c] for e in zoned]) for c in range(3))
+            k[rows] = self.zone_stiffness(model, zoned, start, end, ratio, [e.weak_zone_about for e in zoned])
+        return k
+
+    def zone_stiffness(self, model, elements, start, end, ratio, about):
+        g = Geometry.of(model, elements)
+        ratio = np.asarray(ratio, dtype=float)
+        ry = np.where(["ry" in a for a in about], ratio, 1.0)
+        rz = np.where(["rz" in a for a in about], ratio, 1.0)
+        return g.to_global(beam3d.zone_stiffness(g.length, g.area, g.iy, g.iz, g.g_over_e * g.j,
+                                                 np.asarray(start, dtype=float), np.asarray(end, dtype=float), ry, rz))
 
     def profile_stiffness(self, model, element, weights):
+        if element.weak_zone is not None:
+            raise ValueError(f"element {element.id}: a modulus profile needs an element without a weak zone")
         g = Geometry.of(model, [element])
         return g.to_global(beam3d.weighted_stiffness(g.length, g.area, g.iy, g.iz, g.g_over_e * g.j, weights))
 

@@ -68,6 +68,8 @@ def part_fields(e: Element, lo: float, hi: float) -> dict:
         start, end, ratio = e.weak_zone
         a, b = max(start, lo), min(end, hi)
         out["weak_zone"] = ((a - lo) / (hi - lo), (b - lo) / (hi - lo), ratio) if b - a > 1e-12 else None
+        if out["weak_zone"] is None:  # a part without the zone has no bending rotations of it either
+            out["weak_zone_about"] = ()
     return out
 
 

@@ -139,6 +139,7 @@ def model_from_dict(d: dict, source: str = "<memory>") -> FrameModel:
             crack_position=_get(e, "crack_position", where, None),
             crack_stiffness=_get(e, "crack_stiffness", where, None),
             weak_zone=_weak_zone(_get(e, "weak_zone", where, None), where),
+            weak_zone_about=_zone_about(_get(e, "weak_zone", where, None), dimension, where),
             orientation=_vector(_get(e, "orientation", where, None), f"{where} field 'orientation'"),
             releases_i=_releases(_get(e, "releases_i", where, None), f"{where} field 'releases_i'"),
             releases_j=_releases(_get(e, "releases_j", where, None), f"{where} field 'releases_j'")))
@@ -195,14 +196,34 @@ def _releases(r, where: str) -> tuple:
 
 
 def _weak_zone(z, where: str):
-    """(start, end, modulus_ratio) from {"start": s, "end": e, "modulus_ratio": r}, or None."""
+    """(start, end, modulus_ratio) from {"start": s, "end": e, "modulus_ratio": r} (a space
+    model's may add "about", `_zone_about`), or None."""
     if z is None:
         return None
     keys = ("start", "end", "modulus_ratio")
-    if not isinstance(z, dict) or set(z) != set(keys):
-        raise ModelFileError(f"{where}: field 'weak_zone' must be {{\"start\": s, \"end\": e, \"modulus_ratio\": r}}, "
-                             f"got {z!r}")
+    if not isinstance(z, dict) or not set(keys) <= set(z) <= {*keys, "about"}:
+        raise ModelFileError(f"{where}: field 'weak_zone' must be {{\"start\": s, \"end\": e, \"modulus_ratio\": r}}"
+                             f" (a space model's may add \"about\": [\"ry\", \"rz\"]), got {shown(z)}")
     return tuple(_number(z[k], f"{where} field 'weak_zone' '{k}'") for k in keys)
+
+
+#: The bending rotations a space element's weak zone weakens when its file names none.
+ZONE_ABOUT_DEFAULT = ("ry", "rz")
+
+
+def _zone_about(z, dimension: int, where: str) -> tuple:
+    """The local bending rotations of a weak zone's "about" (a list of names); a space model's
+    zone without it weakens both (`ZONE_ABOUT_DEFAULT`); a planar zone names none (validate.py
+    refuses an "about" there)."""
+    if not isinstance(z, dict):
+        return ()
+    if "about" not in z:
+        return ZONE_ABOUT_DEFAULT if dimension == 3 else ()
+    about = z["about"]
+    if not isinstance(about, list):
+        raise ModelFileError(f"{where} field 'weak_zone' 'about': must be a list of rotations such as [\"ry\"], "
+                             f"got {shown(about)}")
+    return tuple(about)
 
 
 def model_to_dict(model: FrameModel) -> dict:
@@ -215,6 +236,8 @@ def model_to_dict(model: FrameModel) -> dict:
                 out[k] = getattr(e, k)
         if e.weak_zone is not None:
             out["weak_zone"] = dict(zip(("start", "end", "modulus_ratio"), e.weak_zone))
+            if e.weak_zone_about:
+                out["weak_zone"]["about"] = list(e.weak_zone_about)
         if e.orientation is not None:
             out["orientation"] = list(e.orientation)
         for k in ("releases_i", "releases_j"):

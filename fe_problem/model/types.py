@@ -103,6 +103,9 @@ class Element:
     from `start` to `end` (fractions of the length from node_i) and E I elsewhere (a reduced-
     stiffness zone, the classical crack model of a zone about a section depth wide;
     flexibility formulation, exact; mass unchanged; Euler-Bernoulli only).
+    ``weak_zone_about`` (space models): the local bending rotations the zone weakens, "ry"
+    (bending in the local x-z plane, Iy), "rz" (the x-y plane, Iz) or both; () on a planar
+    element (its zone bends about rz, the only bending rotation).
     """
 
     id: int
@@ -120,6 +123,7 @@ class Element:
     orientation: tuple[float, float, float] | None = None
     releases_i: tuple[tuple[str, float], ...] = ()
     releases_j: tuple[tuple[str, float], ...] = ()
+    weak_zone_about: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)

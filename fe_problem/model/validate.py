@@ -190,9 +190,10 @@ def _validate_element(m: FrameModel, e, nodes: dict, known: tuple[str, ...]) -> 
             raise ModelFileError(f"{where} 'weak_zone': need 0 <= start < end <= 1, got start {start!r}, end {end!r}")
         if not 0.0 < ratio <= 1.0:
             raise ModelFileError(f"{where} 'weak_zone' 'modulus_ratio': must be in (0, 1], got {ratio!r}")
-        if not formulation(e.formulation, m.layout).supports_crack:
-            cracked = [f for f in formulations(m.layout) if formulation(f, m.layout).supports_crack]
-            raise ModelFileError(f"{where}: a weak zone needs formulation {' or '.join(map(repr, cracked))}")
+        if not formulation(e.formulation, m.layout).supports_weak_zone:
+            zoned = [f for f in formulations(m.layout) if formulation(f, m.layout).supports_weak_zone]
+            raise ModelFileError(f"{where}: a weak zone needs formulation {' or '.join(map(repr, zoned))}")
+    _validate_zone_about(m, e, where)
     d = m.coordinates[m.node_position(e.node_j)] - m.coordinates[m.node_position(e.node_i)]
     length = math.hypot(*d)
     if length <= 0:
@@ -201,6 +202,23 @@ def _validate_element(m: FrameModel, e, nodes: dict, known: tuple[str, ...]) -> 
         raise ModelFileError(f"{where}: length {length:.3g} m (nodes {e.node_i} and {e.node_j}) is below the "
                              f"{RANGES['length']:g} m an element may have (coordinates are in metres)")
     _validate_orientation(m, e, where, d / length)
+
+
+def _validate_zone_about(m: FrameModel, e, where: str) -> None:
+    """A space element's weak zone names the bending rotations it weakens (local "ry", "rz",
+    each once); a planar element's zone bends about rz, and names none."""
+    about = e.weak_zone_about
+    bending = tuple(h for h in m.layout.hinges if h != "rx")
+    if m.layout.dimension == 2 or e.weak_zone is None:
+        if about:
+            raise ModelFileError(f"{where} 'weak_zone' 'about': " + (
+                "a planar element's weak zone bends about rz only; leave 'about' out" if m.layout.dimension == 2
+                else "given without a weak zone"))
+        return
+    if not (isinstance(about, tuple) and about and all(isinstance(r, str) and r in bending for r in about)
+            and len(set(about)) == len(about)):
+        raise ModelFileError(f"{where} 'weak_zone' 'about': must list the local bending rotations the zone "
+                             f"weakens, each once, among {list(bending)}, got {shown(list(about) if isinstance(about, tuple) else about)}")
 
 
 def _validate_orientation(m: FrameModel, e, where: str, axis) -> None:
