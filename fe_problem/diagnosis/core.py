@@ -55,7 +55,7 @@ from .groups import distributed_candidates
 from .modelform import model_form_candidates, screen_forms
 from .plausibility import few_dof_note
 from .fit import Fit, chi2_batch, fit, look_along, profiled, screen
-from . import sparse_class
+from . import group_free, sparse_class
 from .nested import require_dynesty, rescored
 from .record import Cause, CandidateFit, Diagnosis, Gain, Noise, PinnedParameter, Residuals, Selection
 from .verdict import profile_interval, verdict
@@ -167,11 +167,14 @@ def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str 
                  for i in sorted(range(len(forms)), key=lambda i: -drops[i])[:N_FORM_FIT]]
     several = rounds is not None and len(rounds.sized) > 1
     sparse = sparse_class.fit_sparse(cal.setting, obs, base.pairing)  # "every member", sparse (None: n/a)
+    storeys = group_free.fit_storeys(cal.setting, obs, base.pairing)  # every storey free (None: n/a)
     # the sparse class does not set the dispersion: with many members and few data its misfit says
     # little about the noise (it would move every other class's evidence)
     reduced = [base.chi2 / obs.dof(1)] + [f.chi2 / obs.dof(2) for _, f, _ in fits]
     if several:
         reduced.append(rounds.final.chi2 / rounds.obs.dof(1 + len(rounds.sized)))
+    if storeys is not None:
+        reduced.append(storeys.fit.chi2 / obs.dof(1 + len(storeys.fit.theta)))
     d = max(1.0, min(reduced))
     classes = [ScoredClass("calibrated model (no effect)", "none", 0, base.chi2, 0.0)]
     for cand, f, family in fits:
@@ -189,6 +192,9 @@ def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str 
     if sparse is not None:
         classes.append(sparse_class.with_dispersion(sparse, d).scored(base.chi2, d, sparse_class.held_out_error(
             cal.setting, cal.data, cal.used, sparse, obs.freq_noise, obs.shape_noise)))
+    if storeys is not None:
+        classes.append(storeys.scored(base.chi2, d, group_free.held_out_error(
+            cal.setting, cal.data, cal.used, storeys, obs.freq_noise, obs.shape_noise)))
     ev = ranked(_one_per_answer(classes), "laplace", d)
     by_label = {c.label: c for c, _, _ in fits}
     out = []
@@ -204,6 +210,10 @@ def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str 
             integrands[sparse.label] = (sparse_class.chi2_function(cal.setting, obs, sparse),
                                         np.full(len(sparse.members), sparse_class.LOW),
                                         np.full(len(sparse.members), sparse_class.HIGH), -sparse.support_log_penalty)
+        if storeys is not None:
+            n = len(storeys.fit.theta)
+            integrands[storeys.label] = (group_free.chi2_function(cal.setting, obs, storeys),
+                                         np.full(n, sparse_class.LOW), np.full(n, sparse_class.HIGH), 0.0)
         ev = rescored(ev, integrands, base.chi2, d)
     return ev
 
