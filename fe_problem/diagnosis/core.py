@@ -210,10 +210,6 @@ def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str 
             integrands[sparse.label] = (sparse_class.chi2_function(cal.setting, obs, sparse),
                                         np.full(len(sparse.members), sparse_class.LOW),
                                         np.full(len(sparse.members), sparse_class.HIGH), -sparse.support_log_penalty)
-        if storeys is not None:
-            n = len(storeys.fit.theta)
-            integrands[storeys.label] = (group_free.chi2_function(cal.setting, obs, storeys),
-                                         np.full(n, sparse_class.LOW), np.full(n, sparse_class.HIGH), 0.0)
         ev = rescored(ev, integrands, base.chi2, d)
     return ev
 

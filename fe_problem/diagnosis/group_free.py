@@ -16,7 +16,9 @@ evidence is Laplace's with the Gauss-Newton Hessian and each parameter's Gaussia
 its prior (`sparse_class.log_occam`, one support: no combinatorial charge), comparable with the
 other classes (evidence.py). Only for planar models on the dense solver path (as the sparse
 class) with at least three storeys: with two, the class is one storey's change and the global
-scale, which groups.py's storey classes already are.
+scale, which groups.py's storey classes already are. Under ``--evidence nested`` the class keeps
+its Laplace value (its row says so): a diagnosis of the shear frame with it sampled did not end
+within 15 minutes on the loaded shared machine.
 """
 
 from __future__ import annotations
@@ -101,8 +103,3 @@ def held_out_error(st: Setting, data, used: np.ndarray, sf: StoreyFit, freq_nois
     """Mean |frequency error| (%) on the held-out modes of the class refitted on the others
     (`sparse_class.held_out_error`)."""
     return sparse_class.held_out_error(st, data, used, sf.fit, freq_noise, shape_noise, sf.params)
-
-
-def chi2_function(st: Setting, obs: Observations, sf: StoreyFit):
-    """chi^2 at the lower storeys' theta (n - 1,): the likelihood nested sampling integrates."""
-    return sparse_class.chi2_function(st, obs, sf.fit, sf.params)
