@@ -47,3 +47,45 @@ def test_sparse_class_of_two_softer_members(benchmark):
     benchmark.group = "diagnosis"
     sf = benchmark.pedantic(fit_sparse, args=(cal.setting, cal.obs, cal.base.pairing), rounds=5, iterations=1)
     assert sf.members == (2, 9)
+
+
+@pytest.fixture(scope="module")
+def shear_frame_gradient():
+    """A four-storey shear frame (tests/test_diagnosis_spread.py's: 0.25 m storeys, one 0.3 m bay,
+    the H-frame's bar as columns, floors 3 times as deep, 0.2 kg per floor node, x at one node of
+    each floor) and 4 modes of it with storey stiffnesses 0.71, 0.81, 0.91, 1.47 of nominal."""
+    from fe_problem.model import Section
+
+    h = fp.load_model("hframe")
+    bar = h.sections["bar"]
+    model = fp.regular_frame(1, 4, 0.3, 0.25, column=bar, beam=Section(3 * bar.area_m2, 27 * bar.inertia_m4),
+                             material=h.materials["aluminium"], floor_mass_kg=0.2, name="shear4")
+    model = model.replace(measured_dofs=tuple((n.id, "x") for n in model.nodes if n.x == 0.0 and n.y > 0.0))
+    ratios = (0.71, 0.81, 0.91, 1.47)
+    storey = {e.id: int(0.5 * (model.node(e.node_i).y + model.node(e.node_j).y) // 0.25) for e in model.elements
+              if model.node(e.node_i).x == model.node(e.node_j).x}
+    truth = model.with_element_moduli({e: ratios[k] * model.element_modulus_pa(e) for e, k in storey.items()})
+    data = fp.synthetic_measurement(truth, 4, dofs=model.measured_dofs, freq_noise=0.002, shape_noise=0.02, seed=0,
+                                    model_name="shear4")
+    return model, data
+
+
+def test_diagnosis_of_a_four_storey_shear_frame(benchmark, shear_frame_gradient):
+    """The whole diagnosis of the shear frame's storey gradient (4 modes at 4 floors); checks that
+    "every storey free" is first by evidence."""
+    benchmark.group = "diagnosis storeys"
+    result = benchmark.pedantic(fp.diagnose, args=shear_frame_gradient, rounds=3, iterations=1)
+    assert result.evidence.classes[0].label.startswith("every_storey_free@")
+
+
+def test_every_storey_free_of_a_shear_frame(benchmark, shear_frame_gradient):
+    """The class "every storey free" alone (group_free.fit_storeys: bounded least squares of 3
+    storeys' stiffness), beside the whole diagnosis above: its share of a diagnosis."""
+    from fe_problem.diagnosis.core import calibrate
+    from fe_problem.diagnosis.group_free import fit_storeys
+
+    model, data = shear_frame_gradient
+    cal = calibrate(model, data, 0.002, 0.02)
+    benchmark.group = "diagnosis storeys"
+    sf = benchmark.pedantic(fit_storeys, args=(cal.setting, cal.obs, cal.base.pairing), rounds=5, iterations=1)
+    assert abs(sf.estimate()["storey_ratio"][0] / 0.71 - 1.0) < 0.05

@@ -25,7 +25,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..model import FrameModel
-from . import plausibility, sparse_class
+from . import group_free, plausibility, sparse_class
 from .candidates import Candidate, scale_stiffness
 from .evidence import FACTOR_10, Evidence, ScoredClass
 from .record import NON_LOCAL, Answer, Cause, Gain, Verdict
@@ -104,10 +104,11 @@ class NonLocal:
 
 
 def non_local(cal, row: ScoredClass, fitted: dict, sparse, p_adjusted: float, alpha: float, user: FrameModel,
-              gain_of, search_labels: list[str]) -> NonLocal:
-    """The answer's class (a Candidate with its fit in `fitted`, label -> (candidate, Fit), or the
-    sparse class `sparse`) as the record's cause, extended model, gain and verdict. p_adjusted: the
-    significance test's (core.select); gain_of: core.gain; search_labels: the local search's causes."""
+              gain_of, search_labels: list[str], storeys=None) -> NonLocal:
+    """The answer's class (a Candidate with its fit in `fitted`, label -> (candidate, Fit), the
+    sparse class `sparse` or the every-storey-free class `storeys`, group_free.StoreyFit) as the
+    record's cause, extended model, gain and verdict. p_adjusted: the significance test's
+    (core.select); gain_of: core.gain; search_labels: the local search's causes."""
     what = f"the best class by evidence, {row.label},"
     found = ", ".join(search_labels) or "none"
     why = (f"the answer is the best class by evidence ({row.family}: {row.label}); the local search's "
@@ -124,6 +125,19 @@ def non_local(cal, row: ScoredClass, fitted: dict, sparse, p_adjusted: float, al
         if held is not None:  # no prediction interval: the class has no profile of one size
             gain = Gain(gain.held_out_modes, gain.fit_modes, gain.before, held[0], held[1])
         n = 1 + len(sparse.members)
+    elif storeys is not None and row.label == storeys.label:
+        st, f, am = cal.setting, storeys.fit, storeys.params
+        change = am.weights @ f.theta  # each element's relative modulus change
+        moduli = {e: float(e0 * (1.0 + c)) for e, e0, c in zip(am.ids, am.e0, change) if c != 0.0}
+        extended = scale_stiffness(st.model.with_element_moduli(moduli), f.s)
+        fit = am.residuals(cal.obs, f.theta[None])[0]
+        cause = Cause(group_free.KIND, {"groups": list(storeys.storeys)}, storeys.estimate(), True, p_adjusted,
+                      row.label, explanation=why)
+        gain = gain_of(cal, None)
+        held = sparse_class.held_out(st, cal.data, cal.used, f, cal.obs.freq_noise, cal.obs.shape_noise, am)
+        if held is not None:
+            gain = Gain(gain.held_out_modes, gain.fit_modes, gain.before, held[0], held[1])
+        n = 1 + len(f.theta)
     else:
         cand, fit = fitted[row.label]
         extended = scale_stiffness(cand.extend(fit.a), fit.s)

@@ -55,7 +55,7 @@ from .groups import distributed_candidates
 from .modelform import model_form_candidates, screen_forms
 from .plausibility import few_dof_note
 from .fit import Fit, chi2_batch, fit, look_along, profiled, screen
-from . import answer, sparse_class
+from . import answer, group_free, sparse_class
 from .nested import require_dynesty, rescored
 from .record import Cause, CandidateFit, Diagnosis, Gain, Noise, PinnedParameter, Residuals, Selection
 from .verdict import profile_interval, verdict
@@ -137,7 +137,7 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
     if row.family in answer.NON_LOCAL:  # the best class by evidence is not the local search's
         other = answer.non_local(cal, row, scored.fitted, scored.sparse, sel.selection.p_adjusted, alpha, model,
                                  gain, [c.label or f"{c.kind} ({len(c.indistinguishable)} candidates tie)"
-                                        for c in causes])
+                                        for c in causes], scored.storeys)
         cause, gained, v, n_params = other.cause, other.gain, other.verdict, other.n_params
         extended = _named(cal.setting.model, other.extended_model, [cause])
     else:
@@ -176,11 +176,13 @@ EVIDENCE_METHODS = ("laplace", "nested")
 @dataclass(frozen=True, eq=False)
 class Scored:
     """The evidence table, and what its classes were fitted with: label -> (candidate, Fit) of every
-    fitted one-parameter class, and the sparse class's fit (None: not scored)."""
+    fitted one-parameter class, the sparse class's fit and the every-storey-free class's
+    (group_free.StoreyFit; None: not scored)."""
 
     evidence: Evidence
     fitted: dict
     sparse: object = None
+    storeys: object = None
 
 
 def model_form_fits(cal: "Calibration") -> list[tuple[Candidate, Fit]]:
@@ -228,11 +230,14 @@ def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str 
     several = rounds is not None and (len(rounds.sized) > 1 or answer.search_key(rounds)[1] not in {
         c.label.split("(")[0] for c, f, family in fits if family == "local" and f.chi2 < base.chi2 - 1e-9})
     sparse = sparse_class.fit_sparse(cal.setting, obs, base.pairing)  # "every member", sparse (None: n/a)
+    storeys = group_free.fit_storeys(cal.setting, obs, base.pairing)  # every storey free (None: n/a)
     # the sparse class does not set the dispersion: with many members and few data its misfit says
     # little about the noise (it would move every other class's evidence)
     reduced = [base.chi2 / obs.dof(1)] + [f.chi2 / obs.dof(2) for _, f, _ in fits]
     if several:
         reduced.append(rounds.final.chi2 / rounds.obs.dof(1 + len(rounds.sized)))
+    if storeys is not None:
+        reduced.append(storeys.fit.chi2 / obs.dof(1 + len(storeys.fit.theta)))
     d = max(1.0, min(reduced))
     classes = [ScoredClass("calibrated model (no effect)", "none", 0, base.chi2, 0.0)]
     for cand, f, family in fits:
@@ -254,6 +259,9 @@ def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str 
     if sparse is not None:
         classes.append(sparse_class.with_dispersion(sparse, d).scored(base.chi2, d, sparse_class.held_out_error(
             cal.setting, cal.data, cal.used, sparse, obs.freq_noise, obs.shape_noise)))
+    if storeys is not None:
+        classes.append(storeys.scored(base.chi2, d, group_free.held_out_error(
+            cal.setting, cal.data, cal.used, storeys, obs.freq_noise, obs.shape_noise)))
     # the search's result is significant by its own tests: never merged away (its key is its own)
     ev = ranked(_one_per_answer(classes) + search, "laplace", d)
     by_label = {c.label: c for c, _, _ in fits}
@@ -271,7 +279,7 @@ def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str 
                                         np.full(len(sparse.members), sparse_class.LOW),
                                         np.full(len(sparse.members), sparse_class.HIGH), -sparse.support_log_penalty)
         ev = rescored(ev, integrands, base.chi2, d)
-    return Scored(ev, answer.fitted_candidates(fits), sparse)
+    return Scored(ev, answer.fitted_candidates(fits), sparse, storeys)
 
 
 def coarse_fit(obs: Observations, cand: Candidate) -> Fit:

@@ -9,9 +9,13 @@ significant, when its candidates tie (that cause enters the model with its best 
 is reported as not identifiable), or after `max_causes` causes. A later round tries no
 candidate at a place where a cause was already found, only places of the user's model, and no
 stiffness change in an element next to one where a stiffness change was found (that is the
-first one's form). A measured mode that pairs with no mode of the user's model makes every
-cause be chosen again on every measured mode, so that a cause that brings its partner (a
-spring to ground: the suspension mode) is preferred."""
+first one's form: a crack is neither uniform nor linear along its element), except a uniform
+change of the same kind next to a uniform change found: real members deviate together (a
+storey's columns, a gradient along a column), and a change spread over adjacent members is
+found member by member; like every further cause it stays only if the joint fit without it,
+the others refitted, is significantly worse (`_prune`). A measured mode that pairs with no
+mode of the user's model makes every cause be chosen again on every measured mode, so that a
+cause that brings its partner (a spring to ground: the suspension mode) is preferred."""
 
 from __future__ import annotations
 
@@ -170,7 +174,7 @@ def _next_cause(cal, st: Setting, picks, sizes, kinds, n_fit, alpha: float, skip
     nothing is significant."""
     from .core import calibrate, profiled, screen_and_fit, select
 
-    places = [(k, _location(lab)) for j, (k, lab) in enumerate(picks) if j != skip]
+    places = [(k, _location(lab), _zone_centre(lab) is None) for j, (k, lab) in enumerate(picks) if j != skip]
     cal_k = calibrate(_with(st.model, st, picks, sizes, skip), cal.data, cal.obs.freq_noise, cal.obs.shape_noise,
                       st.model)
     if obs is not None:
@@ -263,16 +267,19 @@ def _ambiguity() -> float:
 
 
 #: Kinds that change an element's stiffness: a further one next to one already found is the
-#: first effect's form (a crack is neither uniform nor linear along its element), not a new cause.
+#: first effect's form (a crack is neither uniform nor linear along its element), not a new cause,
+#: unless both are uniform and of one kind (`_touches_found_stiffness`).
 STIFFNESS_KINDS = ("stiffness_loss", "stiffness_gain")
 
 
 def _new_place(c: Candidate, model: FrameModel, places: list, ids=None) -> bool:
-    """Whether candidate `c` is at a place of `model` where no cause in `places` was found; `ids`:
-    the model's (element ids, node ids) as sets, made once for the thousands of candidates."""
+    """Whether candidate `c` is at a place of `model` where no cause in `places` (kind, location,
+    uniform: not a weak zone) was found; `ids`: the model's (element ids, node ids) as sets, made
+    once for the thousands of candidates."""
     element_ids, node_ids = ids if ids is not None else (frozenset(model.element_ids), frozenset(model.node_ids))
     loc = c.location or {}
-    if c.kind in STIFFNESS_KINDS and _touches_found_stiffness(model, loc.get("element"), places, element_ids):
+    if c.kind in STIFFNESS_KINDS and _touches_found_stiffness(model, loc.get("element"), places, element_ids,
+                                                              (c.kind, _zone_centre(c.label) is None)):
         return False
     if "element" in loc and loc["element"] not in element_ids:
         return False
@@ -280,17 +287,24 @@ def _new_place(c: Candidate, model: FrameModel, places: list, ids=None) -> bool:
         return False
     # a further effect at a place already explained (a gain where a loss was found, a second
     # spread of the same loss) only corrects the first effect's form: not a new cause
-    return c.location not in [where for _, where in places]
+    return c.location not in [where for _, where, _ in places]
 
 
-def _touches_found_stiffness(model: FrameModel, element: int | None, places: list, element_ids=None) -> bool:
-    """Whether `element` shares a node with an element where a stiffness change was found."""
+def _touches_found_stiffness(model: FrameModel, element: int | None, places: list, element_ids=None,
+                             change: tuple[str, bool] | None = None) -> bool:
+    """Whether `element` shares a node with an element where a stiffness change was found
+    (`places`: kind, location, uniform), other than a uniform one of the kind of `change` when
+    `change` (kind, uniform) is uniform too: that continues the change found (a gradient)."""
     if element is None or element not in (model.element_ids if element_ids is None else element_ids):
         return False
     def ends(eid: int) -> set:
         return {model.element(eid).node_i, model.element(eid).node_j}
 
-    return any(kind in STIFFNESS_KINDS and ends(element) & ends(where["element"]) for kind, where in places)
+    def continues(kind: str, uniform: bool) -> bool:
+        return change is not None and change[1] and uniform and kind == change[0]
+
+    return any(kind in STIFFNESS_KINDS and ends(element) & ends(where["element"]) and not continues(kind, uniform)
+               for kind, where, uniform in places)
 
 
 def _joint_refit(cal, st: Setting, picks, sizes, obs=None) -> tuple[list, list[float], float]:

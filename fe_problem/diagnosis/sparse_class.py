@@ -156,19 +156,26 @@ def log_occam(theta: np.ndarray, jacobian: np.ndarray, n_members: int, dispersio
 
 
 class _AllMembers:
-    """Every element's modulus as a parameter of one affine system; residuals for batches of theta."""
+    """Every element's modulus as a parameter of one affine system; residuals for batches of theta.
 
-    def __init__(self, st: Setting):
+    weights (n_elements, p), names (p,): the class's p parameters each change the moduli of the
+    elements its column weights, E = E0 (1 + weights theta) (group_free.py: one per storey);
+    default one parameter per element, named by its id."""
+
+    def __init__(self, st: Setting, weights: np.ndarray | None = None, names=None):
         model = st.model
         self.st = st
         self.ids = list(model.element_ids)
         self.e0 = np.array([model.element_modulus_pa(e) for e in self.ids])
         self.system = AffineModel(model, tuple(Parameter("modulus", (e,), 1e-3 * v, 1e3 * v, v, name=f"E{e}")
                                                for e, v in zip(self.ids, self.e0)))
+        self.weights = weights
+        self.names = list(self.ids) if names is None else list(names)
 
     def modes(self, theta: np.ndarray):
-        """Frequencies (b, k) and shapes at the measured coordinates for theta (b, n)."""
-        return solve(self.system, self.e0[None, :] * (1.0 + theta), self.st.coords, self.st.n_modes)
+        """Frequencies (b, k) and shapes at the measured coordinates for theta (b, p)."""
+        change = theta if self.weights is None else theta @ self.weights.T
+        return solve(self.system, self.e0[None, :] * (1.0 + change), self.st.coords, self.st.n_modes)
 
     def residuals(self, obs: Observations, theta: np.ndarray, pairing=None) -> list:
         """The profiled fits (`fit.Fit`, a = 0) of theta (b, n), one batched solve."""
@@ -252,8 +259,8 @@ def fit_sparse(st: Setting, obs: Observations, base_pairing: np.ndarray) -> Spar
 
 def refit(am: _AllMembers, obs: Observations, support: np.ndarray, start: np.ndarray, pairing, iterations: int = 0
           ) -> SparseFit:
-    """Bounded nonlinear least squares of the members `support` (the rest nominal), from `start`."""
-    n = len(am.ids)
+    """Bounded nonlinear least squares of the parameters `support` (the rest nominal), from `start`."""
+    n = len(am.names)
 
     def full(x):
         theta = np.zeros(n)
@@ -272,18 +279,19 @@ def refit(am: _AllMembers, obs: Observations, support: np.ndarray, start: np.nda
     r, j = am.jacobian(obs, full(x), support, best.pairing)
     jtj = j.T @ j
     std = np.sqrt(np.maximum(np.diag(np.linalg.pinv(jtj)), 0.0))  # at D = 1; scaled below
-    return SparseFit(tuple(am.ids[i] for i in support), x, std, best.chi2, best.s, iterations, n, j,
+    return SparseFit(tuple(am.names[i] for i in support), x, std, best.chi2, best.s, iterations, n, j,
                      float(math.log(math.comb(n, len(support)))))
 
 
-def chi2_function(st: Setting, obs: Observations, sf: SparseFit):
+def chi2_function(st: Setting, obs: Observations, sf: SparseFit, am: _AllMembers | None = None):
     """chi^2 (paired afresh) of the class at its members' relative changes theta (k,), the rest
-    nominal: the likelihood nested sampling integrates (nested.py)."""
-    am = _AllMembers(st)
-    support = np.array([am.ids.index(e) for e in sf.members])
+    nominal: the likelihood nested sampling integrates (nested.py). am: the class's parameters
+    (default every member)."""
+    am = _AllMembers(st) if am is None else am
+    support = np.array([am.names.index(e) for e in sf.members])
 
     def chi2_at(x):
-        theta = np.zeros(len(am.ids))
+        theta = np.zeros(len(am.names))
         theta[support] = x
         return am.residuals(obs, theta[None])[0].chi2
 
@@ -300,32 +308,35 @@ def with_dispersion(sf: SparseFit, dispersion: float) -> SparseFit:
 def fit_at(st: Setting, obs: Observations, sf: SparseFit):
     """The class's profiled fit (`fit.Fit`: chi^2, residuals, scale) at its members' fitted changes."""
     am = _AllMembers(st)
-    theta = np.zeros(len(am.ids))
-    theta[[am.ids.index(e) for e in sf.members]] = sf.theta
+    theta = np.zeros(len(am.names))
+    theta[[am.names.index(e) for e in sf.members]] = sf.theta
     return am.residuals(obs, theta[None])[0]
 
 
-def held_out(st: Setting, data, used: np.ndarray, sf: SparseFit, freq_noise: float, shape_noise: float):
+def held_out(st: Setting, data, used: np.ndarray, sf: SparseFit, freq_noise: float, shape_noise: float,
+             am: _AllMembers | None = None):
     """The held-out modes (the highest quarter of `used`, as core.gain splits them) predicted by
     the class refitted, same members, on the other modes: (their correlation, the refit's
-    estimate), or None when too few modes to hold any out."""
+    estimate), or None when too few modes to hold any out. am: the class's parameters (default
+    every member)."""
     n_hold = max(1, int(round(len(used) / 4)))
     if len(used) - n_hold < 2:
         return None
     obs_fit = Observations.of(data, modes=used[:-n_hold], freq_noise=freq_noise, shape_noise=shape_noise)
     obs_hold = Observations.of(data, modes=used[-n_hold:], freq_noise=freq_noise, shape_noise=shape_noise)
-    am = _AllMembers(st)
-    support = np.array([am.ids.index(e) for e in sf.members])
-    base = am.residuals(obs_fit, np.zeros((1, len(am.ids))))[0]
+    am = _AllMembers(st) if am is None else am
+    support = np.array([am.names.index(e) for e in sf.members])
+    base = am.residuals(obs_fit, np.zeros((1, len(am.names))))[0]
     f = refit(am, obs_fit, support, sf.theta, base.pairing)
-    theta = np.zeros(len(am.ids))
+    theta = np.zeros(len(am.names))
     theta[support] = f.theta
     hz, sh = am.modes(theta[None])
     return correlate(hz[0] * np.sqrt(f.s), sh[0], obs_hold), f.estimate()
 
 
 def held_out_error(st: Setting, data, used: np.ndarray, sf: SparseFit, freq_noise: float,
-                   shape_noise: float) -> float | None:
-    """Mean |frequency error| (%) on the held-out modes of the class refitted without them (`held_out`)."""
-    out = held_out(st, data, used, sf, freq_noise, shape_noise)
+                   shape_noise: float, am: _AllMembers | None = None) -> float | None:
+    """Mean |frequency error| (%) on the held-out modes of the class refitted without them
+    (`held_out`); am: the class's parameters (default every member)."""
+    out = held_out(st, data, used, sf, freq_noise, shape_noise, am)
     return None if out is None else out[0].mean_abs_error_pct

@@ -1,0 +1,153 @@
+"""Deviations spread over members (issue 19): a storey-wise gradient, a gradient over adjacent
+members.
+
+Every truth is built apart from the candidate code: element moduli or springs written into the
+model (`with_element_moduli`: model-file entries, the model round-tripped through its file format), the data synthesised from it with the default noise.
+
+- A four-storey shear frame (one bay, stiff floors, floor masses, x measured at one node of each
+  floor: 4 modes at 4 floors) with storey stiffnesses 0.71, 0.81, 0.91 and 1.47 of nominal, as
+  fitted to laboratory data in the issue: the class "every storey free" (group_free.py) is first
+  by evidence with each storey's ratio within 5 % of the truth; the local search never answers
+  "top storey only" as adequate.
+- The Laplace evidence of that class against an independent Monte Carlo integral (importance
+  sampling) of exp(-chi^2 / 2) over its prior, on the real nonlinear chi^2.
+- Adjacent members: two H-frame column elements meeting at a joint 0.75 and 0.85 (the rounds
+  used to forbid a stiffness change next to one found and named the first with two masses,
+  adequate); three consecutive column elements 0.8, 0.85, 0.9.
+
+Two translational springs to ground (`diagnosis_cases.springs_truth`, the issue's "came out as
+one, adequate, in 3 of 7") have no test yet: a case of them did not finish within 60 minutes,
+on this code and on the code before it (the time goes in the rounds' revisits of modes the model
+cannot pair: `rounds._revisit`).
+"""
+
+import json
+
+import numpy as np
+import pytest
+
+import fe_problem as fp
+from diagnosis_cases import HFRAME
+from fe_problem.diagnosis.core import calibrate
+from fe_problem.diagnosis.group_free import KIND, fit_storeys
+from fe_problem.diagnosis.sparse_class import HIGH, LOW, log_occam
+from fe_problem.model import Section, model_from_dict, model_to_dict
+
+#: Storey stiffness of the laboratory shear frame relative to nominal, base first (issue 19).
+STOREY_RATIOS = (0.71, 0.81, 0.91, 1.47)
+FREQ_NOISE, SHAPE_NOISE = 0.002, 0.02
+
+
+def shear_frame() -> fp.FrameModel:
+    """A four-storey laboratory shear frame: 0.25 m storeys, one 0.3 m bay, the H-frame's bar as
+    columns, floors 3 times as deep, 0.2 kg at each floor node, fixed base; x measured at the
+    left node of each floor."""
+    bar = HFRAME.sections["bar"]
+    m = fp.regular_frame(1, 4, 0.3, 0.25, column=bar, beam=Section(3 * bar.area_m2, 27 * bar.inertia_m4),
+                         material=HFRAME.materials["aluminium"], floor_mass_kg=0.2, name="shear4",
+                         description="a four-storey shear frame written for the diagnosis tests")
+    left = sorted((n for n in m.nodes if n.x == 0.0 and n.y > 0.0), key=lambda n: n.y)
+    return m.replace(measured_dofs=tuple((n.id, "x") for n in left))
+
+
+SHEAR4 = shear_frame()
+
+
+def _through_file(model: fp.FrameModel) -> fp.FrameModel:
+    return model_from_dict(json.loads(json.dumps(model_to_dict(model))), "<truth>")
+
+
+def storey_truth(model: fp.FrameModel, ratios) -> fp.FrameModel:
+    """The columns of storey k (from the base) with their modulus times ratios[k], in the model file."""
+    moduli = {}
+    for e in model.elements:
+        a, b = model.node(e.node_i), model.node(e.node_j)
+        if a.x == b.x:
+            moduli[e.id] = model.element_modulus_pa(e.id) * ratios[int(0.5 * (a.y + b.y) // 0.25)]
+    return _through_file(model.with_element_moduli(moduli))
+
+
+def _shear_data(seed: int) -> fp.ModalData:
+    return fp.synthetic_measurement(storey_truth(SHEAR4, STOREY_RATIOS), 4, dofs=SHEAR4.measured_dofs,
+                                    freq_noise=FREQ_NOISE, shape_noise=SHAPE_NOISE, seed=seed, model_name="shear4")
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_storey_gradient_is_every_storey_free_never_top_storey_only(seed):
+    diag = fp.diagnose(SHEAR4, _shear_data(seed))
+    best = diag.evidence.classes[0]
+    assert best.family == "distributed" and best.label.startswith(KIND + "@"), [c.label for c in
+                                                                              diag.evidence.classes[:4]]
+    assert best.n_parameters == 3  # the top storey's stiffness is the global scale
+    ratios = np.array(best.estimate["storey_ratio"])
+    assert np.all(np.abs(ratios / np.array(STOREY_RATIOS) - 1.0) < 0.05), ratios
+    assert np.all(np.array(best.estimate["storey_ratio_std"]) < 0.05)
+    # it beats every one-parameter class (a storey, a trend, a member) by more than a factor of 10
+    single = [c for c in diag.evidence.classes if c.n_parameters == 1]
+    assert best.log_evidence - max(c.log_evidence for c in single) > np.log(10.0)
+    assert any("spread over several members" in w and KIND in w for w in diag.warnings)
+    top = {e.id for e in SHEAR4.elements if SHEAR4.node(e.node_i).y >= 0.75 and SHEAR4.node(e.node_j).y >= 0.75}
+    top_only = diag.causes and all((c.location or {}).get("element") in top or c.kind == "undetermined"
+                                   for c in diag.causes)
+    assert not (diag.verdict.adequate and top_only), "top storey only, declared adequate"
+    record = diag.to_dict()["evidence"]["classes"][0]
+    assert record["label"] == best.label and record["estimate"]["groups"] == ["storey1", "storey2", "storey3",
+                                                                              "storey4"]
+
+
+def test_every_storey_free_evidence_agrees_with_monte_carlo_integration():
+    """log of the integral of exp(-(chi^2 - chi^2^) / 2) over the prior box / its volume: the
+    class's Laplace factor (Gauss-Newton Hessian, truncation per parameter) within 0.15 of an
+    importance-sampling estimate (Gaussian proposal twice as wide as Laplace's, 4,000 draws) on
+    the real chi^2 of the shear frame's storey gradient."""
+    data = _shear_data(0)
+    cal = calibrate(SHEAR4, data, FREQ_NOISE, SHAPE_NOISE)
+    sf = fit_storeys(cal.setting, cal.obs, cal.base.pairing)
+    theta, jac = sf.fit.theta, sf.fit.jacobian
+    laplace = log_occam(theta, jac, len(theta), 1.0)
+    cov = 4.0 * np.linalg.inv(jac.T @ jac)  # chi^2 ~ chi^2^ + dtheta^T (2 J^T J) dtheta / 2: cov (J^T J)^-1
+    rng = np.random.default_rng(5)
+    draws = rng.multivariate_normal(theta, cov, size=4000)
+    inside = np.all((draws > LOW) & (draws < HIGH), axis=1)
+    chi2 = np.full(len(draws), np.inf)
+    chi2[inside] = [f.chi2 for f in sf.params.residuals(cal.obs, draws[inside])]
+    diff = draws - theta
+    log_q = (-0.5 * np.einsum("ij,jk,ik->i", diff, np.linalg.inv(cov), diff)
+             - 0.5 * np.linalg.slogdet(2 * np.pi * cov)[1])
+    log_w = -(chi2 - sf.fit.chi2) / 2.0 - log_q
+    top = log_w[np.isfinite(log_w)].max()
+    monte_carlo = top + np.log(np.mean(np.exp(log_w - top))) - len(theta) * np.log(HIGH - LOW)
+    assert laplace == pytest.approx(monte_carlo, abs=0.15)
+
+
+def _hframe_data(factors: dict, seed: int) -> fp.ModalData:
+    truth = _through_file(HFRAME.with_element_moduli({e: f * HFRAME.element_modulus_pa(e) for e, f in factors.items()}))
+    return fp.synthetic_measurement(truth, 8, dofs=HFRAME.measured_dofs, freq_noise=FREQ_NOISE,
+                                    shape_noise=SHAPE_NOISE, seed=seed, model_name="hframe")
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_two_adjacent_members_are_both_named(seed):
+    """Column elements 2 and 3 of the H-frame (they meet at the beam's joint) at 0.75 and 0.85: a
+    later round may add the member next to the one found; both named with their sizes, nothing
+    else (main named element 2 with added masses at nodes 5 and 7, and in seed 2 called it adequate)."""
+    diag = fp.diagnose(HFRAME, _hframe_data({2: 0.75, 3: 0.85}, seed))
+    named = sorted((c.kind, (c.location or {}).get("element"), c.identifiable) for c in diag.causes)
+    assert named == [("stiffness_loss", 2, True), ("stiffness_loss", 3, True)]
+    ratio = {c.location["element"]: c.estimate["modulus_ratio"] for c in diag.causes}
+    assert ratio[2] == pytest.approx(0.75, abs=0.03) and ratio[3] == pytest.approx(0.85, abs=0.03)
+    assert diag.verdict.adequate
+
+
+def test_a_gradient_over_three_members_is_never_one_member_alone():
+    """Column elements 1, 2, 3 at 0.8, 0.85, 0.9: named as those members, or as a distributed or
+    sparse class over them first by evidence, or flagged not adequate; never one member, adequate."""
+    members = {1, 2, 3}
+    diag = fp.diagnose(HFRAME, _hframe_data({1: 0.8, 2: 0.85, 3: 0.9}, 1))
+    named = {(c.location or {}).get("element") for c in diag.causes if c.identifiable}
+    assert not (diag.verdict.adequate and len(diag.causes) == 1), "one member alone, declared adequate"
+    best = diag.evidence.classes[0]
+    spread = best.family in ("distributed", "sparse") and members <= set(best.estimate.get("members", ()))
+    assert (len(named & members) >= 2 and named <= members) or spread or not diag.verdict.adequate
+    assert spread  # what the evidence says today: every_member_sparse@members=1+2+3
+
