@@ -39,6 +39,7 @@ import traceback
 from collections import namedtuple
 
 from . import _threads  # noqa: F401  (one BLAS thread per worker: before numpy loads)
+from .processes import freeze
 
 #: Packages an optimizer's process may not import: the FE model, its data, the suite (with its
 #: hidden truths) and the application.
@@ -316,17 +317,46 @@ def worker(conn) -> None:
 
 
 def _watch_evaluator(pid: int) -> None:
-    """End this worker's process group (the worker and what it started) once the evaluating
-    process `pid` is gone (killed at a hard deadline, or its study stopped): a worker without
-    its evaluating side has nothing left to do."""
+    """End this worker and every process it started once the evaluating process `pid` is gone
+    (killed at a hard deadline, or its study stopped): a worker without its evaluating side has
+    nothing left to do (`_end_this_worker`)."""
     while True:
         time.sleep(0.25)
         try:
             os.kill(pid, 0)
         except ProcessLookupError:
-            os.killpg(0, signal.SIGKILL)
+            _end_this_worker()
         except PermissionError:  # the pid was taken by another user's process: ours is gone
-            os.killpg(0, signal.SIGKILL)
+            _end_this_worker()
+
+
+def _end_this_worker() -> None:
+    """Stop this worker and its descendants, then SIGKILL them all (processes.freeze), from a
+    forked helper (a process cannot stop itself and go on listing): a child in a session of
+    its own is ended too, which killing the process group would miss; then, whatever happened
+    to the helper, this worker's process group."""
+    me = os.getpid()
+    try:
+        helper = os.fork()
+    except OSError:
+        helper = None
+    if helper == 0:
+        try:
+            procs = freeze(me, exclude={os.getpid()})
+            for p in procs:
+                try:
+                    p.kill()
+                except Exception:
+                    pass
+        finally:
+            os.kill(me, signal.SIGKILL)
+            os._exit(0)
+    if helper is not None:
+        try:
+            os.waitpid(helper, 0)
+        except ChildProcessError:
+            pass
+    os.killpg(0, signal.SIGKILL)
 
 
 def _reap(address: str) -> None:
@@ -420,12 +450,14 @@ def serve(address: str, preload: list[str]) -> None:
             null = os.open(os.devnull, os.O_RDONLY)
             os.dup2(null, 0)
             os.close(null)
-            code = 0
             try:
                 worker(Connection(sock.detach()))
-            except BaseException:
-                code = 1
-            os._exit(code)
+            except BaseException:  # its evaluating process gone (the usual end is a SIGKILL from it)
+                pass
+            # nothing it started may outlive it, re-parented to init: ended with it (its exit
+            # code is then that of a SIGKILL; a plugin's own os._exit or crash keeps its own)
+            _end_this_worker()
+            os._exit(1)
         sock.close()
 
 
