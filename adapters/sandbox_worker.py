@@ -17,7 +17,11 @@ Unix socket SOCKET. Every connection is one run: the server forks a worker for i
 
 The worker never holds the problem, its data, the FE model or a suite instance's truth: they
 are not in this process (the server never imported them) and importing their packages fails.
-The server ends when its owner closes its stdin.
+The server ends when its owner closes its stdin. Nothing a worker starts outlives it: the
+worker is the child subreaper of its descendants and the evaluating process stops and kills the
+whole tree (adapters.sandbox); a worker whose evaluating process is gone, or whose run raised
+out of it, ends its tree itself (`_end_this_worker`); what a worker that died on its own left
+running is adopted by the server and ended when the worker is reaped (`_end_adopted`).
 """
 
 from __future__ import annotations
@@ -359,16 +363,28 @@ def _end_this_worker() -> None:
     os.killpg(0, signal.SIGKILL)
 
 
+#: The server's workers not yet reaped (their pids), and the lock a fork and a reap take.
+_workers: set[int] = set()
+_workers_lock = threading.Lock()
+
+
 def _reap(address: str) -> None:
     """Reap the server's workers, leaving each one's exit code in ADDRESS.exit.PID for its
     evaluating process (a worker that dies says nothing itself), unless that process ended it
-    (it leaves ADDRESS.ended.PID first: the code is no news, and no file is left behind)."""
+    (it leaves ADDRESS.ended.PID first: the code is no news, and no file is left behind). The
+    server is the child subreaper of its workers' descendants: what a worker that died left
+    running is adopted here and ended (`_end_adopted`) as the worker is reaped."""
     while True:
         try:
             pid, status = os.waitpid(-1, 0)
         except ChildProcessError:
             time.sleep(0.05)
             continue
+        with _workers_lock:
+            if pid not in _workers:  # an adopted process, ended: nobody waits for its code
+                continue
+            _workers.discard(pid)
+            _end_adopted()
         try:
             os.unlink(f"{address}.ended.{pid}")
             continue
@@ -377,6 +393,29 @@ def _reap(address: str) -> None:
         try:
             with open(f"{address}.exit.{pid}", "w") as fh:
                 fh.write(str(os.waitstatus_to_exitcode(status)))
+        except OSError:
+            pass
+
+
+def _end_adopted() -> None:
+    """SIGKILL every child of the server that is not one of its workers, with its descendants
+    (stopped first, processes.freeze): processes a worker left running when it died (its own
+    os._exit, a crash, a SIGKILL from elsewhere), re-parented here, not to init."""
+    children = set()
+    try:
+        for tid in os.listdir("/proc/self/task"):
+            with open(f"/proc/self/task/{tid}/children") as fh:
+                children.update(int(c) for c in fh.read().split())
+    except OSError:  # not Linux, or no children file: nothing to find
+        return
+    for pid in children - _workers:
+        for p in freeze(pid):
+            try:
+                p.kill()
+            except Exception:
+                pass
+        try:
+            os.kill(pid, signal.SIGKILL)  # its child, not yet reaped: the pid is still its
         except OSError:
             pass
 
@@ -437,9 +476,14 @@ def serve(address: str, preload: list[str]) -> None:
     os.rename(address + ".tmp", address)  # the address appears only once it accepts
     threading.Thread(target=_reap, args=(address,), daemon=True).start()
     threading.Thread(target=_watch_owner, daemon=True).start()
+    adopt_orphans()  # what a dead worker left running comes here (`_end_adopted`), not to init
     while True:
         sock, _ = listener.accept()
-        if os.fork() == 0:
+        with _workers_lock:  # a worker is in `_workers` before the reaper can see it
+            pid = os.fork()
+            if pid:
+                _workers.add(pid)
+        if pid == 0:
             listener.close()
             signal.signal(signal.SIGINT, signal.SIG_IGN)  # a Ctrl-C is the evaluating process's
             os.setsid()  # its own process group: ended as one when the evaluating side is gone

@@ -337,3 +337,17 @@ class HidesItsWorkInASession:
             time.sleep(0.01)
         while True:
             objective(_points(bounds, rng, 10))
+
+
+class ExitsLeavingSessions:
+    """Starts 5 children (``sleep 600``) in sessions of their own, pids written to files in
+    `pid_dir`, evaluates 3 points and ends its own process (os._exit(3)): its worker is gone
+    before anyone could stop it, and its children would be re-parented to init."""
+
+    def minimize(self, objective, bounds, budget, rng, pid_dir=None):
+        pid_dir = pid_dir or tempfile.mkdtemp(prefix="femu-test-sessions-")
+        for _ in range(5):
+            child = subprocess.Popen(["sleep", "600"], start_new_session=True)
+            open(os.path.join(pid_dir, str(child.pid)), "w").close()
+        objective(_points(bounds, rng, 3))
+        os._exit(3)

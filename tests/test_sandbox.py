@@ -56,6 +56,7 @@ ROUTES = [
     (cp.PrintsALot, "ok", BUDGET, None),
     (cp.RemembersEarlierRuns, "ok", BUDGET, None),
     (cp.KeepsStartingSessions, "ok", BUDGET, None),  # its children end with its run (a test below)
+    (cp.ExitsLeavingSessions, "failed", 3, "exited with code 3"),  # and these with its worker
 ]
 
 
@@ -192,6 +193,19 @@ def test_children_in_sessions_of_their_own_end_when_the_evaluating_process_dies(
         time.sleep(0.2)
     assert alive == [], f"{len(alive)} of {len(started)} children alive 20 s after the evaluating process died"
     assert len(started) < cp.SESSIONS_MAX  # ended while it was still starting them
+
+
+def test_children_in_sessions_of_their_own_end_when_their_worker_ends_itself(tmp_path):
+    """A plugin that starts children in sessions of their own and ends its process (os._exit):
+    the worker server, their subreaper, ends them once it reaps the worker."""
+    problem = make_problem("paper")
+    r = adapters.run(plugin(cp.ExitsLeavingSessions), problem, BUDGET, 0, pid_dir=str(tmp_path))
+    assert r.status == "failed" and r.n_evals == problem.points_evaluated == 3, r.error
+    assert "exited with code 3" in r.error, r.error
+    started = [int(p) for p in os.listdir(tmp_path)]
+    assert len(started) == 5
+    alive = [pid for pid in started if not _ended(pid, wait_s=10.0)]
+    assert alive == [], f"{len(alive)} of 5 children alive 10 s after their worker ended"
 
 
 def test_a_runs_cpu_includes_its_live_descendants_in_sessions_of_their_own(tmp_path):
