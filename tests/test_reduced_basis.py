@@ -12,10 +12,11 @@ import pytest
 
 import fe_problem as fp
 from fe_problem.assembly import solver_path
-from fe_problem.diagnosis.candidates import all_candidates
+from fe_problem.diagnosis.candidates import all_candidates, reduced_linear
 from fe_problem.diagnosis.core import calibrate
-from fe_problem.diagnosis.fit import chi2_batch, fit
+from fe_problem.diagnosis.fit import chi2_batch, fit, look_along
 from fe_problem.diagnosis.groups import distributed_candidates
+from fe_problem.diagnosis.reduced import SharedBasis
 
 #: Frequencies of the reduced solve against the full one, relative: over each candidate's whole
 #: grid (to a mass of half the model's at one node, a modulus down to 0.1 of its value; measured
@@ -78,18 +79,30 @@ def test_the_basis_holds_the_calibrated_model_exactly(case):
     np.testing.assert_allclose(sh[0], cal.sh0, atol=1e-10 * np.abs(cal.sh0).max())
 
 
-@pytest.mark.parametrize("pick", ["zone", "group"])
-def test_a_fit_with_the_basis_is_the_full_fit(case, pick):
-    """The fit's answer is solved with the candidate's own system: chi^2 and scale are the full
-    model's at its a, and a moves from the fit without the basis by less than the search's own
-    tolerance (xatol = 1e-4 of the bracket's upper end)."""
+def _counted(c):
+    """The candidate with its own (full) forward counting the sizes it solves."""
+    n = [0]
+
+    def forward(a):
+        n[0] += len(np.atleast_1d(a))
+        return c.forward(a)
+    return dataclasses.replace(c, forward=forward), n
+
+
+@pytest.mark.parametrize("kind,profile,where", [
+    ("stiffness_loss", "zone 0.50", {"element": 20}),
+    ("stiffness_loss", "uniform", {"element": 20}),
+    ("added_mass", "uniform", {"node": 30}),
+])
+def test_a_fit_with_the_basis_is_the_full_fit(case, kind, profile, where):
+    """The fit's search runs on the basis (fewer full solves than the grid has sizes), its answer
+    is solved with the candidate's own system: chi^2 and scale are the full model's at its a,
+    and a moves from the fit without the basis by less than the search's own tolerance
+    (xatol = 1e-4 of the bracket's upper end)."""
     cal, cands = case
-    if pick == "zone":
-        c = _one(cands, "stiffness_loss", "zone 0.50", element=20)
-    else:
-        c = next(d for d in distributed_candidates(cal.setting)
-                 if d.kind == "group_stiffness_gain" and d.location == {"group": "storey3"})
+    c, n_full = _counted(_one(cands, kind, profile, **where))
     with_basis = fit(cal.obs, c)
+    assert 0 < n_full[0] < len(c.grid)  # the reduced path was taken
     without = fit(cal.obs, dataclasses.replace(c, reduced=None))
     assert with_basis.a > 0.0 and with_basis.chi2 < cal.base.chi2
     full_at_a = chi2_batch(cal.obs, c, np.array([with_basis.a]))[0]
@@ -98,6 +111,60 @@ def test_a_fit_with_the_basis_is_the_full_fit(case, pick):
     bracket_top = grid[grid > max(with_basis.a, without.a)].min()
     assert abs(with_basis.a - without.a) < 1e-4 * bracket_top  # the search's xatol
     assert abs(with_basis.chi2 - without.chi2) <= 1e-6 * without.chi2
+
+
+@pytest.mark.parametrize("kind,profile,where", [
+    ("stiffness_loss", "zone 0.50", {"element": 20}),
+    ("stiffness_loss", "uniform", {"element": 20}),
+    ("added_mass", "uniform", {"node": 30}),
+])
+def test_look_along_with_the_basis_is_the_full_look(case, kind, profile, where):
+    """`look_along` searches its sizes on the basis (fewer full solves than sizes) and promises
+    the full model's chi^2 drop at the size the full solves of every size pick."""
+    cal, cands = case
+    c, n_full = _counted(_one(cands, kind, profile, **where))
+    sizes = np.asarray(c.grid)[1::3]
+    drop, a = look_along(cal.obs, c, cal.base)
+    assert 0 < n_full[0] < len(sizes)
+    full = chi2_batch(cal.obs, c, sizes, pairing=cal.base.pairing)
+    best = min(full, key=lambda f: f.chi2)
+    assert a == best.a and drop > 0.0
+    np.testing.assert_allclose(drop, cal.base.chi2 - best.chi2, rtol=1e-10)
+
+
+def test_groups_and_trends_are_solved_in_full(case):
+    """A group's or a trend's change is not held by the shared basis (reduced.py: frequencies
+    off by up to 9.6e-2): none has a reduced forward, so their fits solve every size in full."""
+    cal, _ = case
+    groups = distributed_candidates(cal.setting)
+    assert {d.kind for d in groups} >= {"group_stiffness_loss", "group_stiffness_gain", "stiffness_trend"}
+    assert all(d.reduced is None for d in groups)
+
+
+def _truncated(cal, c):
+    """`c` with a reduced forward on a deliberately truncated basis: the calibrated model's
+    modes alone, without the static corrections of the change."""
+    basis = SharedBasis.__new__(SharedBasis)
+    basis.__dict__.update(cal.setting.basis.__dict__)
+    basis._basis = lambda r: basis.phi
+    return dataclasses.replace(c, reduced=reduced_linear(type("S", (), {"basis": basis})(), c.term))
+
+
+@pytest.mark.parametrize("kind,where", [("stiffness_loss", {"element": 20}), ("stiffness_loss", {"element": 57}),
+                                        ("stiffness_gain", {"element": 89})])
+def test_a_misleading_reduced_grid_gets_the_full_answer(case, kind, where):
+    """On a truncated basis the reduced grid's best size is not the full grid's: the fit and
+    the look along the grid are those without a basis, bit for bit."""
+    cal, cands = case
+    c = _truncated(cal, _one(cands, kind, "uniform", **where))
+    grid = np.asarray(c.grid, dtype=float)
+    approx = [f.chi2 for f in chi2_batch(cal.obs, c, grid, forward=c.reduced())]
+    exact = [f.chi2 for f in chi2_batch(cal.obs, c, grid)]
+    assert np.argmin(approx) != np.argmin(exact)  # the reduced grid misleads
+    full = fit(cal.obs, dataclasses.replace(c, reduced=None))
+    got = fit(cal.obs, c)
+    assert (got.a, got.s, got.chi2) == (full.a, full.s, full.chi2)
+    assert look_along(cal.obs, c, cal.base) == look_along(cal.obs, dataclasses.replace(c, reduced=None), cal.base)
 
 
 def test_a_wrong_basis_is_caught_and_the_grid_solved_in_full(case):
