@@ -97,18 +97,12 @@ def test_first_order_model_form_screen_agrees_with_the_step_screen(truth):
     assert screen_steps(cal.obs, cal.base, st, forms) == [tuple(s) for s in step.tolist()]
 
 
-def test_the_batched_first_order_screen_is_the_one_by_one_screen():
-    # screening.screen_linear_batch (every candidate of a chunk at once, the hot path) against
-    # screen_linear (one candidate, through Observations.residuals) on every candidate of the H-frame
-    from fe_problem.diagnosis.candidates import all_candidates
+def one_by_one_and_batched(cal, cands) -> tuple[np.ndarray, np.ndarray]:
+    """The first-order screen of `cands` (each with a term) on the calibration `cal`, by
+    screening.screen_linear one candidate at a time and by screen_linear_batch all at once."""
     from fe_problem.diagnosis.screening import baseline, changes, screen_linear, screen_linear_batch
 
-    h = fp.load_model("hframe")
-    truth = fp.add_mass(h, 6, 0.2)
-    cal = calibrate(h, fp.synthetic_measurement(truth, 8, freq_noise=0.002, shape_noise=0.02, seed=11,
-                                                model_name=h.name), 0.002, 0.02)
     st, base = cal.setting, cal.base
-    cands = [c for c in all_candidates(st) + model_form_candidates(st) if c.term is not None]
     modes = np.unique(base.pairing[base.pairing >= 0])
     first = baseline(fp.AffineModel(st.model), st.coords, st.n_modes, modes)
     dlam, dshape = changes(first, [c.term() for c in cands])
@@ -116,6 +110,20 @@ def test_the_batched_first_order_screen_is_the_one_by_one_screen():
                     for i, c in enumerate(cands)])
     batch = screen_linear_batch(cal.obs, base, first.lam, first.phi_c, modes, dlam, dshape,
                                 np.array([c.step for c in cands]), np.array([c.upper for c in cands]))
+    return one, batch
+
+
+def test_the_batched_first_order_screen_is_the_one_by_one_screen():
+    # screening.screen_linear_batch (every candidate of a chunk at once, the hot path) against
+    # screen_linear (one candidate, through Observations.residuals) on every candidate of the H-frame
+    from fe_problem.diagnosis.candidates import all_candidates
+
+    h = fp.load_model("hframe")
+    truth = fp.add_mass(h, 6, 0.2)
+    cal = calibrate(h, fp.synthetic_measurement(truth, 8, freq_noise=0.002, shape_noise=0.02, seed=11,
+                                                model_name=h.name), 0.002, 0.02)
+    cands = [c for c in all_candidates(cal.setting) + model_form_candidates(cal.setting) if c.term is not None]
+    one, batch = one_by_one_and_batched(cal, cands)
     assert len(cands) > 200 and one[:, 0].max() > 10.0 and (one[:, 0] == 0).any()
     np.testing.assert_allclose(batch, one, rtol=1e-9, atol=1e-9 * one[:, 0].max())
 

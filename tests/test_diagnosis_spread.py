@@ -1,7 +1,7 @@
 """Deviations spread over members (issue 19): a storey-wise gradient, a gradient over adjacent
 members.
 
-Every truth is built apart from the candidate code: element moduli or springs written into the
+Every truth is built apart from the candidate code: element moduli written into the
 model (`with_element_moduli`: model-file entries, the model round-tripped through its file format), the data synthesised from it with the default noise.
 
 - A four-storey shear frame (one bay, stiff floors, floor masses, x measured at one node of each

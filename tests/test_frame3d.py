@@ -199,6 +199,32 @@ def test_femu_model_pinned_space_frame_saves_and_reloads(tmp_path, capsys):
 
 # --- diagnosis of the shipped example from data of an independent reference ------------------
 
+def cut_member(frame: Frame, eid: int, start: float, end: float, inside) -> Frame:
+    """`frame` with member `eid` cut at `start` and `end` (fractions of its length from its first
+    node; 0 and 1 make no cut) into up to three members, the section of the one between them
+    `inside(section)`; the first part keeps the id `eid`, the others are 10,001 and 10,002."""
+    nodes, members = dict(frame.nodes), []
+    nxt = max(nodes) + 1
+    for m in frame.members:
+        if m[0] != eid:
+            members.append(m)
+            continue
+        _, i, j, p, v = m
+        a, b = np.array(nodes[i]), np.array(nodes[j])
+        cuts = [f for f in (start, end) if 0.0 < f < 1.0]
+        ends = [i]
+        for f in cuts:
+            nodes[nxt] = tuple(a + f * (b - a))
+            ends.append(nxt)
+            nxt += 1
+        ends.append(j)
+        at = [0.0, *cuts, 1.0]
+        for k in range(len(ends) - 1):
+            q = inside(p) if start <= at[k] and at[k + 1] <= end else p
+            members.append((eid if k == 0 else 10_000 + k, ends[k], ends[k + 1], q, v))
+    return Frame(nodes, members, frame.fixed, frame.masses)
+
+
 def opensees_data(element_id: int | None = None, stretch=(0.0, 1.0 / 3.0), ratio: float = 1.0,
                   mass: tuple[int, float] | None = None, n_modes: int = 8, freq_noise: float = 0.001,
                   shape_noise: float = 0.01, seed: int = 7) -> fp.ModalData:
@@ -211,26 +237,9 @@ def opensees_data(element_id: int | None = None, stretch=(0.0, 1.0 / 3.0), ratio
 
     model = fp.load_model("frame3d")
     frame = frame_of(model)
-    nodes, members, masses = dict(frame.nodes), [], dict(frame.masses)
-    next_id = max(nodes) + 1
-    for m in frame.members:
-        if m[0] != element_id:
-            members.append(m)
-            continue
-        eid, i, j, p, v = m
-        a, b = np.array(nodes[i]), np.array(nodes[j])
-        cuts = [f for f in stretch if 0.0 < f < 1.0]
-        ends = [i]
-        for f in cuts:
-            nodes[next_id] = tuple(a + f * (b - a))
-            ends.append(next_id)
-            next_id += 1
-        ends.append(j)
-        at = [0.0, *cuts, 1.0]
-        for k in range(len(ends) - 1):
-            inside = stretch[0] <= at[k] and at[k + 1] <= stretch[1]
-            q = dataclasses.replace(p, E=p.E * ratio, G=p.G * ratio) if inside else p
-            members.append((eid if k == 0 else 10_000 + k, ends[k], ends[k + 1], q, v))
+    if element_id is not None:
+        frame = cut_member(frame, element_id, *stretch, lambda p: dataclasses.replace(p, E=p.E * ratio, G=p.G * ratio))
+    nodes, members, masses = frame.nodes, frame.members, dict(frame.masses)
     if mass is not None:
         masses[mass[0]] = masses.get(mass[0], 0.0) + mass[1]
     f, shapes = opensees_modes(Frame(nodes, members, frame.fixed, masses), False, n_modes)

@@ -31,7 +31,7 @@ from fe_problem.terms import release_axis
 from femu.cli import main
 
 from test_beam3d import STEEL_BEAM, STEEL_COL, Frame, mac_diagonal, opensees_modes, portal
-from test_frame3d import _diagnose_cli, frame_of, measured, model_file
+from test_frame3d import _diagnose_cli, cut_member, frame_of, measured, model_file
 from test_opensees import assert_agrees_with_opensees
 
 N_MODES = 10
@@ -43,28 +43,8 @@ LIGHT = 1e-3  # kg/m^3: the least density a model file allows (validate.RANGES)
 def split_member(frame: Frame, eid: int, start: float, end: float, ratio: float, about) -> Frame:
     """`frame` with member `eid` cut at `start` and `end` (fractions of its length from its first
     node) into three members, the middle one's Iy (about "ry"), Iz ("rz") times `ratio`."""
-    nodes, members = dict(frame.nodes), []
-    nxt = max(nodes) + 1
-    for m in frame.members:
-        if m[0] != eid:
-            members.append(m)
-            continue
-        _, i, j, p, v = m
-        a, b = np.array(nodes[i]), np.array(nodes[j])
-        cuts = [f for f in (start, end) if 0.0 < f < 1.0]
-        ends = [i]
-        for f in cuts:
-            nodes[nxt] = tuple(a + f * (b - a))
-            ends.append(nxt)
-            nxt += 1
-        ends.append(j)
-        at = [0.0, *cuts, 1.0]
-        for k in range(len(ends) - 1):
-            inside = start <= at[k] and at[k + 1] <= end
-            q = dataclasses.replace(p, Iy=p.Iy * (ratio if inside and "ry" in about else 1.0),
-                                    Iz=p.Iz * (ratio if inside and "rz" in about else 1.0))
-            members.append((eid if k == 0 else 10_000 + k, ends[k], ends[k + 1], q, v))
-    return Frame(nodes, members, frame.fixed, frame.masses)
+    return cut_member(frame, eid, start, end, lambda p: dataclasses.replace(
+        p, Iy=p.Iy * (ratio if "ry" in about else 1.0), Iz=p.Iz * (ratio if "rz" in about else 1.0)))
 
 
 def _light(frame: Frame, eid: int) -> Frame:
@@ -183,20 +163,14 @@ def test_the_batched_screen_is_the_one_by_one_screen_beside_close_modes():
     whose paired modes have close unpaired neighbours (the sway pairs): the same (chi^2 drop, a)."""
     from fe_problem.diagnosis.candidates import all_candidates
     from fe_problem.diagnosis.core import calibrate
-    from fe_problem.diagnosis.screening import baseline, changes, screen_linear, screen_linear_batch
+    from test_diagnosis_modelform_terms import one_by_one_and_batched
 
     model = fp.load_model("frame3d")
     cal = calibrate(model, opensees_zone_data(1, 0.2, 0.3, 0.1, "ry"), 0.001, 0.01)
     st, base = cal.setting, cal.base
     cands = [c for c in all_candidates(st, ["stiffness_loss", "joint_flexibility"]) if c.term is not None][::7]
-    modes = np.unique(base.pairing[base.pairing >= 0])
-    assert len(modes) < st.n_modes  # unpaired model modes exist
-    first = baseline(fp.AffineModel(st.model), st.coords, st.n_modes, modes)
-    dlam, dshape = changes(first, [c.term() for c in cands])
-    one = np.array([screen_linear(cal.obs, base, first.lam, first.phi_c, modes, dlam[i], dshape[i], c.step, c.upper)
-                    for i, c in enumerate(cands)])
-    batch = screen_linear_batch(cal.obs, base, first.lam, first.phi_c, modes, dlam, dshape,
-                                np.array([c.step for c in cands]), np.array([c.upper for c in cands]))
+    assert len(np.unique(base.pairing[base.pairing >= 0])) < st.n_modes  # unpaired model modes exist
+    one, batch = one_by_one_and_batched(cal, cands)
     assert len(cands) > 100 and one[:, 0].max() > 100.0
     np.testing.assert_allclose(batch, one, rtol=1e-9, atol=1e-9 * one[:, 0].max())
 

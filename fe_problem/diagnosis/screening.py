@@ -147,6 +147,8 @@ def screen_linear(obs: Observations, base: Fit, lam: np.ndarray, phi_c: np.ndarr
     if jj <= 0.0:
         return 0.0, 0.0
     a = min(max(-float(base.residuals @ j) / jj, 0.0), upper)
+    if a == 0.0:  # no change promises no drop (base.chi2 - |r|^2 may be an ulp, summed another way)
+        return 0.0, 0.0
     drop = base.chi2 - float(np.sum((base.residuals + a * j) ** 2))
     return max(drop, 0.0), a
 
@@ -173,7 +175,7 @@ def screen_linear_batch(obs: Observations, base: Fit, lam: np.ndarray, phi_c: np
     # sizes, and a candidate's screen must not depend on its batch (tests/test_diagnosis_scale.py)
     a[live] = np.minimum(np.maximum(-np.einsum("ci,i->c", j[live], base.residuals) / jj[live], 0.0), upper[live])
     drop = base.chi2 - np.sum((base.residuals + a[:, None] * j) ** 2, axis=1)
-    return np.column_stack([np.where(live, np.maximum(drop, 0.0), 0.0), a])
+    return np.column_stack([np.where(live & (a > 0.0), np.maximum(drop, 0.0), 0.0), a])
 
 
 def screen_all(obs: Observations, base: Fit, model, coords, n_modes: int, cands) -> list[tuple[float, float]]:
