@@ -108,8 +108,10 @@ def test_every_stored_certificate_is_a_minimum_of_its_instance():
         assert c["jacobian_check"] < JAC_RTOL and c["projected_gradient"] < 1e-8, pid
         x = np.array(c["x_best_pa"])
         assert np.all((x >= p.xl) & (x <= p.xu)), pid
-        # the certificate is attained: J at its point is its f_opt (one solve, the same numbers)
-        assert float(p.evaluate(x)[0]) == pytest.approx(c["f_opt"], rel=4 * EPS), pid
+        # the certificate is attained: J at its point is its f_opt within its precision, which
+        # holds J's spread over OpenBLAS's kernels there (suite_fopt.py --noise: another CPU runs
+        # another kernel, and J's last digits move with it, up to 3.1e-12 at 192/2)
+        assert abs(float(p.evaluate(x)[0]) - c["f_opt"]) <= c["precision"], pid
         # and nothing nearby (down to J's own noise: 1e-12 relative, other draws than the
         # certificate's) or anywhere in the box is lower by more than its precision
         rng = np.random.default_rng(0)

@@ -154,7 +154,7 @@ def test_femu_suite_build_fills_noisy_references_and_bad_specs_fail_in_one_line(
 def test_j_cannot_go_negative_where_1_minus_mac_rounds_below_0():
     p = fp.suite_problem("frame-shape/12/2")
     raw = 1.0 - p.correlation(p.truth).mac              # 1 - MAC as computed: rounds below 0 here
-    assert np.nansum(raw) < 0
+    assert np.nanmin(raw) < 0                           # (their sum's sign depends on the BLAS kernel)
     j = p.evaluate(np.vstack([p.truth, p.truth]))
     assert np.all(j >= 0.0) and np.all(j < 1e-14)
 
@@ -166,5 +166,7 @@ def test_the_reference_solve_certifies_the_papers_f_opt_within_its_precision():
     c = certify_minimum(p, starts=3, seed=0)
     # independent of benchmarks/suite_fopt.py's sensitivity and CMA-ES runs: the same minimum
     assert abs(c.f_min - fs.PAPER_F_OPT) <= fs.PAPER_F_OPT_PRECISION
-    assert len(c.ends) == 4 and max(c.ends) - min(c.ends) < 1e-12 * fs.PAPER_F_OPT
+    # the starts end together, within J's own rounding noise there (an ulp-level spread: 6.5e-18
+    # with one BLAS kernel, below 5.4e-18 with another)
+    assert len(c.ends) == 4 and max(c.ends) - min(c.ends) <= c.noise
     assert float(p.evaluate(c.x)[0]) == pytest.approx(c.f_min, rel=1e-14)
