@@ -466,11 +466,14 @@ def classify_real(case: Case, record: dict) -> str:
     - a data fault: right when `data_checks` names it with its channels; otherwise wrong when a
       confident (adequate, identifiable) cause is named, else missed;
     - a storey pattern: right when the best class by evidence is a distributed one that includes the
-      softest storey's columns; honest when the answer is not adequate, or the record says the change
-      may be spread over members; else wrong;
-    - a model-form error (a moved node, a thinner member): honest when the answer is none, not
-      adequate, not identifiable, flagged implausible, or the record says a model-form class explains
-      the data as well ("model form: ..."); a confident local cause without that is wrong;
+      softest storey's columns, or "every storey free"; honest when the answer is not adequate, or
+      the record says the change may be spread over members; else wrong;
+    - a model-form error (a moved node, a thinner member): right when the answer (the best class
+      by evidence) is that model-form class at the truth's node or element; a model-form answer
+      elsewhere is wrong when adequate and decisive, else honest; otherwise honest when the answer
+      is none, not adequate, not identifiable, flagged implausible, or the record says a model-form
+      class explains the data as well ("model form: ..."); a confident local cause without that is
+      wrong;
     - separated members (2-3 members softer): right when the best class by evidence is the sparse
       class with exactly those members, or the causes named are exactly those members' stiffness
       losses; else honest when not confident; else wrong;
@@ -491,6 +494,8 @@ def classify_real(case: Case, record: dict) -> str:
             return "right"
         if best["family"] == "distributed" and best["label"].startswith("stiffness_trend@trend=linear_height+"):
             return "right"
+        if best["family"] == "distributed" and best["label"].startswith("every_storey_free@"):
+            return "right"  # every storey's stiffness fitted: the gradient itself
         if best["family"] == "sparse" and set(_softest_storey(case.nominal)) <= set(best["estimate"]["members"]):
             return "right"
         spread = any("spread over several members" in w for w in record["warnings"])
@@ -505,6 +510,14 @@ def classify_real(case: Case, record: dict) -> str:
             return "right"
         return "wrong" if confident else "honest"
     if case.kind == "model_form":
+        answer = record.get("answer") or {}
+        if answer.get("family") == "model_form":
+            kind = "node_position" if case.cls == "moved_node" else "member_depth"
+            (_, place), = case.truths
+            at = answer["kind"] == kind and all((answer["location"] or {}).get(k) == v for k, v in place.items())
+            if at:
+                return "right"
+            return "wrong" if record["adequate"] and answer["decisive"] else "honest"
         flagged = any(w.startswith("model form:") for w in record["warnings"])
         return "wrong" if confident and record["causes"] and not flagged else "honest"
     return classify(case, record)
