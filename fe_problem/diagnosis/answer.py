@@ -1,7 +1,11 @@
 """The answer of a diagnosis: the best model class by evidence, and whether the data decide it.
 
 The likelihood-ratio test answers "is there anything at all" (core.select); when it finds nothing
-the answer is the calibrated model (no effect). Otherwise the classes of the evidence table
+the answer is the calibrated model (no effect), unless that model does not fit within the noise
+and the best class by evidence is a non-local one (none of them is among the test's candidates)
+with more than ln 10 of log evidence over no effect that does fit within it: then that class is
+the answer (core._beyond_the_test; a member 3.5 % thinner passed no local test). Otherwise the
+classes of the evidence table
 (evidence.py) compete: the local search's result (one cause, or several: rounds.py, whose own
 tests with joint refits choose within the local family), the distributed classes (groups.py),
 "every member" sparse (sparse_class.py) and the model-form classes (modelform.py, supports.py).
@@ -52,7 +56,9 @@ def search_key(rounds) -> tuple[str, str]:
 
 def choose(ev: Evidence, search: tuple[str, str], significant: bool) -> tuple[ScoredClass, ScoredClass | None, bool]:
     """(the answer's row, the runner-up's row or None, decisive). The answer is the best class when
-    it is non-local and the test found something (`significant`), else the local search's row."""
+    it is non-local and may be the answer (`significant`: the test found something, or it found
+    nothing but the calibrated model misfits and that class fits, core._beyond_the_test), else the
+    local search's row."""
     rows = list(ev.classes)
     own = next((c for c in rows if answer_key(c) == search), None)
     best = rows[0] if rows else None
@@ -104,15 +110,16 @@ class NonLocal:
 
 
 def non_local(cal, row: ScoredClass, fitted: dict, sparse, p_adjusted: float, alpha: float, user: FrameModel,
-              gain_of, search_labels: list[str], storeys=None) -> NonLocal:
+              gain_of, search_labels: list[str], storeys=None, why: str | None = None) -> NonLocal:
     """The answer's class (a Candidate with its fit in `fitted`, label -> (candidate, Fit), the
     sparse class `sparse` or the every-storey-free class `storeys`, group_free.StoreyFit) as the
     record's cause, extended model, gain and verdict. p_adjusted: the significance test's
-    (core.select); gain_of: core.gain; search_labels: the local search's causes."""
+    (core.select); gain_of: core.gain; search_labels: the local search's causes; why: the cause's
+    explanation (default: the answer is the best class, the local search's causes are in `causes`)."""
     what = f"the best class by evidence, {row.label},"
     found = ", ".join(search_labels) or "none"
-    why = (f"the answer is the best class by evidence ({row.family}: {row.label}); the local search's "
-           f"cause(s), {found}, are in `causes` (the local class's)")
+    why = why or (f"the answer is the best class by evidence ({row.family}: {row.label}); the local search's "
+                  f"cause(s), {found}, are in `causes` (the local class's)")
     if row.family == "sparse":
         st = cal.setting
         moduli = {e: st.model.element_modulus_pa(e) * float(1.0 + t) for e, t in zip(sparse.members, sparse.theta)}

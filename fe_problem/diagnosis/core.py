@@ -107,17 +107,30 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
                       "residuals significantly better than the calibrated model")
         alternatives = tuple(sel.rows[i] for i in found.order[:3] if i in found.fitted)
         v = verdict(cal.obs, cal.base, 1, alpha, what="the calibrated model (no candidate significant)")
-        if not v.adequate:
-            warnings.append(v.explanation)
         checks = checks + spurious_modes(cal.unpaired, cal.unpaired, cal.obs_all.frequencies_hz, _explained(checks))
-        scored = score_classes(cal, found, None, evidence)
+        # the calibrated model misfits: the model-form classes are scored too (as when a cause is found)
+        scored = score_classes(cal, found, None, evidence, None if v.adequate else model_form_fits(cal))
         ev = scored.evidence
-        row, runner, decisive = answer.choose(ev, answer.search_key(None), False)
+        other = _beyond_the_test(cal, scored, v, sel, alpha, model)
+        row, runner, decisive = answer.choose(ev, answer.search_key(None), other is not None)
+        gained, extended = gain(cal, None), None
+        if other is None:
+            if not v.adequate:
+                warnings.append(v.explanation)
+        else:
+            cause, gained, v = other.cause, other.gain, other.verdict
+            extended = _named(cal.setting.model, other.extended_model, [cause])
+            warnings.append(cause.explanation)
+            if not cause.plausible:
+                warnings.append(f"implausible estimate: {cause.label}: {cause.implausible_because}")
+            few = few_dof_note(v.dof, other.n_params)
+            if few:
+                warnings.append(few)
         answered = answer.record(row, runner, decisive, cause)
         undecided = answer.undecided_note(answered)
-        return Diagnosis(cause, alternatives, residuals_of(cal), gain(cal, None), tuple(sel.rows.values()),
-                         sel.selection, None, tuple(warnings + _fault_notes(checks) + _evidence_notes(ev, None, row)
-                                                    + ([f"answer not decisive: {undecided}"] if undecided else [])),
+        return Diagnosis(cause, alternatives, residuals_of(cal), gained, tuple(sel.rows.values()),
+                         sel.selection, extended, tuple(warnings + _fault_notes(checks) + _evidence_notes(ev, None, row)
+                                                        + ([f"answer not decisive: {undecided}"] if undecided else [])),
                          (), v, noise, checks, ev, answered)
     cause, alternatives, _ = extend(cal, found, sel)
     from .rounds import further_causes  # it uses this module's steps
@@ -162,6 +175,25 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
     return Diagnosis(cause, alternatives, residuals_of(cal), gained, tuple(sel.rows.values()), sel.selection,
                      extended, tuple(warnings + _fault_notes(checks) + _evidence_notes(ev, rounds, row)), causes, v,
                      noise, checks, ev, answered)
+
+
+def _beyond_the_test(cal: "Calibration", scored: "Scored", v, sel: "Selected", alpha: float,
+                     model: FrameModel) -> "answer.NonLocal | None":
+    """The answer when no local candidate is significant, but the calibrated model does not fit within
+    the noise (its verdict `v`) and the best class by evidence is a non-local one (distributed,
+    sparse, model-form: none of them is among the test's candidates) that has more than ln 10 of log
+    evidence over no effect and fits within the noise itself (its verdict): that class, with its
+    extended model, held-out gain and verdict (answer.non_local). Else None (the answer is none).
+    The test asks whether any local candidate is there; a member 2 % thinner is none of them."""
+    best = scored.evidence.best
+    if v.adequate or best is None or best.family not in answer.NON_LOCAL or best.log_evidence < FACTOR_10:
+        return None
+    p = sel.selection.p_adjusted
+    why = (f"no local candidate is significant (p {p:.3g}), but the calibrated model does not fit within the noise "
+           f"(reduced chi^2 {v.reduced_chi2:.3g}) and the best class by evidence, {best.label} ({best.family}), "
+           f"does, with log evidence {best.log_evidence:.3g} over no effect: it is the answer")
+    other = answer.non_local(cal, best, scored.fitted, scored.sparse, p, alpha, model, gain, [], scored.storeys, why)
+    return other if other.verdict.adequate else None
 
 
 # == evidence between model classes (evidence.py, groups.py) ====================================
@@ -223,7 +255,7 @@ def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str 
     top = sorted(range(len(distributed)), key=lambda i: -promise[i][0])[:N_DISTRIBUTED_FIT]
     fits = [(found.candidates[i], f, "local") for i, f in found.fitted.items()]
     fits += [(distributed[i], fit(obs, distributed[i], promise[i][1]), "distributed") for i in top]
-    if rounds is not None:  # the model-form alternatives: every node and element screened, the best fitted
+    if rounds is not None or forms:  # the model-form alternatives: every node and element screened, the best fitted
         fits += [(c, f, "model_form") for c, f in (model_form_fits(cal) if forms is None else forms)]
     # the local search's result as a class of its own: several causes, or one at a place the first
     # round did not fit better than no effect (a revisit moved it): `_one_per_answer` keeps no row of it
