@@ -13,6 +13,8 @@ section inertia made smaller), the data synthesised from it with the default noi
   calibrated model does not fit within the noise, and the member's depth class fits and has the
   most evidence: it is the answer, with its extended model, held-out gain and verdict. At 2 % it
   has too little evidence over no effect, and the answer stays none, NOT ADEQUATE.
+- Three separated members with less bending stiffness: "every member" sparse localises exactly
+  them and is the answer, with its extended model, held-out prediction and verdict.
 """
 
 import numpy as np
@@ -109,3 +111,38 @@ def test_a_thinner_member_with_too_little_evidence_stays_none_not_adequate():
     assert diag.adequate is False
     form = next(c for c in diag.evidence.classes if c.label == "member_depth@element=1(thinner)")
     assert 0 < form.log_evidence < FACTOR_10
+
+
+def test_three_separated_weaker_members_are_answered_by_the_sparse_class():
+    """Elements 2, 6 and 11 (no two share a node) with their section inertia times 0.8, 0.75 and
+    0.8 in the model file (their bending stiffness alone): the local search names two stiffness
+    gains elsewhere; "every member" sparse localises exactly the three, decisively the best class,
+    and is the answer: its cause, extended model (each member's modulus by its ratio), held-out
+    prediction and verdict. The local search's causes stay in `causes`."""
+    from diagnosis_cases import stiffer_truth
+
+    truth = HFRAME
+    for e, f in ((2, 0.8), (6, 0.75), (11, 0.8)):
+        truth = stiffer_truth(truth, e, f)
+    data = _data(truth, 4)
+    diag = fp.diagnose(HFRAME, data)
+    best = diag.evidence.classes[0]
+    assert best.family == "sparse" and best.label == "every_member_sparse@members=2+6+11"
+    ratios = best.estimate["modulus_ratio"]
+    assert all(0.65 < r < 0.95 for r in ratios), ratios  # bending 0.75-0.8, read as a modulus
+    a = diag.answer
+    assert (a.label, a.family, a.kind, a.location, a.decisive) == (best.label, "sparse", "every_member_sparse",
+                                                                   {"members": [2, 6, 11]}, True)
+    assert a.log_evidence - a.runner_up["log_evidence"] >= FACTOR_10
+    assert (diag.cause.kind, diag.cause.location, diag.cause.label) == (a.kind, a.location, a.label)
+    assert diag.cause.estimate["modulus_ratio"] == pytest.approx(ratios, rel=1e-12)
+    assert diag.causes and all(c.kind != "every_member_sparse" for c in diag.causes)
+    ext = diag.extended_model
+    for e, r in zip((2, 6, 11), ratios):  # against an unchanged column element of the same section
+        assert ext.element_modulus_pa(e) / ext.element_modulus_pa(3) == pytest.approx(r, rel=1e-9)
+    assert diag.adequate and best.label in diag.verdict.explanation
+    assert diag.verdict.chi2 == pytest.approx(best.chi2, rel=1e-9)
+    assert diag.gain.after is not None and diag.gain.after.mean_abs_error_pct == pytest.approx(
+        best.held_out_error_pct, rel=1e-9)
+    assert diag.gain.after.mean_abs_error_pct < diag.gain.before.mean_abs_error_pct
+    assert _chi2(ext, data).chi2 == pytest.approx(best.chi2, rel=1e-6)
