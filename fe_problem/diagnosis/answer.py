@@ -28,6 +28,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+
 from ..model import FrameModel
 from . import group_free, plausibility, sparse_class
 from .candidates import Candidate, scale_stiffness
@@ -120,31 +122,16 @@ def non_local(cal, row: ScoredClass, fitted: dict, sparse, p_adjusted: float, al
     found = ", ".join(search_labels) or "none"
     why = why or (f"the answer is the best class by evidence ({row.family}: {row.label}); the local search's "
                   f"cause(s), {found}, are in `causes` (the local class's)")
-    if row.family == "sparse":
-        st = cal.setting
-        moduli = {e: st.model.element_modulus_pa(e) * float(1.0 + t) for e, t in zip(sparse.members, sparse.theta)}
-        extended = scale_stiffness(st.model.with_element_moduli(moduli), sparse.s)
-        fit = sparse_class.fit_at(st, cal.obs, sparse)
-        cause = Cause(sparse_class.KIND, {"members": list(sparse.members)}, sparse.estimate(), True, p_adjusted,
-                      row.label, explanation=why)
-        gain = gain_of(cal, None)
-        held = sparse_class.held_out(st, cal.data, cal.used, sparse, cal.obs.freq_noise, cal.obs.shape_noise)
-        if held is not None:  # no prediction interval: the class has no profile of one size
-            gain = Gain(gain.held_out_modes, gain.fit_modes, gain.before, held[0], held[1])
-        n = 1 + len(sparse.members)
-    elif storeys is not None and row.label == storeys.label:
-        st, f, am = cal.setting, storeys.fit, storeys.params
-        change = am.weights @ f.theta  # each element's relative modulus change
-        moduli = {e: float(e0 * (1.0 + c)) for e, e0, c in zip(am.ids, am.e0, change) if c != 0.0}
-        extended = scale_stiffness(st.model.with_element_moduli(moduli), f.s)
-        fit = am.residuals(cal.obs, f.theta[None])[0]
-        cause = Cause(group_free.KIND, {"groups": list(storeys.storeys)}, storeys.estimate(), True, p_adjusted,
-                      row.label, explanation=why)
-        gain = gain_of(cal, None)
-        held = sparse_class.held_out(st, cal.data, cal.used, f, cal.obs.freq_noise, cal.obs.shape_noise, am)
-        if held is not None:
-            gain = Gain(gain.held_out_modes, gain.fit_modes, gain.before, held[0], held[1])
-        n = 1 + len(f.theta)
+    if row.family == "sparse" or (storeys is not None and row.label == storeys.label):
+        if row.family == "sparse":
+            am, f = sparse_class._AllMembers(cal.setting), sparse
+            cause = Cause(sparse_class.KIND, {"members": list(sparse.members)}, sparse.estimate(), True, p_adjusted,
+                          row.label, explanation=why)
+        else:
+            am, f = storeys.params, storeys.fit
+            cause = Cause(group_free.KIND, {"groups": list(storeys.storeys)}, storeys.estimate(), True, p_adjusted,
+                          row.label, explanation=why)
+        extended, fit, gain, n = _moduli_class(cal, am, f, gain_of)
     else:
         cand, fit = fitted[row.label]
         extended = scale_stiffness(cand.extend(fit.a), fit.s)
@@ -153,6 +140,27 @@ def non_local(cal, row: ScoredClass, fitted: dict, sparse, p_adjusted: float, al
         gain = gain_of(cal, cand)
         n = 2
     return NonLocal(cause, extended, gain, verdict(cal.obs, fit, n, alpha, what=what), n)
+
+
+def _moduli_class(cal, am, f, gain_of) -> tuple[FrameModel, object, Gain, int]:
+    """A class of element moduli as the answer ("every member" sparse, sparse_class.py; every storey
+    free, group_free.py; `am` its parameters, `sparse_class._AllMembers`, `f` its fit,
+    `sparse_class.SparseFit`): (the extended model, each element's modulus E0 (1 + its change) (Pa)
+    with the class's global scale; the class's fit (`fit.Fit`) to the calibrated model's modes; the
+    held-out gain, the class refitted without the held-out modes, no prediction interval: the class
+    has no profile of one size; the number of fitted parameters, the global scale included)."""
+    st = cal.setting
+    theta = np.zeros(len(am.names))
+    theta[[am.names.index(x) for x in f.members]] = f.theta
+    change = theta if am.weights is None else am.weights @ theta  # each element's relative modulus change
+    moduli = {e: float(e0 * (1.0 + c)) for e, e0, c in zip(am.ids, am.e0, change) if c != 0.0}
+    extended = scale_stiffness(st.model.with_element_moduli(moduli), f.s)
+    fit = am.residuals(cal.obs, theta[None])[0]
+    gain = gain_of(cal, None)
+    held = sparse_class.held_out(st, cal.data, cal.used, f, cal.obs.freq_noise, cal.obs.shape_noise, am)
+    if held is not None:
+        gain = Gain(gain.held_out_modes, gain.fit_modes, gain.before, held[0], held[1])
+    return extended, fit, gain, 1 + len(f.theta)
 
 
 def fitted_candidates(fits) -> dict[str, tuple[Candidate, object]]:

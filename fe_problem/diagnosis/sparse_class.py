@@ -305,14 +305,6 @@ def with_dispersion(sf: SparseFit, dispersion: float) -> SparseFit:
     return replace(sf, theta_std=sf.theta_std * np.sqrt(dispersion))
 
 
-def fit_at(st: Setting, obs: Observations, sf: SparseFit):
-    """The class's profiled fit (`fit.Fit`: chi^2, residuals, scale) at its members' fitted changes."""
-    am = _AllMembers(st)
-    theta = np.zeros(len(am.names))
-    theta[[am.names.index(e) for e in sf.members]] = sf.theta
-    return am.residuals(obs, theta[None])[0]
-
-
 def held_out(st: Setting, data, used: np.ndarray, sf: SparseFit, freq_noise: float, shape_noise: float,
              am: _AllMembers | None = None):
     """The held-out modes (the highest quarter of `used`, as core.gain splits them) predicted by
