@@ -100,6 +100,12 @@ def test_a_thinner_member_no_local_candidate_explains_is_answered_by_its_depth()
     assert any(w.startswith("no local candidate is significant") and best.label in w for w in diag.warnings)
     record = diag.to_dict()
     assert record["cause"]["kind"] == "member_depth" and record["answer"]["family"] == "model_form"
+    from femu.cli.diagnose import summary_text
+
+    text = summary_text(diag, "thin.json", "hframe")
+    assert "CAUSE: member_depth at element 1: depth_factor 0.96" in text
+    assert "no local candidate is significant: the local search named nothing" in text
+    assert "Causes the local search found" not in text  # no empty list of the local search's causes
 
 
 def test_a_thinner_member_with_too_little_evidence_stays_none_not_adequate():

@@ -102,7 +102,10 @@ def answer_lines(diag: Diagnosis) -> list[str]:
         lines.append(f"{ru['label']} has more evidence (log evidence {fmt(ru['log_evidence'])} against "
                      f"{fmt(a.log_evidence)}), but " + ("no candidate is significant" if a.family == "none" else
                                                         "the local search chose within the local family"))
-    if not a.is_local:
+    if not a.is_local and not diag.causes:
+        lines.append("no local candidate is significant: the local search named nothing (the answer is the best "
+                     "class, as the calibrated model misfits)")
+    elif not a.is_local:
         found = ", ".join(c.label or f"{c.kind} ({len(c.indistinguishable)} candidates tie)" for c in diag.causes)
         lines.append(f"the local search named {found} (the local class; its causes are in the record's causes)")
     return lines
@@ -171,7 +174,7 @@ def causes_lines(diag: Diagnosis) -> list[str]:
     """Every cause found, in order of evidence, with its estimate's interval."""
     answer = getattr(diag, "answer", None)
     local = answer is None or answer.is_local
-    if local and len(diag.causes) < 2 and not any(c.interval for c in diag.causes):
+    if (local and len(diag.causes) < 2 and not any(c.interval for c in diag.causes)) or not diag.causes:
         return []
     lines = [f"Causes found, in order of evidence ({len(diag.causes)}):" if local else
              f"Causes the local search found, in order of evidence ({len(diag.causes)}; the local class, not the "
