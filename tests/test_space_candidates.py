@@ -210,3 +210,23 @@ def test_diagnose_names_a_flexible_joint_of_an_inclined_rafter_about_its_skew_ax
     assert (answer["kind"], answer["location"], answer["decisive"]) == ("joint_flexibility", where, True), answer
     low, high = record["causes"][0]["interval"]["compliance_ratio"]
     assert low < 2.0 < high, (low, high)
+
+
+def test_no_joint_candidate_frees_a_rotation_of_its_node():
+    """The gable's ridge with both rafters' ends already released about their skew local z (two
+    joints found before): a further joint there may not leave a rotation of the ridge that
+    neither rafter holds. Rafter 3 released in torsion too would free every rotation in the
+    frame's plane, rafter 4's local z among them (a rotation with no mass: its model could not
+    be solved), and likewise rafter 4 in torsion; rafter 3 about its local y (the global y) is
+    left, rafter 4's local y being the same axis at this corner. Every candidate's model solves."""
+    from test_space_zones import _released, gable
+
+    model = gable()
+    released = _released(_released(model, 3, j=(("rz", 1e5),)), 4, i=(("rz", 1e5),))
+    st = Setting(released, tuple((n.id, d) for n in model.nodes for d in ("x", "y", "z")), 8)
+    cands = list(joint_flexibility(st))
+    at_ridge = {(c.location["element"], c.location["rotation"]) for c in cands if c.location["node"] == 5}
+    assert at_ridge == {(3, "ry")}, at_ridge
+    for c in cands:
+        hz = c.forward(np.array([0.5]))[0]
+        assert np.isfinite(hz).all() and (hz > 0).all(), c.label
