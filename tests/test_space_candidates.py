@@ -155,13 +155,35 @@ def test_skew_member_joints_are_candidates_that_match_opensees():
             ("case", 200, 23, "rz")} <= seen, seen
 
 
+def test_a_joint_at_an_end_released_before_matches_opensees():
+    """The brace's base end already released about its skew local y and z (a joint found
+    before): its torsion joint there, and its top end's joints, are candidates whose models at
+    compliance ratio 0.5 have OpenSees' frequencies to 1e-8 (the base's earlier springs kept
+    as they are: the candidate at that end is solved as its own model at each size, since a
+    `release` parameter would vary them too)."""
+    from test_space_zones import _released, braced_portal, opensees_turned
+
+    before = {"ry": 3e4, "rz": 3e4}
+    model = _released(braced_portal(), 200, i=tuple(before.items()))
+    st, skew = _skew_joints(model, 10)
+    brace = [c for c in skew if c.location["element"] == 200]
+    assert {(c.location["node"], c.location["rotation"]) for c in brace} == {(1, "rx"), (23, "rx"), (23, "ry"),
+                                                                             (23, "rz")}
+    for c in brace:
+        loc = c.location
+        k = _bending_compliance_ref(model, 200, loc["rotation"]) / 0.5
+        releases = {1: dict(before)}
+        releases.setdefault(loc["node"], {})[loc["rotation"]] = k
+        f_os, _ = opensees_turned(model, 200, releases, 10)
+        np.testing.assert_allclose(c.forward(np.array([0.5]))[0][0], f_os, rtol=1e-8, atol=0, err_msg=c.label)
+
+
 def test_skew_joint_first_order_terms_are_the_solved_models_slopes():
     """The first-order term of each skew joint candidate (local.py: the dynamic end moment about
     the skew axis, through DofMap.element_block) gives the eigenvalue slopes at a = 0 that the
     candidate's own solved model shows (a one-sided second-order difference of its eigenvalues
-    at a = 0, 1e-5, 2e-5): to 1e-4 of the largest slope. Also
-    with the member's other end already released about its skew axes (a relative rotation
-    DOF in the element's block)."""
+    at a = 0, 1e-5, 2e-5): to 1e-4 of the largest slope. Also with the member's other end
+    already released about its skew axes (a relative rotation DOF in the element's block)."""
     from fe_problem.assembly import AffineModel
     from fe_problem.diagnosis.screening import baseline, changes
     from test_space_zones import _released, braced_portal, gable
