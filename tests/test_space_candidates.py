@@ -6,12 +6,15 @@ in both bending planes, each checked by a diagnosis of data from an independent 
 from __future__ import annotations
 
 import collections
+import dataclasses
+import json
 
 import numpy as np
 
 import fe_problem as fp
 from fe_problem.diagnosis.candidates import Setting, _bending_compliance_ref, joint_flexibility
 
+from femu.cli import main
 from test_frame3d import frame_of, measured
 from test_beam3d import mac_diagonal, opensees_modes
 
@@ -112,3 +115,140 @@ def test_diagnose_names_a_torsionally_flexible_column_head():
     assert d.cause.location == {"node": 3, "element": 2, "rotation": "rx"}, d.cause.location
     low, high = d.causes[0].interval["compliance_ratio"]
     assert low < 4.0 < high, (low, high)
+
+
+# --- joints at the ends of skew members -----------------------------------------------------------
+
+def _skew_joints(model: fp.FrameModel, n_modes: int = 8):
+    """The joint candidates of `model` whose rotation is about a skew local axis (along no
+    global axis: a relative rotation in the assembly, terms.py)."""
+    from fe_problem.terms import release_axis
+
+    meas = tuple((n.id, d) for n in model.nodes for d in ("x", "y", "z"))
+    st = Setting(model, meas, n_modes)
+    return st, [c for c in joint_flexibility(st)
+                if release_axis(model, model.element(c.location["element"]), c.location["rotation"]) is not None]
+
+
+def test_skew_member_joints_are_candidates_that_match_opensees():
+    """The gable's inclined rafter at the ridge (local rz and rx skew, ry along global y) and the
+    braced portal's brace at its top (all three local axes skew) are joint candidates about
+    their local axes; each candidate's model at compliance ratio 0.5 (a spring of twice the
+    member's E I / L or G J / L) has OpenSees' frequencies to 1e-8, OpenSees building the same
+    release its own way (the structure turned so that the member's local axes are global,
+    a second node with zeroLength springs: test_space_zones.opensees_turned)."""
+    from test_space_zones import braced_portal, gable, opensees_turned
+
+    seen = set()
+    for model, n_modes in ((gable(), 8), (braced_portal(), 10)):
+        st, skew = _skew_joints(model, n_modes)
+        seen |= {(model.name, c.location["element"], c.location["node"], c.location["rotation"]) for c in skew}
+        for c in skew:
+            loc = c.location
+            hz = c.forward(np.array([0.5]))[0][0]
+            k = _bending_compliance_ref(model, loc["element"], loc["rotation"]) / 0.5
+            f_os, _ = opensees_turned(model, loc["element"], {loc["node"]: {loc["rotation"]: k}}, n_modes)
+            np.testing.assert_allclose(hz, f_os, rtol=1e-8, atol=0, err_msg=c.label)
+            rigid = c.forward(np.array([0.0]))[0][0]
+            assert np.max(np.abs(hz / rigid - 1.0)) > 1e-4, c.label  # the joint matters
+    assert {("gable", 3, 5, "rz"), ("gable", 3, 5, "rx"), ("case", 200, 23, "rx"), ("case", 200, 23, "ry"),
+            ("case", 200, 23, "rz")} <= seen, seen
+
+
+def test_a_joint_at_an_end_released_before_matches_opensees():
+    """The brace's base end already released about its skew local y and z (a joint found
+    before): its torsion joint there, and its top end's joints, are candidates whose models at
+    compliance ratio 0.5 have OpenSees' frequencies to 1e-8 (the base's earlier springs kept
+    as they are: the candidate at that end is solved as its own model at each size, since a
+    `release` parameter would vary them too)."""
+    from test_space_zones import _released, braced_portal, opensees_turned
+
+    before = {"ry": 3e4, "rz": 3e4}
+    model = _released(braced_portal(), 200, i=tuple(before.items()))
+    st, skew = _skew_joints(model, 10)
+    brace = [c for c in skew if c.location["element"] == 200]
+    assert {(c.location["node"], c.location["rotation"]) for c in brace} == {(1, "rx"), (23, "rx"), (23, "ry"),
+                                                                             (23, "rz")}
+    for c in brace:
+        loc = c.location
+        k = _bending_compliance_ref(model, 200, loc["rotation"]) / 0.5
+        releases = {1: dict(before)}
+        releases.setdefault(loc["node"], {})[loc["rotation"]] = k
+        f_os, _ = opensees_turned(model, 200, releases, 10)
+        np.testing.assert_allclose(c.forward(np.array([0.5]))[0][0], f_os, rtol=1e-8, atol=0, err_msg=c.label)
+
+
+def test_skew_joint_first_order_terms_are_the_solved_models_slopes():
+    """The first-order term of each skew joint candidate (local.py: the dynamic end moment about
+    the skew axis, through DofMap.element_block) gives the eigenvalue slopes at a = 0 that the
+    candidate's own solved model shows (a one-sided second-order difference of its eigenvalues
+    at a = 0, 1e-5, 2e-5): to 1e-4 of the largest slope. Also with the member's other end
+    already released about its skew axes (a relative rotation DOF in the element's block)."""
+    from fe_problem.assembly import AffineModel
+    from fe_problem.diagnosis.screening import baseline, changes
+    from test_space_zones import _released, braced_portal, gable
+
+    braced = braced_portal()
+    for model in (gable(), braced, _released(braced, 200, i=(("ry", 3e4), ("rz", 3e4)))):
+        st, skew = _skew_joints(model, 8)
+        assert skew
+        first = baseline(AffineModel(model), st.coords, 8)
+        dlam, _ = changes(first, [c.term() for c in skew])
+        for c, slope in zip(skew, dlam):
+            h = 1e-5
+            lam = (2 * np.pi * c.forward(np.array([0.0, h, 2 * h]))[0]) ** 2
+            numeric = (-3.0 * lam[0] + 4.0 * lam[1] - lam[2]) / (2.0 * h)  # one-sided, second order
+            np.testing.assert_allclose(slope, numeric, rtol=0, atol=1e-4 * np.abs(numeric).max(), err_msg=c.label)
+
+
+def test_diagnose_names_a_flexible_joint_of_an_inclined_rafter_about_its_skew_axis(tmp_path, capsys):
+    """The gable (each member in two elements) with its left rafter tied to the ridge by a
+    spring about its local z (out-of-plane bending: an axis in the x-z plane, along no global
+    axis) of half the rafter element's E Iz / L (compliance ratio 2), modes built and solved by
+    OpenSees (the structure turned so that the rafter's axes are global: a zeroLength spring
+    between two nodes), 10 modes at x, y, z of every free node with 0.1 % / 1 % noise: `femu
+    diagnose` names that joint (the ridge, the rafter's element, rotation rz),
+    decisively, its compliance ratio's 95 % interval holding 2."""
+    from fe_problem.terms import release_axis
+    from test_space_zones import gable, opensees_turned
+
+    model = fp.split_elements(gable(), 2)
+    model = model.replace(measured_dofs=tuple((n.id, d) for n in model.nodes if n.id not in (1, 2)
+                                              for d in ("x", "y", "z")))
+    rafter = next(e for e in model.elements if e.node_j == 5 and e.section == "raf")
+    assert model.coordinates[model.node_position(rafter.node_i)][0] < 5.0  # the left rafter
+    assert release_axis(model, rafter, "rz") is not None
+    k = _bending_compliance_ref(model, rafter.id, "rz") / 2.0
+    f, shapes = opensees_turned(model, rafter.id, {5: {"rz": k}}, 10)
+    path = fp.save_model(model, tmp_path / "gable.model.json")
+    data = tmp_path / "gable.modal.json"
+    modes = measured(model, [n.id for n in model.nodes], f, shapes, 3, 0.001, 0.01, meta={"source": "OpenSeesPy"})
+    fp.save_modal_data(dataclasses.replace(modes, model=path.name), data)  # the model file beside it
+    assert main(["diagnose", str(data), "--json"]) == 0
+    record = json.loads(capsys.readouterr().out)
+    where = {"node": 5, "element": rafter.id, "rotation": "rz"}
+    assert record["cause"]["kind"] == "joint_flexibility" and record["cause"]["location"] == where, record["cause"]
+    answer = record["answer"]
+    assert (answer["kind"], answer["location"], answer["decisive"]) == ("joint_flexibility", where, True), answer
+    low, high = record["causes"][0]["interval"]["compliance_ratio"]
+    assert low < 2.0 < high, (low, high)
+
+
+def test_no_joint_candidate_frees_a_rotation_of_its_node():
+    """The gable's ridge with both rafters' ends already released about their skew local z (two
+    joints found before): a further joint there may not leave a rotation of the ridge that
+    neither rafter holds. Rafter 3 released in torsion too would free every rotation in the
+    frame's plane, rafter 4's local z among them (a rotation with no mass: its model could not
+    be solved), and likewise rafter 4 in torsion; rafter 3 about its local y (the global y) is
+    left, rafter 4's local y being the same axis at this corner. Every candidate's model solves."""
+    from test_space_zones import _released, gable
+
+    model = gable()
+    released = _released(_released(model, 3, j=(("rz", 1e5),)), 4, i=(("rz", 1e5),))
+    st = Setting(released, tuple((n.id, d) for n in model.nodes for d in ("x", "y", "z")), 8)
+    cands = list(joint_flexibility(st))
+    at_ridge = {(c.location["element"], c.location["rotation"]) for c in cands if c.location["node"] == 5}
+    assert at_ridge == {(3, "ry")}, at_ridge
+    for c in cands:
+        hz = c.forward(np.array([0.5]))[0]
+        assert np.isfinite(hz).all() and (hz > 0).all(), c.label

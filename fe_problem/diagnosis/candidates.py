@@ -15,7 +15,8 @@ Kinds (the set is open: add a function to `CANDIDATE_KINDS` that yields Candidat
 - ``joint_flexibility`` at a node where members meet: one element end released and tied to
   the node by a rotational spring k = (E I / L)_element / a (a: the joint's compliance
   relative to the element's own bending compliance); on a space frame about each bending
-  axis and in torsion (k = (G J / L)_element / a).
+  axis and in torsion (k = (G J / L)_element / a), the member's local axes, skew or not (a
+  skew axis' release is a relative rotation, terms.py).
 - ``shear_deformation`` (no place): every element Timoshenko, with shear parameter
   phi = a * phi_nominal (a = 1: the section's own shear coefficient).
 - ``stiffness_gain`` at an element: its modulus times (1 + a), a in [0, 3] (a member stiffer
@@ -38,6 +39,7 @@ from dataclasses import dataclass, field
 from typing import Callable, Iterator
 
 import numpy as np
+from scipy.linalg import orth
 
 from ..modal import frequencies_hz
 from ..model import FrameModel, Spring, add_mass, release_element_end, with_formulation
@@ -45,7 +47,6 @@ from ..model.edits import bending_hinges
 from ..assembly import AffineModel, solver_path
 from ..elements import formulation, formulations
 from ..parameters import Parameter
-from ..terms import release_rotation
 from . import zones
 from .local import LocalMatrices, Term
 from .reduced import SharedBasis
@@ -288,20 +289,58 @@ def joint_nodes(model: FrameModel) -> tuple[int, ...]:
                  if len(ds) > 2 or (len(ds) == 2 and float(ds[0] @ ds[1]) > -0.999))
 
 
-def _released(model: FrameModel, e, node: int, rotation: str) -> bool:
-    """Whether the end of element `e` at `node` is released in the node's rotation `rotation`."""
+def _rotation_axis(model: FrameModel, e, local: str):
+    """The rotation an end of element `e` turns in when released in its rotation `local`: the
+    planar frame's rotation name; on a space frame the local axis as a global unit vector (3,)
+    (along a global axis or skew: a brace's, an inclined rafter's)."""
+    if len(model.layout.hinges) == 1:
+        return local
+    return np.asarray(model.local_axes(e.id)[("rx", "ry", "rz").index(local)], dtype=float)
+
+
+def _frees(axes: list, axis) -> bool:
+    """Whether rotations about `axes` (names, or global unit vectors) let a rotation about `axis`
+    (the same form) happen: the name among them; the vector in their span."""
+    if isinstance(axis, str):
+        return axis in axes
+    if not axes:
+        return False
+    a = np.array(axes, dtype=float)
+    coef = np.linalg.lstsq(a.T, axis, rcond=None)[0]
+    return float(np.linalg.norm(a.T @ coef - axis)) <= 1e-9
+
+
+def _released(model: FrameModel, e, node: int, axis) -> bool:
+    """Whether the end of element `e` at `node` is released about `axis` (`_rotation_axis`'s
+    form): its released rotations free that rotation."""
     releases = model.end_releases(e)[0 if node == e.node_i else 1]
-    return any(release_rotation(model, e, r) == rotation for r in releases)
+    return _frees([_rotation_axis(model, e, r) for r in releases], axis)
 
 
-def _last_rigid_end(model: FrameModel, node: int, rotation: str) -> bool:
-    """Whether one element end at most is still rigidly tied to the node's rotation `rotation`
-    (the others released by a joint already found): releasing it would leave the rotation with
-    no mass (an invalid model; at a corner, releasing either end is one and the same joint)."""
-    rigid = sum(1 for e in model.elements if node in (e.node_i, e.node_j) and not _released(model, e, node, rotation))
-    held = any(m.node == node and m.inertia_kg_m2 > 0 for m in model.masses) or \
-        any(s.node == node and rotation in s.directions for s in model.supports)
-    return rigid <= 1 and not held
+def _last_rigid_end(model: FrameModel, node: int, axis, element=None) -> bool:
+    """Whether releasing the end of `element` at `node` about `axis` (`_rotation_axis`'s form)
+    would leave a rotation of the node that no element end, support or rotary inertia holds
+    (the others released by joints already found): a rotation with no mass, an invalid model;
+    at a corner, releasing either end is one and the same joint. Planar: one element end at most
+    is still rigidly tied to the node's rotation. Space: the rotations every end leaves free
+    (each the span of its released axes, `element`'s with `axis`) meet in more than zero."""
+    if any(m.node == node and m.inertia_kg_m2 > 0 for m in model.masses):
+        return False
+    ends = [e for e in model.elements if node in (e.node_i, e.node_j)]
+    if isinstance(axis, str):
+        rigid = sum(1 for e in ends if not _released(model, e, node, axis))
+        return rigid <= 1 and not any(s.node == node and axis in s.directions for s in model.supports)
+    held = np.zeros((3, 3))
+    for e in ends:
+        free = [_rotation_axis(model, e, r) for r in model.end_releases(e)[0 if node == e.node_i else 1]]
+        free += [axis] if e is element else []
+        q = orth(np.array(free).T) if free else np.zeros((3, 0))
+        held += np.eye(3) - q @ q.T  # the rotations this end ties to the node
+    for s in model.supports:
+        if s.node == node:
+            held += sum((np.outer(u, u) for d, u in zip(("rx", "ry", "rz"), np.eye(3)) if d in s.directions),
+                        np.zeros((3, 3)))
+    return float(np.linalg.eigvalsh(held).min()) <= 1e-9
 
 
 def joint_flexibility(st: Setting) -> Iterator[Candidate]:
@@ -309,27 +348,41 @@ def joint_flexibility(st: Setting) -> Iterator[Candidate]:
     every joint, in each rotation the end may turn in apart from the node: the planar frame's
     rz; a space frame's two bending planes (local ry, rz) and its torsion (local rx, a member
     twisting in a connection that does not hold it: a spring of G J / L / a), each its own
-    candidate. At a corner (two ends) one candidate per rotation: releasing either end is the
-    same model."""
+    candidate, about the member's local axis whether it lies along a global axis or not (an
+    inclined rafter's, a brace's: the release is the end's rotation relative to the node about
+    that axis, terms.py). At a corner (two ends) one candidate per axis: releasing either end
+    about the same axis is the same model (the first end's; the second's only about an axis
+    along none of the first's, as at a gable's ridge)."""
     baseline = lazy_system(lambda: AffineModel(st.model))
     planar = len(st.model.layout.hinges) == 1
     rotations = bending_hinges(st.model) + tuple(r for r in st.model.layout.hinges if r not in bending_hinges(st.model))
     for node in joint_nodes(st.model):
         ends = [e for e in st.model.elements if node in (e.node_i, e.node_j)]
-        for e, local in ((e, r) for e in (ends[:1] if len(ends) == 2 else ends) for r in rotations):
-            try:
-                rot = release_rotation(st.model, e, local)
-            except ValueError:  # a skew member's end: a release there is not modelled (terms.py)
-                continue
-            if _released(st.model, e, node, rot) or _last_rigid_end(st.model, node, rot):
+        first = [_rotation_axis(st.model, ends[0], r) for r in rotations]
+        for e, local in ((e, r) for e in ends for r in rotations):
+            axis = _rotation_axis(st.model, e, local)  # a skew member's: a relative rotation (terms.py)
+            if len(ends) == 2 and e is not ends[0] and any(_frees([a], axis) for a in first):
+                continue  # at a corner, the first end's joint about the same axis
+            if _released(st.model, e, node, axis) or _last_rigid_end(st.model, node, axis, e):
                 continue
             ref = _bending_compliance_ref(st.model, e.id, local)
             system = lazy_system(lambda e=e, node=node, ref=ref, local=local: AffineModel(
                 release_element_end(st.model, e.id, node, ref, None if planar else (local,)),
                 (Parameter("release", (e.id, node), 0.0, 1e12 * ref, ref),)))
 
-            def forward(a, system=system, ref=ref):
+            def extend(a, e=e, node=node, ref=ref, local=local):
+                return (release_element_end(st.model, e.id, node, ref / a, None if planar else (local,)) if a > 0
+                        else st.model)
+
+            # an end released in other rotations already (a joint found before): a `release`
+            # parameter would vary those too (terms.py), so each size is its own model
+            alone = not any(st.model.end_releases(e)[0 if node == e.node_i else 1])
+
+            def forward(a, system=system, ref=ref, extend=extend, alone=alone):
                 a = np.asarray(a, dtype=float)
+                if not alone:
+                    out = [solve(AffineModel(extend(v)), np.zeros((1, 0)), st.coords, st.n_modes) for v in a]
+                    return np.concatenate([o[0] for o in out]), np.concatenate([o[1] for o in out])
                 hz, shapes = solve(system(), (ref / np.maximum(a, 1e-12))[:, None], st.coords, st.n_modes)
                 rigid = a <= 0.0
                 if rigid.any():  # a = 0 is the rigid joint: the unextended model itself
@@ -341,15 +394,11 @@ def joint_flexibility(st: Setting) -> Iterator[Candidate]:
                 k = s * ref / a if a > 0 else float("inf")
                 return {"rotational_stiffness_nm_per_rad": k, "compliance_ratio": a}
 
-            def extend(a, e=e, node=node, ref=ref, local=local):
-                return (release_element_end(st.model, e.id, node, ref / a, None if planar else (local,)) if a > 0
-                        else st.model)
-
             place = {"node": node, "element": e.id} if planar else {"node": node, "element": e.id, "rotation": local}
             yield Candidate("joint_flexibility", place, 50.0,
                             np.concatenate([[0.0], np.geomspace(1e-3, 50.0, 18)]),
                             forward, estimate, extend, step=0.01,
-                            term=lambda e=e, node=node, ref=ref, rot=rot: st.local.joint(e.id, node, ref, rot))
+                            term=lambda e=e, node=node, ref=ref, axis=axis: st.local.joint(e.id, node, ref, axis))
 
 
 def shear_deformation(st: Setting) -> Iterator[Candidate]:

@@ -185,17 +185,28 @@ class LocalMatrices:
         dofs = np.array([self.dofmap.dof(node, direction, self.model)])
         return Term(dofs, np.array([[per_unit_a]]), np.zeros((1, 1)))
 
-    def joint(self, element_id: int, node: int, ref: float, rotation: str | None = None) -> Term:
+    def joint(self, element_id: int, node: int, ref: float, rotation=None) -> Term:
         """The end of `element_id` at `node` tied by a spring of compliance a / ref (rad/N m) in
-        the node's rotation `rotation` (default: the layout's one hinge rotation)."""
+        the node's rotation `rotation`: a rotation name (default: the layout's one hinge
+        rotation), or on a space frame a global unit axis (3,) (a local axis of the element,
+        skew or not). Through `DofMap.element_block`: an element with a skew release already
+        acts on its relative rotations too."""
         k = self.row[element_id]
         e = self.model.elements[k]
         lay = self.model.layout
-        r = (0 if node == e.node_i else lay.per_node) + lay.position(lay.rotation if rotation is None else rotation)
-        kr = self.modulus[k] * self.k_el[k][:, r]
-        mr = self.density[k] * self.m_el[k][:, r]
-        return Term(self.dofmap.element_dofs[k], -np.outer(kr, kr) / ref,
-                    -(np.outer(mr, kr) + np.outer(kr, mr)) / ref, -np.outer(mr, mr) / ref)
+        o = 0 if node == e.node_i else lay.per_node
+        if rotation is None or isinstance(rotation, str):
+            r = o + lay.position(lay.rotation if rotation is None else rotation)
+            kr = self.modulus[k] * self.k_el[k][:, r]
+            mr = self.density[k] * self.m_el[k][:, r]
+        else:  # the end's rotation about the axis: its rotation rows times the axis' components
+            turn = np.zeros(2 * lay.per_node)
+            turn[[o + lay.position(d) for d in ("rx", "ry", "rz")]] = rotation
+            kr = self.modulus[k] * (self.k_el[k] @ turn)
+            mr = self.density[k] * (self.m_el[k] @ turn)
+        dofs, dk = self.dofmap.element_block(k, -np.outer(kr, kr) / ref)
+        return Term(dofs, dk, self.dofmap.element_block(k, -(np.outer(mr, kr) + np.outer(kr, mr)) / ref)[1],
+                    self.dofmap.element_block(k, -np.outer(mr, mr) / ref)[1])
 
     # -- model-form terms (modelform.py) ------------------------------------------------------
     def plain_beam(self, element_id: int) -> bool:
