@@ -268,13 +268,19 @@ class Terms:
         model = self.model
         self._blocks(self.k, -1, None, self.k_el * self.k_weight[:, None, None])
         self._blocks(self.m, -1, None, self.m_el * self.m_weight[:, None, None])
+        # the lumped masses in one part, in the order one part per mass gave (the same triplets)
+        dofs: list[int] = []
+        values: list[float] = []
         for lm in model.masses:
             if lm.node not in self.taken["mass"]:
                 t = self._translations(lm.node)
-                self.m.add(-1, t, t, lm.mass_kg)
+                dofs += t
+                values += [lm.mass_kg] * len(t)
             for rot in model.layout.rotations:
-                r = self._dof(lm.node, rot)
-                self.m.add(-1, [r], [r], [lm.inertia_kg_m2])
+                dofs.append(self._dof(lm.node, rot))
+                values.append(lm.inertia_kg_m2)
+        if dofs:
+            self.m.add(-1, dofs, dofs, values)
         for s in model.springs:
             if s.id not in self.taken["spring"]:
                 self._spring(-1, s, s.stiffness)
