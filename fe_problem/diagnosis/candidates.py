@@ -118,7 +118,8 @@ class Candidate:
     reduced: Callable[[], Callable | None] | None = None
 
     def __post_init__(self) -> None:
-        self.forward = _Remembered(self.forward)
+        if not isinstance(self.forward, _Remembered):  # a copy (dataclasses.replace) shares the kept sizes
+            self.forward = _Remembered(self.forward)
 
     @property
     def label(self) -> str:
@@ -132,8 +133,8 @@ class _Remembered:
     size again (a look along's sizes in the fit's grid, a fit's answer in the evidence and the
     held-out error: 10 % of a 1,080-DOF diagnosis's solves). A size's modes do not depend on
     its batch (a fixed start vector, sparse.py), so an answer kept is the answer solved again,
-    bit for bit (tests/test_diagnosis_sparse.py). Keeps the last `SIZE` sizes (each the
-    frequencies and the shapes at the measured coordinates)."""
+    bit for bit (tests/test_reduced_basis.py). Keeps the last `SIZE` sizes (each the
+    frequencies in Hz and the shapes at the measured coordinates)."""
 
     SIZE = 48
 
