@@ -202,3 +202,24 @@ def test_a_size_asked_again_is_the_size_solved_afresh(case, kind, profile, where
         assert np.array_equal(again[0][k], want[0][0]) and np.array_equal(again[1][k], want[1][0])
     assert np.array_equal(first[0][3], again[0][0]) and np.array_equal(first[1][1], again[1][1])
     assert solved == [1]  # only the new size was solved
+
+
+@pytest.mark.parametrize("kind,profile,where", [
+    ("stiffness_loss", "uniform", {"element": 20}),
+    ("stiffness_gain", "uniform", {"element": 41}),
+    ("added_mass", "uniform", {"node": 30}),
+    ("joint_flexibility", "uniform", {}),
+])
+def test_a_candidate_found_by_its_label_is_the_listed_one(case, kind, profile, where):
+    """The rounds rebuild a candidate by its label (`rounds._candidate_on`, which stops at the
+    first match of `iter_candidates`): the same candidate `all_candidates` lists, its modes bit
+    for bit."""
+    from fe_problem.diagnosis.rounds import _candidate_on
+    cal, cands = case
+    listed = _one(cands, kind, profile, **where)
+    found = _candidate_on(cal.setting.model, cal.setting, kind, listed.label)
+    assert found.label == listed.label and found.upper == listed.upper and found.step == listed.step
+    assert np.array_equal(found.grid, listed.grid)
+    a = np.asarray(listed.grid, dtype=float)[[3, 8]]
+    for got, want in zip(found.forward(a), listed.forward(a)):
+        assert np.array_equal(got, want)

@@ -528,9 +528,13 @@ CANDIDATE_KINDS: dict[str, Callable[[Setting], Iterator[Candidate]]] = {
 
 def all_candidates(st: Setting, kinds=None) -> list[Candidate]:
     """Every candidate of the given kinds (default: all registered) for this setting."""
-    out: list[Candidate] = []
+    return list(iter_candidates(st, kinds))
+
+
+def iter_candidates(st: Setting, kinds=None) -> Iterator[Candidate]:
+    """`all_candidates` one at a time, each built when it is reached: a search for one label
+    stops there (a 3,024-DOF frame has 15,566 candidates, 9,408 of them weak zones)."""
     for kind in (kinds or CANDIDATE_KINDS):
         if kind not in CANDIDATE_KINDS:
             raise ValueError(f"unknown candidate kind {kind!r}; known: {', '.join(CANDIDATE_KINDS)}")
-        out.extend(CANDIDATE_KINDS[kind](st))
-    return out
+        yield from CANDIDATE_KINDS[kind](st)
