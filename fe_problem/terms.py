@@ -62,11 +62,15 @@ class DofMap:
         stiffness: dict[tuple[int, int], dict[str, float]] = {}
         relative: dict[tuple[int, int], dict[str, tuple[int, float]]] = {}
         extended: dict[int, tuple[np.ndarray, np.ndarray]] = {}
-        edofs = np.zeros((len(model.elements), 2 * per), dtype=int)
-        for k, e in enumerate(model.elements):
+        pos = model._node_pos  # every element's nodal DOFs at once; the released ends below
+        ends = np.array([[pos[e.node_i], pos[e.node_j]] for e in model.elements], dtype=int).reshape(-1, 2)
+        edofs = (per * ends[:, :, None] + np.arange(per)).reshape(len(model.elements), 2 * per)
+        released = [k for k, e in enumerate(model.elements)
+                    if e.release_i is not None or e.release_j is not None or e.releases_i or e.releases_j]
+        for k in released:
+            e = model.elements[k]
             columns = []  # the skew releases' columns of E
             for o, node, rel in zip((0, per), (e.node_i, e.node_j), model.end_releases(e)):
-                edofs[k, o:o + per] = node_dofs[node]
                 for local, value in rel.items():
                     axis = release_axis(model, e, local)
                     if axis is None:
