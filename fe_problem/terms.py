@@ -62,11 +62,15 @@ class DofMap:
         stiffness: dict[tuple[int, int], dict[str, float]] = {}
         relative: dict[tuple[int, int], dict[str, tuple[int, float]]] = {}
         extended: dict[int, tuple[np.ndarray, np.ndarray]] = {}
-        edofs = np.zeros((len(model.elements), 2 * per), dtype=int)
-        for k, e in enumerate(model.elements):
+        pos = model._node_pos  # every element's nodal DOFs at once; the released ends below
+        ends = np.array([[pos[e.node_i], pos[e.node_j]] for e in model.elements], dtype=int).reshape(-1, 2)
+        edofs = (per * ends[:, :, None] + np.arange(per)).reshape(len(model.elements), 2 * per)
+        released = [k for k, e in enumerate(model.elements)
+                    if e.release_i is not None or e.release_j is not None or e.releases_i or e.releases_j]
+        for k in released:
+            e = model.elements[k]
             columns = []  # the skew releases' columns of E
             for o, node, rel in zip((0, per), (e.node_i, e.node_j), model.end_releases(e)):
-                edofs[k, o:o + per] = node_dofs[node]
                 for local, value in rel.items():
                     axis = release_axis(model, e, local)
                     if axis is None:
@@ -268,13 +272,19 @@ class Terms:
         model = self.model
         self._blocks(self.k, -1, None, self.k_el * self.k_weight[:, None, None])
         self._blocks(self.m, -1, None, self.m_el * self.m_weight[:, None, None])
+        # the lumped masses in one part, in the order one part per mass gave (the same triplets)
+        dofs: list[int] = []
+        values: list[float] = []
         for lm in model.masses:
             if lm.node not in self.taken["mass"]:
                 t = self._translations(lm.node)
-                self.m.add(-1, t, t, lm.mass_kg)
+                dofs += t
+                values += [lm.mass_kg] * len(t)
             for rot in model.layout.rotations:
-                r = self._dof(lm.node, rot)
-                self.m.add(-1, [r], [r], [lm.inertia_kg_m2])
+                dofs.append(self._dof(lm.node, rot))
+                values.append(lm.inertia_kg_m2)
+        if dofs:
+            self.m.add(-1, dofs, dofs, values)
         for s in model.springs:
             if s.id not in self.taken["spring"]:
                 self._spring(-1, s, s.stiffness)

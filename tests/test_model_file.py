@@ -373,3 +373,46 @@ def test_cantilever_converges_with_mesh():
     e5, e10 = coarse / exact - 1.0, fine / exact - 1.0
     assert 0 < e10 < e5
     assert e5 / e10 == pytest.approx(16.0, rel=0.1)  # fourth-order convergence
+
+
+def _fresh(model, **changes):
+    """`model` with `changes`, built as a new model (every rule checked in full)."""
+    fields = {f.name: getattr(model, f.name) for f in dataclasses.fields(model)}
+    return FrameModel(**{**fields, **changes})
+
+
+def _outcome(build):
+    try:
+        return build()
+    except fp.ModelFileError as err:
+        return str(err)
+
+
+def test_a_copy_is_checked_as_a_new_model_is(hframe):
+    """`FrameModel.replace` checks an element it keeps only for the section and material it
+    names (validate.py's `base`): every copy below, valid or not, comes out as the same model
+    built anew does, the same error message included."""
+    m = rich_model(hframe)
+    sec = m.elements[2].section
+    mat = m.elements[2].material
+    el = list(m.elements)
+    bad_el = dataclasses.replace(el[5], material="unobtainium")
+    far = tuple(dataclasses.replace(n, x=n.x + 1e7) if n.id == 3 else n for n in m.nodes)
+    same = tuple(dataclasses.replace(n, y=n.y + 0.25) if n.id == 3 else n for n in m.nodes)
+    changes = {
+        "a section an element names, gone": dict(sections={k: v for k, v in m.sections.items() if k != sec}),
+        "a material an element names, gone": dict(materials={k: v for k, v in m.materials.items() if k != mat}),
+        "a section made invalid": dict(sections={**m.sections, sec: dataclasses.replace(m.sections[sec], area_m2=-1.0)}),
+        "one new element naming no known material": dict(elements=tuple(el[:5] + [bad_el] + el[6:])),
+        "one element's modulus changed (valid)": dict(elements=tuple(el[:5] + [dataclasses.replace(el[5], youngs_modulus_pa=6e10)] + el[6:])),
+        "an element's two ends on one node": dict(elements=tuple(el[:1] + [dataclasses.replace(el[1], node_j=el[1].node_i)] + el[2:])),
+        "a node moved out of range": dict(nodes=far),
+        "a node moved (valid)": dict(nodes=same),
+        "an element's id repeated": dict(elements=tuple(el + [el[0]])),
+        "a source of its own": dict(source="elsewhere.json", sections={}),
+    }
+    outcomes = {name: (_outcome(lambda: m.replace(**ch)), _outcome(lambda: _fresh(m, **ch))) for name, ch in changes.items()}
+    for name, (copied, fresh) in outcomes.items():
+        assert copied == fresh, name
+    errors = [name for name, (copied, _) in outcomes.items() if isinstance(copied, str)]
+    assert sorted(errors) == sorted(n for n in changes if "(valid)" not in n)

@@ -177,3 +177,49 @@ def test_a_wrong_basis_is_caught_and_the_grid_solved_in_full(case):
     full = fit(cal.obs, dataclasses.replace(c, reduced=None))
     got = fit(cal.obs, wrong)
     assert (got.a, got.s, got.chi2) == (full.a, full.s, full.chi2)
+
+
+@pytest.mark.parametrize("kind,profile,where", [
+    ("stiffness_loss", "zone 0.50", {"element": 20}),       # a model built per size
+    ("stiffness_loss", "uniform", {"element": 20}),          # one system, a modulus per size
+    ("added_mass", "uniform", {"node": 30}),
+])
+def test_a_size_asked_again_is_the_size_solved_afresh(case, kind, profile, where):
+    """`Candidate.forward` keeps the sizes it solved (candidates._Remembered): a size asked again,
+    alone or in another batch, in another order, is bit for bit what a fresh candidate's own
+    system gives for that size solved alone."""
+    cal, _ = case
+    c = _one(all_candidates(cal.setting), kind, profile, **where)
+    sizes = np.asarray(c.grid, dtype=float)[[2, 5, 9, 12]]
+    first = c.forward(sizes)
+    solved = []
+    solve = c.forward.solve
+    c.forward.solve = lambda a: solved.append(len(a)) or solve(a)
+    again = c.forward(np.array([sizes[3], sizes[1], 0.5 * (sizes[0] + sizes[1]), sizes[1]]))
+    fresh = _one(all_candidates(cal.setting), kind, profile, **where)
+    alone = [fresh.forward(np.array([v])) for v in (sizes[3], sizes[1], 0.5 * (sizes[0] + sizes[1]))]
+    for k, want in enumerate((alone[0], alone[1], alone[2], alone[1])):
+        assert np.array_equal(again[0][k], want[0][0]) and np.array_equal(again[1][k], want[1][0])
+    assert np.array_equal(first[0][3], again[0][0]) and np.array_equal(first[1][1], again[1][1])
+    assert solved == [1]  # only the new size was solved
+
+
+@pytest.mark.parametrize("kind,profile,where", [
+    ("stiffness_loss", "uniform", {"element": 20}),
+    ("stiffness_gain", "uniform", {"element": 41}),
+    ("added_mass", "uniform", {"node": 30}),
+    ("joint_flexibility", "uniform", {}),
+])
+def test_a_candidate_found_by_its_label_is_the_listed_one(case, kind, profile, where):
+    """The rounds rebuild a candidate by its label (`rounds._candidate_on`, which stops at the
+    first match of `iter_candidates`): the same candidate `all_candidates` lists, its modes bit
+    for bit."""
+    from fe_problem.diagnosis.rounds import _candidate_on
+    cal, cands = case
+    listed = _one(cands, kind, profile, **where)
+    found = _candidate_on(cal.setting.model, cal.setting, kind, listed.label)
+    assert found.label == listed.label and found.upper == listed.upper and found.step == listed.step
+    assert np.array_equal(found.grid, listed.grid)
+    a = np.asarray(listed.grid, dtype=float)[[3, 8]]
+    for got, want in zip(found.forward(a), listed.forward(a)):
+        assert np.array_equal(got, want)

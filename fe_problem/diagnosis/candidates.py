@@ -118,11 +118,46 @@ class Candidate:
     #: reduced form
     reduced: Callable[[], Callable | None] | None = None
 
+    def __post_init__(self) -> None:
+        if not isinstance(self.forward, _Remembered):  # a copy (dataclasses.replace) shares the kept sizes
+            self.forward = _Remembered(self.forward)
+
     @property
     def label(self) -> str:
         where = "" if self.location is None else "@" + ",".join(f"{k}={v}" for k, v in self.location.items())
         profile = self.meta.get("profile", "uniform")
         return self.kind + where + ("" if profile == "uniform" else f"({profile})")
+
+
+class _Remembered:
+    """A candidate's forward that solves each effect size once: the diagnosis asks for the same
+    size again (a look along's sizes in the fit's grid, a fit's answer in the evidence and the
+    held-out error: 10 % of a 1,080-DOF diagnosis's solves). A size's modes do not depend on
+    its batch (a fixed start vector, sparse.py), so an answer kept is the answer solved again,
+    bit for bit (tests/test_reduced_basis.py). Keeps the last `SIZE` sizes (each the
+    frequencies in Hz and the shapes at the measured coordinates)."""
+
+    SIZE = 48
+
+    def __init__(self, forward: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]):
+        self.solve = forward
+        self.kept: dict[float, tuple[np.ndarray, np.ndarray]] = {}
+
+    def __call__(self, a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        a = np.asarray(a, dtype=float)
+        if a.size == 0:
+            return self.solve(a)
+        new = list(dict.fromkeys(float(v) for v in a if float(v) not in self.kept))
+        if new:
+            hz, shapes = self.solve(np.array(new))
+            for k, v in enumerate(new):
+                self.kept.pop(v, None)
+                self.kept[v] = (hz[k], shapes[k])
+        rows = [self.kept[float(v)] for v in a]
+        out = np.stack([r[0] for r in rows]), np.stack([r[1] for r in rows])
+        while len(self.kept) > self.SIZE:
+            del self.kept[next(iter(self.kept))]
+        return out
 
 
 def reduced_linear(st: Setting, term: Callable[[], Term]) -> Callable[[], Callable | None]:
@@ -542,9 +577,13 @@ CANDIDATE_KINDS: dict[str, Callable[[Setting], Iterator[Candidate]]] = {
 
 def all_candidates(st: Setting, kinds=None) -> list[Candidate]:
     """Every candidate of the given kinds (default: all registered) for this setting."""
-    out: list[Candidate] = []
+    return list(iter_candidates(st, kinds))
+
+
+def iter_candidates(st: Setting, kinds=None) -> Iterator[Candidate]:
+    """`all_candidates` one at a time, each built when it is reached: a search for one label
+    stops there (a 3,024-DOF frame has 15,566 candidates, 9,408 of them weak zones)."""
     for kind in (kinds or CANDIDATE_KINDS):
         if kind not in CANDIDATE_KINDS:
             raise ValueError(f"unknown candidate kind {kind!r}; known: {', '.join(CANDIDATE_KINDS)}")
-        out.extend(CANDIDATE_KINDS[kind](st))
-    return out
+        yield from CANDIDATE_KINDS[kind](st)

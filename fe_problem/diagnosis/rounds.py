@@ -28,7 +28,7 @@ from scipy.stats import chi2 as chi2_dist
 from ..assembly import AffineModel
 from ..model import FrameModel
 from . import joint, zones
-from .candidates import Candidate, Setting, all_candidates, scale_stiffness, zone_candidate, zone_profile
+from .candidates import Candidate, Setting, iter_candidates, scale_stiffness, zone_candidate, zone_profile
 from .fit import Fit, fit
 from .record import Cause, Found, Gain
 from .verdict import interval_of, profile_interval
@@ -67,7 +67,7 @@ def _candidate_on(model: FrameModel, st: Setting, kind: str, label: str) -> Cand
     centre = _zone_centre(label)
     if centre is not None:
         return zone_candidate(setting, _location(label)["element"], centre, about=_zone_about(label) or "rz")
-    return next(c for c in all_candidates(setting, [kind]) if c.label == label)
+    return next(c for c in iter_candidates(setting, [kind]) if c.label == label)
 
 
 def _zone_centre(label: str) -> float | None:

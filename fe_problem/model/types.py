@@ -10,6 +10,7 @@ springs) and newton-metres per radian (rotational springs).
 
 from __future__ import annotations
 
+import contextvars
 import dataclasses
 import functools
 import math
@@ -20,6 +21,9 @@ import numpy as np
 
 from ..dofs import DEFAULT_LAYOUT, DofLayout
 from .validate import validate
+
+#: The model `FrameModel.replace` copies, while the copy is validated (validate.py's `base`).
+_REPLACING: contextvars.ContextVar = contextvars.ContextVar("_REPLACING", default=None)
 
 #: The DOF names of a node of the default layout, in their order (``DEFAULT_LAYOUT.names``).
 DIRECTIONS = DEFAULT_LAYOUT.names
@@ -178,7 +182,7 @@ class FrameModel:
     layout: DofLayout = field(default=DEFAULT_LAYOUT, repr=False)
 
     def __post_init__(self) -> None:
-        validate(self)
+        validate(self, _REPLACING.get())
 
     # -- lookups ---------------------------------------------------------------------
     @property
@@ -308,8 +312,13 @@ class FrameModel:
         return tuple(n for n, c in count.items() if c > 2)
 
     def replace(self, **changes: Any) -> "FrameModel":
-        """A copy with some fields changed (validated again)."""
-        return dataclasses.replace(self, **changes)
+        """A copy with some fields changed (validated again; an element kept from this model,
+        with the same nodes and layout, only for the tables it names: validate.py)."""
+        token = _REPLACING.set(self)
+        try:
+            return dataclasses.replace(self, **changes)
+        finally:
+            _REPLACING.reset(token)
 
     def with_element_moduli(self, moduli_pa: dict[int, float]) -> "FrameModel":
         """A copy whose listed elements have their own modulus (an updated model)."""
