@@ -121,6 +121,10 @@ def further_causes(cal, found, sel, cause: Cause, kinds, n_fit, alpha: float, ma
         again = _revisit(cal, st, state, len(state[0]), kinds, n_fit if brings else None, alpha, cal.obs_all)
         changed = again[0] != state[0]
         state = _search(cal, st, again, kinds, n_fit, alpha, max_causes) if changed else again
+        if _final_obs(cal, st, state[0], state[1]).n_modes < cal.obs_all.n_modes:
+            # a measured mode that no cause found brings (a second spring's suspension mode): the
+            # rounds judged on the modes that pair saw nothing of it; sought on every measured mode
+            state = _search(cal, st, state, kinds, n_fit, alpha, max_causes, cal.obs_all)
     state = _prune(cal, st, state, alpha, len(found.candidates))
     return _finish(cal, st, *state, gain)
 
@@ -152,20 +156,21 @@ def _prune(cal, st: Setting, state, alpha: float, n_candidates: int):
     return picks, sizes, ps, ties
 
 
-def _search(cal, st: Setting, state, kinds, n_fit, alpha: float, max_causes: int):
+def _search(cal, st: Setting, state, kinds, n_fit, alpha: float, max_causes: int, obs=None):
     """Further causes one by one, each followed by a revisit of the earlier ones; returns the
-    state (picks, sizes, p-values, ties)."""
+    state (picks, sizes, p-values, ties). obs: the modes each round judges on (default: those
+    that pair with the model extended by the causes so far)."""
     picks, sizes, ps, ties = (list(x) for x in state)
     held = {_held(picks)}
     while len(picks) < max_causes:
-        step = _next_cause(cal, st, picks, sizes, kinds, n_fit, alpha)
+        step = _next_cause(cal, st, picks, sizes, kinds, n_fit, alpha, obs=obs)
         if step is None:
             break
         # a significant cause whose candidates tie enters the model with its best (the verdict
         # judges the model with it) and ends the search; it is reported as not identifiable
         picks, sizes, ps, ties = picks + [step.pick], sizes + [step.a], ps + [step.p], ties + [step.ties]
         picks, sizes, _ = _joint_refit(cal, st, picks, sizes)
-        picks, sizes, ps, ties = _revisit(cal, st, (picks, sizes, ps, ties), len(picks) - 1, kinds, n_fit, alpha)
+        picks, sizes, ps, ties = _revisit(cal, st, (picks, sizes, ps, ties), len(picks) - 1, kinds, n_fit, alpha, obs)
         if step.ties or _held(picks) in held:  # the revisit undid the round: a further one would repeat it
             break
         held.add(_held(picks))
@@ -187,10 +192,12 @@ def _next_cause(cal, st: Setting, picks, sizes, kinds, n_fit, alpha: float, skip
     places = [(k, _location(lab), _zone_centre(lab) is None) for j, (k, lab) in enumerate(picks) if j != skip]
     cal_k = calibrate(_with(st.model, st, picks, sizes, skip), cal.data, cal.obs.freq_noise, cal.obs.shape_noise,
                       st.model)
+    bringing = False
     if obs is not None:
         cal_k = dataclasses.replace(cal_k, obs=obs, base=profiled(obs, cal_k.hz0, cal_k.sh0))
-        if (cal_k.base.pairing < 0).any():
-            # a mode of `obs` that only the cause left out brings (a spring to ground's suspension
+        bringing = bool((cal_k.base.pairing < 0).any())
+        if bringing:
+            # a mode of `obs` that only the cause sought brings (a spring to ground's suspension
             # mode): a first-order screen cannot see a mode come to pair, so every candidate is
             # fitted; screened, the cause itself was missed and dropped, then found again, forever
             n_fit = None
@@ -207,7 +214,10 @@ def _next_cause(cal, st: Setting, picks, sizes, kinds, n_fit, alpha: float, skip
     one = len({_answer(lab) for lab in labels}) == 1
     step = Step((ck.kind, ck.label), found_k.fitted[sel_k.best].a, sel_k.selection.p_adjusted,
                 () if one else labels)
-    # a new cause: chosen again by its joint fit with the causes found (their sizes free)
+    # a new cause: chosen again by its joint fit with the causes found (their sizes free); so is
+    # any cause that brings a mode, beside the others (`joint.choose_bringing`)
+    if bringing:
+        return joint.choose_bringing(cal, st, picks, sizes, skip, found_k, step, obs)
     return joint.choose(cal, st, picks, sizes, skip, cal_k, found_k, step) if skip < 0 and joint.applies(st) else step
 
 
@@ -258,6 +268,8 @@ def _revisit(cal, st: Setting, state, n: int, kinds, n_fit, alpha: float, obs=No
                 trial = picks[:j] + [step.pick] + picks[j + 1:]
                 trial, t_sizes, t_chi2 = _joint_refit(cal, st, trial, sizes[:j] + [step.a] + sizes[j + 1:], obs)
                 if t_chi2 >= chi2 - CHI2_TOL:
+                    if picks[j][1] in step.ties:  # it ties with the others chosen: it says so
+                        ties[j] = step.ties
                     continue
                 picks, sizes, chi2, changed = trial, t_sizes, t_chi2, True
             ties[j] = step.ties
