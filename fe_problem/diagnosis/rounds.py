@@ -18,7 +18,9 @@ storey's columns, a gradient along a column), and a change spread over adjacent 
 found member by member; like every further cause it stays only if the joint fit without it,
 the others refitted, is significantly worse (`_prune`). A measured mode that pairs with no
 mode of the user's model makes every cause be chosen again on every measured mode, so that a
-cause that brings its partner (a spring to ground: the suspension mode) is preferred."""
+cause that brings its partner (a spring to ground: the suspension mode) is preferred; a mode
+that no cause found brings is sought by a search judged on every measured mode, and a cause that
+brings a mode is chosen by its joint refit with the others (`joint.choose_bringing`)."""
 
 from __future__ import annotations
 
