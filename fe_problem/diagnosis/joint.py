@@ -81,10 +81,59 @@ def choose(cal, st, picks, sizes, skip: int, cal_k, found_k, step, obs=None):
             chosen.append(int(i))
     if not chosen:
         return step
-    trials = []
     starts = [(step.pick, step.a)] + [((found_k.candidates[i].kind, found_k.candidates[i].label),
                                        found_k.fitted[i].a if i in found_k.fitted else float(promise[i, 1]))
                                       for i in chosen]
+    return _refit_starts(cal, st, picks, skip, others, starts, step, obs)
+
+
+def choose_bringing(cal, st, picks, sizes, skip: int, found_k, step, obs):
+    """`choose` for a round in which a measured mode of `obs` pairs only once a cause brings it (a
+    spring to ground's suspension mode; every candidate fitted, `found_k`): the linearised screen
+    of `choose` holds the pairing and cannot see a mode come to pair, so the `N_JOINT` best fitted
+    effects by their fit with the earlier causes held are the ones refitted jointly. A spring held
+    beside another at the size it took alone takes part of the other's effect: held, a spring at
+    the wrong column fitted best. Candidates whose held fits are equal (`EQUAL`: springs along
+    an axially rigid member act as one) are one effect: one of them is refitted, and all are
+    named when it ties."""
+    from .rounds import Step, _answer
+
+    others = [(p, a) for j, (p, a) in enumerate(zip(picks, sizes)) if j != skip]
+    if not others:
+        return step
+    groups: list[list[int]] = []
+    for i in sorted(found_k.fitted, key=lambda i: found_k.fitted[i].chi2):
+        chi2 = found_k.fitted[i].chi2
+        same = next((g for g in groups if abs(found_k.fitted[g[0]].chi2 - chi2) <= EQUAL * max(1.0, chi2)), None)
+        if same is not None:
+            same.append(i)
+        elif len(groups) < N_JOINT + 1:
+            groups.append([i])
+    label_of = {i: found_k.candidates[i].label for g in groups for i in g}
+    own = next((g for g in groups if any(label_of[i] == step.pick[1] for i in g)), [])
+    starts = [(step.pick, step.a)] + [((found_k.candidates[g[0]].kind, label_of[g[0]]), found_k.fitted[g[0]].a)
+                                      for g in groups if g is not own][:N_JOINT]
+    chosen = _refit_starts(cal, st, picks, skip, others, starts, step, obs)
+    if chosen is step:
+        return step
+    # every member of a tied effect's group is named with it
+    names = chosen.ties or (chosen.pick[1],)
+    tied = tuple(dict.fromkeys(label_of[i] for lab in names for g in groups if any(label_of[k] == lab for k in g)
+                               for i in g)) or names
+    return Step(chosen.pick, chosen.a, chosen.p, () if len({_answer(lab) for lab in tied}) == 1 else tied)
+
+
+#: Held fits that differ by less than this fraction of chi^2 are one effect (`choose_bringing`).
+EQUAL = 1e-4
+
+
+def _refit_starts(cal, st, picks, skip: int, others, starts, step, obs):
+    """The round's `step` or the start ((kind, label), size) of `starts` (the step's first) whose
+    joint refit with `others` fits `obs` better by more than the ambiguity margin (see the module
+    docstring)."""
+    from .rounds import Step, _ambiguity, _answer, _joint_refit
+
+    trials = []
     for pick, a in starts:
         t_picks, t_sizes = [p for p, _ in others] + [pick], [x for _, x in others] + [a]
         for _ in range(SWEEPS):  # the candidate's size moves the others', and back

@@ -4,9 +4,12 @@ candidates of that round, quasi-likelihood dispersion, alpha); the causes are th
 jointly (each cause's size refitted with the others at theirs, on the measured modes that pair
 with the extended model) and every earlier cause is chosen again with the others in the model
 (`_revisit`: replaced when another candidate improves the joint fit, dropped when nothing is
-significant in its place, its tie judged again). The search stops when a round finds nothing
-significant, when its candidates tie (that cause enters the model with its best candidate and
-is reported as not identifiable), or after `max_causes` causes. A later round tries no
+significant in its place, its tie judged again; when the cause left out is what pairs a measured
+mode, every candidate is fitted, as a first-order screen cannot see a mode come to pair). The
+search stops when a round finds nothing significant, when its candidates tie (that cause enters
+the model with its best candidate and is reported as not identifiable), when the revisit returns
+the causes to a set the search already held (a further round would repeat itself), or after
+`max_causes` causes. A later round tries no
 candidate at a place where a cause was already found, only places of the user's model, and no
 stiffness change in an element next to one where a stiffness change was found (that is the
 first one's form: a crack is neither uniform nor linear along its element), except a uniform
@@ -15,7 +18,9 @@ storey's columns, a gradient along a column), and a change spread over adjacent 
 found member by member; like every further cause it stays only if the joint fit without it,
 the others refitted, is significantly worse (`_prune`). A measured mode that pairs with no
 mode of the user's model makes every cause be chosen again on every measured mode, so that a
-cause that brings its partner (a spring to ground: the suspension mode) is preferred."""
+cause that brings its partner (a spring to ground: the suspension mode) is preferred; a mode
+that no cause found brings is sought by a search judged on every measured mode, and a cause that
+brings a mode is chosen by its joint refit with the others (`joint.choose_bringing`)."""
 
 from __future__ import annotations
 
@@ -118,6 +123,10 @@ def further_causes(cal, found, sel, cause: Cause, kinds, n_fit, alpha: float, ma
         again = _revisit(cal, st, state, len(state[0]), kinds, n_fit if brings else None, alpha, cal.obs_all)
         changed = again[0] != state[0]
         state = _search(cal, st, again, kinds, n_fit, alpha, max_causes) if changed else again
+        if _final_obs(cal, st, state[0], state[1]).n_modes < cal.obs_all.n_modes:
+            # a measured mode that no cause found brings (a second spring's suspension mode): the
+            # rounds judged on the modes that pair saw nothing of it; sought on every measured mode
+            state = _search(cal, st, state, kinds, n_fit, alpha, max_causes, cal.obs_all)
     state = _prune(cal, st, state, alpha, len(found.candidates))
     return _finish(cal, st, *state, gain)
 
@@ -149,22 +158,30 @@ def _prune(cal, st: Setting, state, alpha: float, n_candidates: int):
     return picks, sizes, ps, ties
 
 
-def _search(cal, st: Setting, state, kinds, n_fit, alpha: float, max_causes: int):
+def _search(cal, st: Setting, state, kinds, n_fit, alpha: float, max_causes: int, obs=None):
     """Further causes one by one, each followed by a revisit of the earlier ones; returns the
-    state (picks, sizes, p-values, ties)."""
+    state (picks, sizes, p-values, ties). obs: the modes each round judges on (default: those
+    that pair with the model extended by the causes so far)."""
     picks, sizes, ps, ties = (list(x) for x in state)
+    held = {_held(picks)}
     while len(picks) < max_causes:
-        step = _next_cause(cal, st, picks, sizes, kinds, n_fit, alpha)
+        step = _next_cause(cal, st, picks, sizes, kinds, n_fit, alpha, obs=obs)
         if step is None:
             break
         # a significant cause whose candidates tie enters the model with its best (the verdict
         # judges the model with it) and ends the search; it is reported as not identifiable
         picks, sizes, ps, ties = picks + [step.pick], sizes + [step.a], ps + [step.p], ties + [step.ties]
         picks, sizes, _ = _joint_refit(cal, st, picks, sizes)
-        picks, sizes, ps, ties = _revisit(cal, st, (picks, sizes, ps, ties), len(picks) - 1, kinds, n_fit, alpha)
-        if step.ties:
+        picks, sizes, ps, ties = _revisit(cal, st, (picks, sizes, ps, ties), len(picks) - 1, kinds, n_fit, alpha, obs)
+        if step.ties or _held(picks) in held:  # the revisit undid the round: a further one would repeat it
             break
+        held.add(_held(picks))
     return picks, sizes, ps, ties
+
+
+def _held(picks) -> frozenset:
+    """The causes of a state as a set of answers (kind, place): what the search has held."""
+    return frozenset(_answer(label) for _, label in picks)
 
 
 def _next_cause(cal, st: Setting, picks, sizes, kinds, n_fit, alpha: float, skip: int = -1,
@@ -177,8 +194,15 @@ def _next_cause(cal, st: Setting, picks, sizes, kinds, n_fit, alpha: float, skip
     places = [(k, _location(lab), _zone_centre(lab) is None) for j, (k, lab) in enumerate(picks) if j != skip]
     cal_k = calibrate(_with(st.model, st, picks, sizes, skip), cal.data, cal.obs.freq_noise, cal.obs.shape_noise,
                       st.model)
+    bringing = False
     if obs is not None:
         cal_k = dataclasses.replace(cal_k, obs=obs, base=profiled(obs, cal_k.hz0, cal_k.sh0))
+        bringing = bool((cal_k.base.pairing < 0).any())
+        if bringing:
+            # a mode of `obs` that only the cause sought brings (a spring to ground's suspension
+            # mode): a first-order screen cannot see a mode come to pair, so every candidate is
+            # fitted; screened, the cause itself was missed and dropped, then found again, forever
+            n_fit = None
     ids = (frozenset(st.model.element_ids), frozenset(st.model.node_ids))  # once, not per candidate
     found_k = screen_and_fit(cal_k, kinds, n_fit, keep=lambda c: _new_place(c, st.model, places, ids))
     if not found_k.candidates:
@@ -192,7 +216,10 @@ def _next_cause(cal, st: Setting, picks, sizes, kinds, n_fit, alpha: float, skip
     one = len({_answer(lab) for lab in labels}) == 1
     step = Step((ck.kind, ck.label), found_k.fitted[sel_k.best].a, sel_k.selection.p_adjusted,
                 () if one else labels)
-    # a new cause: chosen again by its joint fit with the causes found (their sizes free)
+    # a new cause: chosen again by its joint fit with the causes found (their sizes free); so is
+    # any cause that brings a mode, beside the others (`joint.choose_bringing`)
+    if bringing:
+        return joint.choose_bringing(cal, st, picks, sizes, skip, found_k, step, obs)
     return joint.choose(cal, st, picks, sizes, skip, cal_k, found_k, step) if skip < 0 and joint.applies(st) else step
 
 
@@ -243,6 +270,8 @@ def _revisit(cal, st: Setting, state, n: int, kinds, n_fit, alpha: float, obs=No
                 trial = picks[:j] + [step.pick] + picks[j + 1:]
                 trial, t_sizes, t_chi2 = _joint_refit(cal, st, trial, sizes[:j] + [step.a] + sizes[j + 1:], obs)
                 if t_chi2 >= chi2 - CHI2_TOL:
+                    if picks[j][1] in step.ties:  # it ties with the others chosen: it says so
+                        ties[j] = step.ties
                     continue
                 picks, sizes, chi2, changed = trial, t_sizes, t_chi2, True
             ties[j] = step.ties
