@@ -25,8 +25,9 @@ from __future__ import annotations
 import os
 
 import importlib
-import json
 import importlib.abc
+import importlib.metadata
+import json
 import pickle
 import signal
 import socket
@@ -233,18 +234,47 @@ def _capture_output(path: str) -> None:
         stream.reconfigure(line_buffering=True)
 
 
-def worker(conn) -> None:
-    """One run (see the module doc), on the connection `conn` to the evaluating process."""
-    send_json(conn, os.getpid())
-    spec = conn.recv()
+def _settle(spec: dict) -> None:
+    """Take the evaluating process's output file, import path and directory from `spec` (the
+    server's are those of its start), and look up one distribution, so that the run's own
+    lookups (capabilities.distribution_of) find importlib.metadata's caches filled."""
     _capture_output(spec["output_path"])
-    # the evaluating process's path and directory now (the server's are those of its start)
     sys.path[:] = [p for p in spec.get("sys_path", sys.path)]
     importlib.invalidate_caches()
     try:
         os.chdir(spec.get("cwd", os.getcwd()))
     except OSError:
         pass
+    try:
+        importlib.metadata.version("femu-bench")
+    except Exception:  # not installed (run from a checkout): the caches are filled all the same
+        pass
+
+
+def _same_place(a: dict, b: dict) -> bool:
+    return all(a.get(k) == b.get(k) for k in ("output_path", "sys_path", "cwd"))
+
+
+def worker(conn) -> None:
+    """One run (see the module doc), on the connection `conn` to the evaluating process.
+
+    A spare worker (forked before its run, adapters.sandbox) first gets a ``prepare`` message
+    with the output file, path and directory, settles them, then waits for its one run's spec;
+    a spec with the same three is not settled again, but for the import system's directory
+    listings, renewed so that a module written since is found. Either way the process serves
+    one run and is ended with it: nothing of a run outlives it."""
+    send_json(conn, os.getpid())
+    spec = conn.recv()
+    prepared = None
+    if spec.get("prepare"):
+        _settle(spec)
+        prepared, spec = spec, conn.recv()
+    if prepared is not None and _same_place(prepared, spec):
+        for finder in list(sys.path_importer_cache.values()):  # a file written since the prepare
+            if finder is not None and hasattr(finder, "invalidate_caches"):
+                finder.invalidate_caches()
+    else:
+        _settle(spec)
     if spec.get("describe"):
         try:
             send_json(conn, ["described", _describe(spec)])
@@ -301,13 +331,19 @@ def _watch_evaluator(pid: int) -> None:
 
 def _reap(address: str) -> None:
     """Reap the server's workers, leaving each one's exit code in ADDRESS.exit.PID for its
-    evaluating process (a worker that dies says nothing itself)."""
+    evaluating process (a worker that dies says nothing itself), unless that process ended it
+    (it leaves ADDRESS.ended.PID first: the code is no news, and no file is left behind)."""
     while True:
         try:
             pid, status = os.waitpid(-1, 0)
         except ChildProcessError:
             time.sleep(0.05)
             continue
+        try:
+            os.unlink(f"{address}.ended.{pid}")
+            continue
+        except OSError:
+            pass
         try:
             with open(f"{address}.exit.{pid}", "w") as fh:
                 fh.write(str(os.waitstatus_to_exitcode(status)))
@@ -324,9 +360,35 @@ def _watch_owner() -> None:
         os._exit(0)
 
 
+#: prctl's option that makes a process the "child subreaper" of its descendants (linux/prctl.h).
+PR_SET_CHILD_SUBREAPER = 36
+_prctl = None  # libc's prctl, looked up by the server (once, before it forks any worker)
+
+
+def _find_prctl():
+    """libc's prctl, or None (not Linux)."""
+    try:
+        import ctypes
+
+        return ctypes.CDLL(None, use_errno=True).prctl
+    except (OSError, AttributeError):
+        return None
+
+
+def adopt_orphans() -> None:
+    """Make this process the child subreaper of what it starts: a descendant whose parent ends
+    (a daemon forked twice, in a session of its own) is re-parented to it instead of to init,
+    so it stays in the worker's tree, which the evaluating process ends with the run (without
+    it, such a daemon outlived the run, free to kill later runs' workers). Not Linux: nothing."""
+    if _prctl is not None:
+        _prctl(PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0)
+
+
 def serve(address: str, preload: list[str]) -> None:
     """The worker server: import hook, preloads, then one forked worker per connection."""
+    global _prctl
     sys.meta_path.insert(0, _Refused())
+    _prctl = _find_prctl()
     import numpy  # noqa: F401
 
     import adapters.harness  # noqa: F401
@@ -351,6 +413,7 @@ def serve(address: str, preload: list[str]) -> None:
             listener.close()
             signal.signal(signal.SIGINT, signal.SIG_IGN)  # a Ctrl-C is the evaluating process's
             os.setsid()  # its own process group: ended as one when the evaluating side is gone
+            adopt_orphans()
             pid, _, _ = struct.unpack("3i", sock.getsockopt(socket.SOL_SOCKET, socket.SO_PEERCRED,
                                                            struct.calcsize("3i")))
             threading.Thread(target=_watch_evaluator, args=(pid,), daemon=True).start()
