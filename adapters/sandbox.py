@@ -19,7 +19,8 @@ What comes from the worker is read as data only: points as raw float64 bytes, ev
 as JSON, never a pickle (unpickling runs code, and it would run here, beside the problem and its
 counts), and no message longer than the budget's points (`MESSAGE_BYTES` for the others) is
 read at all. What an optimizer raises, prints or patches stays in its worker, which is ended with every
-process it started when its run ends; its stdout and stderr are the record's ``output``.
+process it started when its run ends (`_Worker.end`: all stopped first, then killed, so none is
+started after the listing); its stdout and stderr are the record's ``output``.
 
 The server: one per process that runs optimizers (started on first use, ended with that
 process); a study's run processes use their study's (`use_server`).
@@ -30,7 +31,8 @@ waits; a study's run process (one run each) has its worker forked when it starts
 builds its problem. A spare has run no optimizer code, serves exactly one run and is ended with
 it, so nothing of one run reaches another. What a run's times include: `wall_s` and `cpu_s`
 start once its optimizer is loaded and ready (the evaluating process's CPU and the worker's
-from then on) and end with the run; the worker's fork and settling are in no run's times, nor
+from then on, with its reaped children's and, at the end, those of its descendants still alive
+then) and end with the run; the worker's fork and settling are in no run's times, nor
 in an `adapters.run` call's but for a process's first run (a call spends ~0.3 ms asking for
 the next run's spare; the server forks it meanwhile); its optimizer's loading and its end are
 in the call's only.
@@ -43,9 +45,7 @@ import fcntl
 import json
 import os
 import pickle
-import select
 import shutil
-import signal
 import stat
 import subprocess
 import sys
@@ -61,7 +61,7 @@ import psutil
 from .budget import check_budget, check_seed, check_x0_mode, jacobian_cost
 from .capabilities import CAPABILITIES
 from .harness import RunResult, BudgetedObjective, BudgetExhausted, TimeLimitExceeded, _problem_count, record
-from .processes import GRACE_S, kill_tree
+from .processes import freeze, kill_frozen
 from .registry import check_name
 from .sandbox_worker import DONE, ERROR, EVAL, LSQ, STOP, VALUES
 
@@ -198,33 +198,71 @@ class _Worker:
         self.owner = os.getpid()
         self.conn = Client(self.address, family="AF_UNIX")
         self._pid: int | None = None
-        fd, self.output_path = tempfile.mkstemp(prefix="femu-run-", suffix=".out")
-        os.close(fd)
-        if prepare:
-            self.conn.send({"prepare": True, "output_path": self.output_path, "sys_path": list(sys.path),
-                            "cwd": os.getcwd()})
-        else:
-            self.pid  # noqa: B018  (waits for the fork)
+        self._pidfd: int | None = None  # opened as soon as the pid is read (`pid`)
+        self._frozen: list | None = None  # the stopped descendants once `freeze` has run
+        self.output_path = None
+        try:
+            fd, self.output_path = tempfile.mkstemp(prefix="femu-run-", suffix=".out")
+            os.close(fd)
+            if prepare:
+                self.conn.send({"prepare": True, "output_path": self.output_path, "sys_path": list(sys.path),
+                                "cwd": os.getcwd()})
+            else:
+                self.pid  # noqa: B018  (waits for the fork)
+        except BaseException:  # nothing left behind: the connection, the output file, the pidfd
+            self._release()
+            raise
 
     @property
     def pid(self) -> int:
-        """The worker's process id (sent by the worker once forked); RuntimeError when it sends none."""
+        """The worker's process id (sent by the worker once forked); RuntimeError when it sends
+        none. Its pidfd is opened at once, so that the worker is signalled through it only,
+        never a process that took its pid over after it died and was reaped."""
         if self._pid is None:
             if not self.conn.poll(SERVER_START_S):
                 raise RuntimeError("the optimizers' worker server did not answer")
-            pid = _receive(self.conn)
+            try:
+                pid = _receive(self.conn)
+            except (EOFError, OSError, ValueError):
+                raise RuntimeError("the optimizers' worker server sent no process id") from None
             if type(pid) is not int:
                 raise RuntimeError("the optimizers' worker server sent no process id")
+            try:
+                self._pidfd = os.pidfd_open(pid)
+            except AttributeError:  # no pidfd (not Linux): signalled by pid
+                self._pidfd = None
+            except OSError:  # gone already: `end` signals nothing
+                self._pidfd = -1
             self._pid = pid
         return self._pid
 
     def cpu_s(self) -> float:
-        """CPU seconds of the worker so far (its own and its reaped children's)."""
+        """CPU seconds of the worker so far (its own and its reaped children's) and, once
+        `freeze` has run, those of every descendant still alive then (a process in a session
+        of its own that the worker never reaped)."""
         try:
             t = psutil.Process(self.pid).cpu_times()
-            return t.user + t.system + t.children_user + t.children_system
-        except psutil.Error:
+            total = t.user + t.system + t.children_user + t.children_system
+        except (psutil.Error, RuntimeError):
             return 0.0
+        for p in self._frozen or ():
+            try:
+                t = p.cpu_times()
+                total += t.user + t.system + t.children_user + t.children_system
+            except psutil.Error:
+                pass
+        return total
+
+    def freeze(self) -> None:
+        """Stop the worker and every process it started (`processes.freeze`): the run is over,
+        nothing of it may start another process; `cpu_s` then counts them all."""
+        if self._frozen is None:
+            try:
+                pid = self.pid
+            except (RuntimeError, ValueError, EOFError, OSError):
+                self._frozen = []
+                return
+            self._frozen = [] if self._pidfd == -1 else freeze(pid, self._pidfd)
 
     def output(self) -> str:
         try:
@@ -247,11 +285,11 @@ class _Worker:
         return None
 
     def end(self) -> None:
-        """End the worker with every process it started, and return once they have exited. One
-        that started none (the common case) is sent SIGKILL with its process group and its exit
-        awaited on a pidfd (no polling of the process table); one that did goes through
-        `kill_tree` (SIGTERM, the grace, SIGKILL). Its server is told first that this end is no
-        news (no exit code kept)."""
+        """End the worker with every process it started, and return once they have exited (at
+        most `processes.KILL_WAIT_S`): all are stopped first (`freeze`: the worker through its
+        pidfd, then its descendants, listed until no new one appears), then sent SIGKILL; the
+        worker's exit is awaited on its pidfd (no polling of the process table). Its server is
+        told first that this end is no news (no exit code kept)."""
         try:
             pid = self.pid
         except (RuntimeError, ValueError, EOFError, OSError):  # never forked (its server is gone)
@@ -262,35 +300,28 @@ class _Worker:
                 os.close(os.open(ended, os.O_WRONLY | os.O_CREAT | os.O_NOFOLLOW, 0o600))
             except OSError:
                 pass
-            try:
-                started = psutil.Process(pid).children(recursive=True)
-            except psutil.Error:
-                started = []
-            try:
-                handle = None if started else os.pidfd_open(pid)  # readable once the process has exited
-            except (AttributeError, OSError):  # gone already, or no pidfd (not Linux)
-                handle = None
-            if handle is None:
-                kill_tree(pid)
-            else:
-                try:
-                    os.killpg(pid, signal.SIGKILL)  # the worker is its own group's leader (setsid)
-                    select.select([handle], [], [], GRACE_S)
-                except OSError:
-                    pass
-                finally:
-                    os.close(handle)
+            if self._pidfd != -1:
+                self.freeze()
+                kill_frozen(pid, self._pidfd, self._frozen)
             if os.path.exists(exited):  # it had ended before (its server kept the code): both go
                 for path in (exited, ended):
                     try:
                         os.unlink(path)
                     except OSError:
                         pass
+        self._release()
+
+    def _release(self) -> None:
+        """Close the connection and the pidfd, remove the output file."""
         self.conn.close()
-        try:
-            os.unlink(self.output_path)
-        except OSError:
-            pass
+        if self._pidfd is not None and self._pidfd >= 0:
+            os.close(self._pidfd)
+        self._pidfd = -1
+        if self.output_path is not None:
+            try:
+                os.unlink(self.output_path)
+            except OSError:
+                pass
 
 
 _spare: _Worker | None = None
@@ -443,6 +474,7 @@ def run_isolated(name: str, problem, budget: int, seed: int, time_limit_s: float
             objective = _Lazy(lambda: BudgetedObjective(problem, budget, time_limit_s))
             status, error = _serve(worker, objective, problem, time_limit_s, budget)
             wall = time.perf_counter() - wall0
+            worker.freeze()  # nothing of the run goes on; its live descendants' CPU is counted
             cpu = time.process_time() - cpu0 + max(worker.cpu_s() - worker_cpu0, 0.0)
         objective = objective.get()
     except KeyboardInterrupt:  # a real Ctrl-C (the worker ignores SIGINT): the study stops

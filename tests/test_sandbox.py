@@ -55,6 +55,8 @@ ROUTES = [
     (cp.ResetsItsCountAndBudget, "ok", BUDGET, None),
     (cp.PrintsALot, "ok", BUDGET, None),
     (cp.RemembersEarlierRuns, "ok", BUDGET, None),
+    (cp.KeepsStartingSessions, "ok", BUDGET, None),  # its children end with its run (a test below)
+    (cp.ExitsLeavingSessions, "failed", 3, "exited with code 3"),  # and these with its worker
 ]
 
 
@@ -149,6 +151,106 @@ def test_a_daemon_a_plugin_leaves_ends_with_its_run(tmp_path):
     r = adapters.run(plugin(cp.LeavesADaemon), problem, BUDGET, 0, pid_file=str(pid_file))
     assert r.status == "ok" and r.n_evals == problem.points_evaluated == BUDGET, r.error
     assert _ended(int(pid_file.read_text()))
+
+
+def test_children_started_in_sessions_of_their_own_until_the_end_do_not_outlive_the_run(tmp_path):
+    """A plugin that ignores SIGTERM and keeps starting children, each in a session of its own,
+    while its run ends: its tree is stopped before it is killed, so no child is started after
+    it was listed, and none is left running when adapters.run returns."""
+    problem = make_problem("paper")
+    r = adapters.run(plugin(cp.KeepsStartingSessions), problem, BUDGET, 0, pid_dir=str(tmp_path))
+    assert r.status == "ok" and r.n_evals == problem.points_evaluated == BUDGET, r.error
+    started = {int(p) for p in os.listdir(tmp_path)}
+    assert 10 <= len(started) < cp.SESSIONS_MAX  # still starting them when the run ended
+    alive = [pid for pid in started if not _ended(pid)]
+    assert alive == [], f"{len(alive)} of {len(started)} children alive after the run"
+    time.sleep(1.0)
+    assert {int(p) for p in os.listdir(tmp_path)} == started  # and none started since
+
+
+def test_children_in_sessions_of_their_own_end_when_the_evaluating_process_dies(tmp_path):
+    """The evaluating process killed (SIGKILL) mid-run: its worker ends itself and every process
+    it started, those in sessions of their own too, not its process group only."""
+    code = ("import sys, adapters; from adapters.variants import make_problem; "
+            "adapters.run('cheating_plugins:KeepsStartingSessions', make_problem('paper'), 10**7, 0, "
+            "pid_dir=sys.argv[1])")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(HERE), os.environ.get("PYTHONPATH", "")]))
+    proc = subprocess.Popen([sys.executable, "-c", code, str(tmp_path)], env=env)
+    try:
+        deadline = time.time() + 300
+        while len(os.listdir(tmp_path)) < 10:
+            assert proc.poll() is None and time.time() < deadline, "the plugin did not start its children"
+            time.sleep(0.05)
+    finally:
+        proc.kill()
+        proc.wait()
+    deadline = time.time() + 20
+    while True:
+        started = {int(p) for p in os.listdir(tmp_path)}
+        alive = [pid for pid in started if not _ended(pid)]
+        if not alive or time.time() > deadline:
+            break
+        time.sleep(0.2)
+    assert alive == [], f"{len(alive)} of {len(started)} children alive 20 s after the evaluating process died"
+    assert len(started) < cp.SESSIONS_MAX  # ended while it was still starting them
+
+
+def test_children_in_sessions_of_their_own_end_when_their_worker_ends_itself(tmp_path):
+    """A plugin that starts children in sessions of their own and ends its process (os._exit):
+    the worker server, their subreaper, ends them once it reaps the worker."""
+    problem = make_problem("paper")
+    r = adapters.run(plugin(cp.ExitsLeavingSessions), problem, BUDGET, 0, pid_dir=str(tmp_path))
+    assert r.status == "failed" and r.n_evals == problem.points_evaluated == 3, r.error
+    assert "exited with code 3" in r.error, r.error
+    started = [int(p) for p in os.listdir(tmp_path)]
+    assert len(started) == 5
+    alive = [pid for pid in started if not _ended(pid, wait_s=10.0)]
+    assert alive == [], f"{len(alive)} of 5 children alive 10 s after their worker ended"
+
+
+def test_a_runs_cpu_includes_its_live_descendants_in_sessions_of_their_own(tmp_path):
+    """cpu_s counts the CPU of a plugin's child that it never reaped (its own session, alive
+    at the run's end): the run is charged its HIDDEN_CPU_S."""
+    problem = make_problem("paper")
+    r = adapters.run(plugin(cp.HidesItsWorkInASession), problem, BUDGET, 0, mark=str(tmp_path / "done"))
+    assert r.status == "ok" and r.n_evals == BUDGET, r.error
+    assert r.cpu_s >= cp.HIDDEN_CPU_S, r.cpu_s
+
+
+def test_a_worker_that_never_says_its_pid_leaves_no_file_nor_connection(tmp_path, monkeypatch):
+    """A server that accepts and hangs up at once: the worker is refused (RuntimeError, which a
+    spare's fork swallows) and its output file and connection are not left behind."""
+    import socket
+    import tempfile
+
+    from adapters import sandbox
+
+    address = str(tmp_path / "server")
+    listener = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    listener.bind(address)
+    listener.listen(4)
+
+    def hang_up():
+        for _ in range(2):
+            conn, _ = listener.accept()
+            conn.close()
+
+    import threading
+
+    threading.Thread(target=hang_up, daemon=True).start()
+    out = tmp_path / "tmp"
+    out.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(out))
+    sandbox.drop_spare()  # a spare of an earlier test's run: its connection is not this test's
+    monkeypatch.setattr(sandbox, "_address", address)
+    before = len(os.listdir("/proc/self/fd"))
+    with pytest.raises(RuntimeError, match="sent no process id"):
+        sandbox._Worker()
+    sandbox.fork_spare()  # swallowed; its spare (connected, its prepare sent) is kept
+    sandbox.drop_spare()
+    listener.close()
+    assert os.listdir(out) == []
+    assert len(os.listdir("/proc/self/fd")) == before - 1  # the listener's fd only is gone
 
 
 def test_a_spare_worker_killed_before_its_run_is_replaced_and_the_run_loses_nothing():
@@ -354,14 +456,16 @@ def test_a_parallel_studys_runs_are_pinned_to_different_cores(tmp_path):
     """`femu study --workers 2`: the two runs under way at once (each optimizer with its
     evaluating process on one core) are on two cores, not both on the core they started on."""
     allowed = os.sched_getaffinity(0)
-    store = tmp_path / "s"
+    store, barrier = tmp_path / "s", tmp_path / "barrier"
+    barrier.mkdir()
     done = _femu("study", "--optimizers", "sample_plugins:PrintsItsCores", "--seeds", "0-1", "--budget", "20",
                  "--store", str(store), "--workers", "2", "--no-progress",
-                 FEMU_CORE_CLAIMS=str(tmp_path / "cores"))  # this study's claims only: no other session's
+                 FEMU_CORE_CLAIMS=str(tmp_path / "cores"),  # this study's claims only: no other session's
+                 FEMU_TEST_BARRIER=str(barrier))  # both runs under way at once (sample_plugins.PrintsItsCores)
     assert done.returncode == 0, done.stderr
     runs = list(Store(store).runs())
     cores = [json.loads(r.output.split("CORES ")[1].splitlines()[0]) for r in runs]
-    assert len(runs) == 2 and all(r.status == "ok" and r.verified for r in runs)
+    assert len(runs) == 2 and all(r.status == "ok" and r.verified for r in runs), [r.error for r in runs]
     assert all(len(c) == 1 and c[0] in allowed for c in cores), cores
     assert len({c[0] for c in cores}) == min(2, len(allowed)), cores
 
@@ -373,8 +477,9 @@ def test_processes_with_worker_servers_of_their_own_share_the_core_claims(tmp_pa
     code = ("import adapters; from adapters.variants import make_problem; "
             "r = adapters.run('sample_plugins:PrintsItsCores', make_problem('paper'), 20, 0); "
             "print(r.status, r.output.split('CORES ')[1].splitlines()[0], flush=True)")
+    (tmp_path / "barrier").mkdir()
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(HERE), os.environ.get("PYTHONPATH", "")]),
-               FEMU_CORE_CLAIMS=str(tmp_path / "cores"))
+               FEMU_CORE_CLAIMS=str(tmp_path / "cores"), FEMU_TEST_BARRIER=str(tmp_path / "barrier"))
     procs = [subprocess.Popen([sys.executable, "-c", code], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                               text=True) for _ in range(2)]
     outs = [p.communicate(timeout=600) for p in procs]
