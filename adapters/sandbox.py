@@ -46,6 +46,7 @@ import json
 import os
 import pickle
 import shutil
+import signal
 import stat
 import subprocess
 import sys
@@ -457,15 +458,27 @@ def run_isolated(name: str, problem, budget: int, seed: int, time_limit_s: float
     worker = _fresh_worker(_preload(name))
     counted0 = _problem_count(problem)
     status, error = None, None
+
+    def spec(w: _Worker) -> dict:
+        return {"name": name, "n_var": n_var, "xl": xl.tolist(), "xu": xu.tolist(), "budget": budget, "seed": seed,
+                "options": dict(options), "time_limit_s": time_limit_s, "jacobian_cost": jacobian_cost(n_var),
+                "output_path": w.output_path, "sys_path": list(sys.path), "cwd": os.getcwd(),
+                "x0": None if x0 == "none" else np.asarray(problem.x0, dtype=float).tolist()}
+
     try:
         # on one core from the start: the worker loads its optimizer while this thread waits,
         # instead of waiting for a wake-up on another core of a loaded machine
-        with _one_core(worker.pid, claims_path()):
-            described = _load(worker, name, {
-                "name": name, "n_var": n_var, "xl": xl.tolist(), "xu": xu.tolist(), "budget": budget, "seed": seed,
-                "options": dict(options), "time_limit_s": time_limit_s, "jacobian_cost": jacobian_cost(n_var),
-                "output_path": worker.output_path, "sys_path": list(sys.path), "cwd": os.getcwd(),
-                "x0": None if x0 == "none" else np.asarray(problem.x0, dtype=float).tolist()})
+        with _one_core(worker.pid, claims_path()) as core:
+            try:
+                described = _load(worker, name, spec(worker))
+            except _NeverGotItsRun:
+                # it died before it had its run's spec (a process a plugin left running killed
+                # the spare between `_fresh_worker`'s look and the spec): no optimizer code ran in
+                # it, nothing was evaluated; the run takes a worker forked now
+                worker.end()
+                worker = _Worker(_preload(name))
+                _pin(worker.pid, core)
+                described = _load(worker, name, spec(worker))
             cpu0, worker_cpu0 = time.process_time(), worker.cpu_s()
             wall0 = time.perf_counter()
             # the cooperative clock (BudgetedObjective's) starts at the optimizer's first request, so
@@ -480,12 +493,37 @@ def run_isolated(name: str, problem, budget: int, seed: int, time_limit_s: float
     except KeyboardInterrupt:  # a real Ctrl-C (the worker ignores SIGINT): the study stops
         raise
     finally:
-        output = worker.output()
-        worker.end()
+        with _interrupt_after():  # a Ctrl-C now would leave the worker stopped, never killed
+            output = worker.output()
+            worker.end()
     if _spares_after_runs:
         fork_spare(_preload(name))  # the next run's worker, forked while this process makes the record
     return record(name, problem, counted0, objective, seed, budget, options, x0, status, error, variant, wall, cpu,
                   verified=True, output=output, **described)
+
+
+@contextmanager
+def _interrupt_after():
+    """A Ctrl-C (SIGINT) that arrives in the block is raised as KeyboardInterrupt once the block
+    is over, not inside it: for the end of a run's worker (`_Worker.end`: stopped, then killed),
+    which an interrupt between the two would leave stopped for good. Outside the main thread,
+    or where SIGINT is not Python's to handle, the block runs as it is."""
+    if threading.current_thread() is not threading.main_thread() or \
+            signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
+        yield
+        return
+    pressed = []
+    signal.signal(signal.SIGINT, lambda signum, frame: pressed.append(signum))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    if pressed:
+        raise KeyboardInterrupt
+
+
+class _NeverGotItsRun(ValueError):
+    """A worker that ended before its run's spec reached it (`_load`): no optimizer code ran in it."""
 
 
 def _load(worker: _Worker, name: str, spec: dict) -> dict:
@@ -494,7 +532,7 @@ def _load(worker: _Worker, name: str, spec: dict) -> dict:
     try:
         worker.conn.send(spec)
     except OSError:
-        raise ValueError(f"optimizer {name!r}: its process ended before it was loaded") from None
+        raise _NeverGotItsRun(f"optimizer {name!r}: its process ended before it was loaded") from None
     if not worker.conn.poll(READY_S):
         raise ValueError(f"optimizer {name!r}: loading it took more than {READY_S:.0f} s")
     try:
@@ -558,21 +596,37 @@ def _one_core(worker_pid: int, claims: str | None = None):
     round trip at load 9). The core is the least claimed one in the file `claims` (the runs of
     this user on this machine, `claims_path`), so that the runs of a parallel study are spread
     over the cores instead of all pinned to the one they started on; without `claims`, the
-    core this thread is on. (Affinity is a thread's: claims are by thread id.)"""
+    core this thread is on. (Affinity is a thread's: claims are by thread id.) Yields the core,
+    or None when the run is not pinned (then this thread's cores are left as they were)."""
+    before = None
     try:
         before = os.sched_getaffinity(0)
         core = claim_core(before, claims)
         os.sched_setaffinity(0, {core})
         os.sched_setaffinity(worker_pid, {core})
     except (AttributeError, OSError, psutil.Error):  # not Linux, or the worker is gone: run as it is
+        if before is not None:
+            try:
+                os.sched_setaffinity(0, before)  # never left on one core by a run that is not pinned
+            except OSError:
+                pass
         _release_core(claims)
-        yield
+        yield None
         return
     try:
-        yield
+        yield core
     finally:
         os.sched_setaffinity(0, before)
         _release_core(claims)
+
+
+def _pin(pid: int, core: int | None) -> None:
+    """Put process `pid` on `core` (`_one_core`'s; None: not pinned, nothing); a process gone: nothing."""
+    if core is not None:
+        try:
+            os.sched_setaffinity(pid, {core})
+        except OSError:
+            pass
 
 
 def claim_core(allowed, claims: str | None = None, tid: int | None = None) -> int:

@@ -270,6 +270,60 @@ def test_a_spare_worker_killed_before_its_run_is_replaced_and_the_run_loses_noth
     assert r.status == "ok" and r.n_evals == problem.points_evaluated == 20 and r.verified, r.error
 
 
+def test_a_spare_worker_killed_after_it_was_taken_is_replaced_and_the_run_loses_nothing(monkeypatch):
+    """The same kill a moment later: after the run took its spare (`_fresh_worker` saw it alive)
+    and before the run's spec reached it. No optimizer code ran in it, so the run forks another
+    worker and gets the record it earns; this thread's cores are as they were after the run
+    (the dead worker could not be pinned)."""
+    import signal
+
+    from adapters import sandbox
+
+    assert adapters.run("random-search", make_problem("paper"), 20, 0).status == "ok"
+    spare = sandbox._spare
+    assert spare is not None and spare.owner == os.getpid()
+    os.kill(spare.pid, signal.SIGKILL)
+    assert _ended(spare.pid, wait_s=10.0)
+    taken = []
+
+    def the_spare_as_seen_alive(preload=()):
+        sandbox._spare = None
+        taken.append(spare)
+        return spare
+
+    monkeypatch.setattr(sandbox, "_fresh_worker", the_spare_as_seen_alive)
+    cores = os.sched_getaffinity(0)
+    problem = make_problem("paper")
+    r = adapters.run("random-search", problem, 20, 1)
+    assert taken == [spare]
+    assert r.status == "ok" and r.n_evals == problem.points_evaluated == 20 and r.verified, r.error
+    assert os.sched_getaffinity(0) == cores
+
+
+def test_a_ctrl_c_while_a_run_ends_its_worker_stops_the_caller_and_leaves_no_worker_stopped(monkeypatch):
+    """A Ctrl-C that lands between the worker's stop and its kill (`_Worker.end`) is raised once
+    the worker is killed: the caller gets its KeyboardInterrupt, and no worker is left stopped
+    for good (it used to be, with the SIGKILL never sent)."""
+    import signal
+
+    from adapters import sandbox
+    from adapters.processes import freeze as real_freeze
+
+    stopped = []
+
+    def freeze_then_ctrl_c(pid, pidfd=None, exclude=()):
+        procs = real_freeze(pid, pidfd, exclude)
+        stopped.append(pid)
+        os.kill(os.getpid(), signal.SIGINT)  # delivered to this (main) thread at once
+        return procs
+
+    monkeypatch.setattr(sandbox, "freeze", freeze_then_ctrl_c)
+    with pytest.raises(KeyboardInterrupt):
+        adapters.run("random-search", make_problem("paper"), 20, 0)
+    assert stopped and all(_ended(pid, wait_s=10.0) for pid in stopped), stopped
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
 def test_the_worker_server_keeps_no_file_for_the_workers_its_runs_ended():
     from adapters.sandbox import server_address
 
