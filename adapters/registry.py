@@ -66,6 +66,8 @@ def get(name: str) -> type:
     if name in BUILTINS:
         module, cls = BUILTINS[name].split(":")
         return getattr(importlib.import_module(module), cls)
+    if _is_import_path(name):  # no entry point's name has a colon (it separates name and value)
+        return _import_path(name)
     plugins = _plugins()
     if name in plugins:
         ep = plugins[name]
@@ -94,15 +96,18 @@ def check_name(name) -> str:
     known ones otherwise. Whether it loads is found out where it runs (adapters.sandbox)."""
     if not isinstance(name, str) or not name:
         raise ValueError(f"unknown optimizer {name!r}; available: {', '.join(available())}")
-    if name in BUILTINS or name in _plugins():
+    if name in BUILTINS or _is_import_path(name) or name in _plugins():  # the scan of entry points last
         return name
-    module, colon, attr = name.partition(":")
-    if colon and _DOTTED.fullmatch(module) and attr.isidentifier():
-        return name
-    if colon:
+    if ":" in name:
         raise ValueError(f"optimizer {name!r}: not a registry name or an import path package.module:Class "
                          f"(available: {', '.join(available())})")
     raise ValueError(f"unknown optimizer {name!r}; available: {', '.join(available())}")
+
+
+def _is_import_path(name: str) -> bool:
+    """Whether `name` has the form ``package.module:Class``."""
+    module, colon, attr = name.partition(":")
+    return bool(colon) and _DOTTED.fullmatch(module) is not None and attr.isidentifier()
 
 
 def _import_path(name: str) -> type:
@@ -110,7 +115,7 @@ def _import_path(name: str) -> type:
     trying out a class, e.g. in a test, in every worker process of a study); a module that is
     not installed is looked for in the current directory (`_import_here`)."""
     module, _, attr = name.partition(":")
-    if not (_DOTTED.fullmatch(module) and attr.isidentifier()):
+    if not _is_import_path(name):
         raise ValueError(f"optimizer {name!r}: not a registry name or an import path package.module:Class "
                          f"(available: {', '.join(available())})")
     try:

@@ -17,7 +17,11 @@ Unix socket SOCKET. Every connection is one run: the server forks a worker for i
 
 The worker never holds the problem, its data, the FE model or a suite instance's truth: they
 are not in this process (the server never imported them) and importing their packages fails.
-The server ends when its owner closes its stdin.
+The server ends when its owner closes its stdin. Nothing a worker starts outlives it: the
+worker is the child subreaper of its descendants and the evaluating process stops and kills the
+whole tree (adapters.sandbox); a worker whose evaluating process is gone, or whose run raised
+out of it, ends its tree itself (`_end_this_worker`); what a worker that died on its own left
+running is adopted by the server and ended when the worker is reaped (`_end_adopted`).
 """
 
 from __future__ import annotations
@@ -25,8 +29,9 @@ from __future__ import annotations
 import os
 
 import importlib
-import json
 import importlib.abc
+import importlib.metadata
+import json
 import pickle
 import signal
 import socket
@@ -38,6 +43,7 @@ import traceback
 from collections import namedtuple
 
 from . import _threads  # noqa: F401  (one BLAS thread per worker: before numpy loads)
+from .processes import freeze
 
 #: Packages an optimizer's process may not import: the FE model, its data, the suite (with its
 #: hidden truths) and the application.
@@ -233,18 +239,47 @@ def _capture_output(path: str) -> None:
         stream.reconfigure(line_buffering=True)
 
 
-def worker(conn) -> None:
-    """One run (see the module doc), on the connection `conn` to the evaluating process."""
-    send_json(conn, os.getpid())
-    spec = conn.recv()
+def _settle(spec: dict) -> None:
+    """Take the evaluating process's output file, import path and directory from `spec` (the
+    server's are those of its start), and look up one distribution, so that the run's own
+    lookups (capabilities.distribution_of) find importlib.metadata's caches filled."""
     _capture_output(spec["output_path"])
-    # the evaluating process's path and directory now (the server's are those of its start)
     sys.path[:] = [p for p in spec.get("sys_path", sys.path)]
     importlib.invalidate_caches()
     try:
         os.chdir(spec.get("cwd", os.getcwd()))
     except OSError:
         pass
+    try:
+        importlib.metadata.version("femu-bench")
+    except Exception:  # not installed (run from a checkout): the caches are filled all the same
+        pass
+
+
+def _same_place(a: dict, b: dict) -> bool:
+    return all(a.get(k) == b.get(k) for k in ("output_path", "sys_path", "cwd"))
+
+
+def worker(conn) -> None:
+    """One run (see the module doc), on the connection `conn` to the evaluating process.
+
+    A spare worker (forked before its run, adapters.sandbox) first gets a ``prepare`` message
+    with the output file, path and directory, settles them, then waits for its one run's spec;
+    a spec with the same three is not settled again, but for the import system's directory
+    listings, renewed so that a module written since is found. Either way the process serves
+    one run and is ended with it: nothing of a run outlives it."""
+    send_json(conn, os.getpid())
+    spec = conn.recv()
+    prepared = None
+    if spec.get("prepare"):
+        _settle(spec)
+        prepared, spec = spec, conn.recv()
+    if prepared is not None and _same_place(prepared, spec):
+        for finder in list(sys.path_importer_cache.values()):  # a file written since the prepare
+            if finder is not None and hasattr(finder, "invalidate_caches"):
+                finder.invalidate_caches()
+    else:
+        _settle(spec)
     if spec.get("describe"):
         try:
             send_json(conn, ["described", _describe(spec)])
@@ -286,31 +321,101 @@ def worker(conn) -> None:
 
 
 def _watch_evaluator(pid: int) -> None:
-    """End this worker's process group (the worker and what it started) once the evaluating
-    process `pid` is gone (killed at a hard deadline, or its study stopped): a worker without
-    its evaluating side has nothing left to do."""
+    """End this worker and every process it started once the evaluating process `pid` is gone
+    (killed at a hard deadline, or its study stopped): a worker without its evaluating side has
+    nothing left to do (`_end_this_worker`)."""
     while True:
         time.sleep(0.25)
         try:
             os.kill(pid, 0)
         except ProcessLookupError:
-            os.killpg(0, signal.SIGKILL)
+            _end_this_worker()
         except PermissionError:  # the pid was taken by another user's process: ours is gone
-            os.killpg(0, signal.SIGKILL)
+            _end_this_worker()
+
+
+def _end_this_worker() -> None:
+    """Stop this worker and its descendants, then SIGKILL them all (processes.freeze), from a
+    forked helper (a process cannot stop itself and go on listing): a child in a session of
+    its own is ended too, which killing the process group would miss; then, whatever happened
+    to the helper, this worker's process group."""
+    me = os.getpid()
+    try:
+        helper = os.fork()
+    except OSError:
+        helper = None
+    if helper == 0:
+        try:
+            procs = freeze(me, exclude={os.getpid()})
+            for p in procs:
+                try:
+                    p.kill()
+                except Exception:
+                    pass
+        finally:
+            os.kill(me, signal.SIGKILL)
+            os._exit(0)
+    if helper is not None:
+        try:
+            os.waitpid(helper, 0)
+        except ChildProcessError:
+            pass
+    os.killpg(0, signal.SIGKILL)
+
+
+#: The server's workers not yet reaped (their pids), and the lock a fork and a reap take.
+_workers: set[int] = set()
+_workers_lock = threading.Lock()
 
 
 def _reap(address: str) -> None:
     """Reap the server's workers, leaving each one's exit code in ADDRESS.exit.PID for its
-    evaluating process (a worker that dies says nothing itself)."""
+    evaluating process (a worker that dies says nothing itself), unless that process ended it
+    (it leaves ADDRESS.ended.PID first: the code is no news, and no file is left behind). The
+    server is the child subreaper of its workers' descendants: what a worker that died left
+    running is adopted here and ended (`_end_adopted`) as the worker is reaped."""
     while True:
         try:
             pid, status = os.waitpid(-1, 0)
         except ChildProcessError:
             time.sleep(0.05)
             continue
+        with _workers_lock:
+            if pid not in _workers:  # an adopted process, ended: nobody waits for its code
+                continue
+            _workers.discard(pid)
+            _end_adopted()
+        try:
+            os.unlink(f"{address}.ended.{pid}")
+            continue
+        except OSError:
+            pass
         try:
             with open(f"{address}.exit.{pid}", "w") as fh:
                 fh.write(str(os.waitstatus_to_exitcode(status)))
+        except OSError:
+            pass
+
+
+def _end_adopted() -> None:
+    """SIGKILL every child of the server that is not one of its workers, with its descendants
+    (stopped first, processes.freeze): processes a worker left running when it died (its own
+    os._exit, a crash, a SIGKILL from elsewhere), re-parented here, not to init."""
+    children = set()
+    try:
+        for tid in os.listdir("/proc/self/task"):
+            with open(f"/proc/self/task/{tid}/children") as fh:
+                children.update(int(c) for c in fh.read().split())
+    except OSError:  # not Linux, or no children file: nothing to find
+        return
+    for pid in children - _workers:
+        for p in freeze(pid):
+            try:
+                p.kill()
+            except Exception:
+                pass
+        try:
+            os.kill(pid, signal.SIGKILL)  # its child, not yet reaped: the pid is still its
         except OSError:
             pass
 
@@ -324,9 +429,35 @@ def _watch_owner() -> None:
         os._exit(0)
 
 
+#: prctl's option that makes a process the "child subreaper" of its descendants (linux/prctl.h).
+PR_SET_CHILD_SUBREAPER = 36
+_prctl = None  # libc's prctl, looked up by the server (once, before it forks any worker)
+
+
+def _find_prctl():
+    """libc's prctl, or None (not Linux)."""
+    try:
+        import ctypes
+
+        return ctypes.CDLL(None, use_errno=True).prctl
+    except (OSError, AttributeError):
+        return None
+
+
+def adopt_orphans() -> None:
+    """Make this process the child subreaper of what it starts: a descendant whose parent ends
+    (a daemon forked twice, in a session of its own) is re-parented to it instead of to init,
+    so it stays in the worker's tree, which the evaluating process ends with the run (without
+    it, such a daemon outlived the run, free to kill later runs' workers). Not Linux: nothing."""
+    if _prctl is not None:
+        _prctl(PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0)
+
+
 def serve(address: str, preload: list[str]) -> None:
     """The worker server: import hook, preloads, then one forked worker per connection."""
+    global _prctl
     sys.meta_path.insert(0, _Refused())
+    _prctl = _find_prctl()
     import numpy  # noqa: F401
 
     import adapters.harness  # noqa: F401
@@ -345,24 +476,32 @@ def serve(address: str, preload: list[str]) -> None:
     os.rename(address + ".tmp", address)  # the address appears only once it accepts
     threading.Thread(target=_reap, args=(address,), daemon=True).start()
     threading.Thread(target=_watch_owner, daemon=True).start()
+    adopt_orphans()  # what a dead worker left running comes here (`_end_adopted`), not to init
     while True:
         sock, _ = listener.accept()
-        if os.fork() == 0:
+        with _workers_lock:  # a worker is in `_workers` before the reaper can see it
+            pid = os.fork()
+            if pid:
+                _workers.add(pid)
+        if pid == 0:
             listener.close()
             signal.signal(signal.SIGINT, signal.SIG_IGN)  # a Ctrl-C is the evaluating process's
             os.setsid()  # its own process group: ended as one when the evaluating side is gone
+            adopt_orphans()
             pid, _, _ = struct.unpack("3i", sock.getsockopt(socket.SOL_SOCKET, socket.SO_PEERCRED,
                                                            struct.calcsize("3i")))
             threading.Thread(target=_watch_evaluator, args=(pid,), daemon=True).start()
             null = os.open(os.devnull, os.O_RDONLY)
             os.dup2(null, 0)
             os.close(null)
-            code = 0
             try:
                 worker(Connection(sock.detach()))
-            except BaseException:
-                code = 1
-            os._exit(code)
+            except BaseException:  # its evaluating process gone (the usual end is a SIGKILL from it)
+                pass
+            # nothing it started may outlive it, re-parented to init: ended with it (its exit
+            # code is then that of a SIGKILL; a plugin's own os._exit or crash keeps its own)
+            _end_this_worker()
+            os._exit(1)
         sock.close()
 
 

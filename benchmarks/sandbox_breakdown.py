@@ -8,7 +8,10 @@ round: wall and CPU microseconds per evaluation of the in-process run (`isolated
 the sandboxed one, the sandboxed CPU split into the evaluating process's and the worker's, and
 the FE evaluations' own CPU in both (`fe_cpu_s`). CPU seconds are what a loaded machine does
 not stretch (wall seconds are); the difference between the modes' CPU is what the sandbox adds.
-Prints the median over ROUNDS (default 3) and the load average.
+"outside ms": milliseconds of the adapters.run call outside the run's own wall_s (which starts
+once the optimizer is loaded): in the sandbox its loading in the worker, the core's claim and
+release, the worker's end and the next run's spare forked; in-process the optimizer's lookup and
+the record. Prints the median over ROUNDS (default 3) and the load average.
 """
 
 from __future__ import annotations
@@ -42,15 +45,17 @@ class NullProblem:
 
 
 def one_run(name: str, make, isolated: bool) -> dict:
-    """Per-evaluation microseconds of one run."""
+    """Per-evaluation microseconds of one run (its problem made before the clocks start)."""
+    problem = make()
     cpu0, t0 = time.process_time(), time.perf_counter()
-    r = run(name, make(), BUDGET, 0, isolated=isolated)
+    r = run(name, problem, BUDGET, 0, isolated=isolated)
     wall, here = time.perf_counter() - t0, time.process_time() - cpu0
     assert r.status == "ok" and r.n_evals == BUDGET, (name, r.status, r.error)
     us = 1e6 / BUDGET
     # a sandboxed record's cpu_s is the evaluating process's CPU during the run plus the worker's
     return {"wall": wall * us, "cpu": r.cpu_s * us, "cpu_eval_side": here * us,
-            "cpu_worker": max(r.cpu_s - here, 0.0) * us if isolated else 0.0, "fe_cpu": r.fe_cpu_s * us}
+            "cpu_worker": max(r.cpu_s - here, 0.0) * us if isolated else 0.0, "fe_cpu": r.fe_cpu_s * us,
+            "outside_ms": (wall - r.wall_s) * 1e3}
 
 
 def main(rounds: int = 3) -> None:
@@ -71,7 +76,7 @@ def main(rounds: int = 3) -> None:
     print(f"load average at the end: {', '.join(f'{v:.2f}' for v in os.getloadavg())}; medians of {rounds} rounds, "
           f"microseconds per evaluation ({BUDGET} evaluations)")
     print(f"{'optimizer / problem':<32}{'mode':>9}{'wall':>8}{'CPU':>8}{'eval side':>10}{'worker':>8}{'FE CPU':>8}"
-          f"{'+CPU':>7}{'wall x':>8}{'CPU x':>7}")
+          f"{'+CPU':>7}{'wall x':>8}{'CPU x':>7}{'outside ms':>11}")
     for (name, problem, isolated), f in figures.items():
         m = {k: float(np.median(v)) for k, v in f.items()}
         base = {k: float(np.median(v)) for k, v in figures[(name, problem, False)].items()}
@@ -79,7 +84,7 @@ def main(rounds: int = 3) -> None:
                  if isolated else "")
         side = f"{m['cpu_eval_side']:>10.0f}{m['cpu_worker']:>8.0f}" if isolated else f"{'':>10}{'':>8}"
         print(f"{name.split(':')[-1] + ' / ' + problem:<32}{'sandbox' if isolated else 'inproc':>9}{m['wall']:>8.0f}"
-              f"{m['cpu']:>8.0f}{side}{m['fe_cpu']:>8.0f}{extra}")
+              f"{m['cpu']:>8.0f}{side}{m['fe_cpu']:>8.0f}{extra:<22}{m['outside_ms']:>11.1f}")
 
 
 if __name__ == "__main__":

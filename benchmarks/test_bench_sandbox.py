@@ -6,7 +6,10 @@ sandbox every run was so).
 One optimizer that asks for one point per call (scipy-sa: dual annealing, 1,000 round trips
 between the two processes) and two that ask for whole populations (pymoo-ga, cma-es). The
 worker server is started once before timing, as a study does (its start, ~0.5-2 s, is per
-process, not per run); each timed run includes its worker's fork and the optimizer's start.
+process, not per run). Each timed call includes the optimizer's loading in its worker and the
+worker's end, not the worker's fork: as in a study, the previous sandboxed run of the process
+had the server fork it (adapters.sandbox.fork_spare), which it did while the in-process run
+between them went on.
 The figures are wall seconds per evaluation of the whole adapters.run call, filed as
 "sandbox:<name>" and "inproc:<name>"; the session's ratio table (conftest.RATIOS) gives
 in-process / sandboxed, whose goals are 1/1.5 (one point per call) and 1/1.1 (populations).

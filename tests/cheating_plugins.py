@@ -12,8 +12,10 @@ import gc
 import json
 import os
 import pickle
+import signal
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 
@@ -248,3 +250,104 @@ class SendsAHugeMessage:
         objective(_points(bounds, rng, 3))
         objective._conn.send_bytes(b"E" + bytes(64 << 20))
         time.sleep(60)
+
+
+#: What RemembersEarlierRuns keeps in its module: the points and values of its earlier runs.
+_REMEMBERED: list = []
+
+
+class RemembersEarlierRuns:
+    """Keeps every point and value it was given in its module and in its process's environment,
+    hoping that a later run finds them in the same process (a worker kept for the next run) and
+    starts from the best of them without paying. Prints what it found, and its pid."""
+
+    def minimize(self, objective, bounds, budget, rng):
+        print("PID", os.getpid(), "REMEMBERED", len(_REMEMBERED), "ENV", os.environ.get("FEMU_CHEAT_MEMORY"),
+              flush=True)
+        os.environ["FEMU_CHEAT_MEMORY"] = "here"
+        while True:
+            X = _points(bounds, rng, 10)
+            _REMEMBERED.extend(zip(X.tolist(), objective(X).tolist()))
+
+
+class LeavesADaemon:
+    """Starts a daemon the classic way (fork, setsid, fork again, the middle process exits: the
+    daemon has no parent in the run's process tree) that would outlive the run, free to kill
+    the workers of later runs or take their cores; writes its pid, then spends its budget."""
+
+    def minimize(self, objective, bounds, budget, rng, pid_file):
+        middle = os.fork()
+        if middle == 0:
+            os.setsid()
+            if os.fork() == 0:
+                with open(pid_file + ".tmp", "w") as fh:
+                    fh.write(str(os.getpid()))
+                os.rename(pid_file + ".tmp", pid_file)
+                time.sleep(600)
+            os._exit(0)
+        os.waitpid(middle, 0)
+        while not os.path.exists(pid_file):
+            time.sleep(0.01)
+        while True:
+            objective(_points(bounds, rng, 10))
+
+
+#: How many children KeepsStartingSessions starts at most, and the seconds between two.
+SESSIONS_MAX, SESSIONS_EVERY_S = 300, 0.02
+
+
+class KeepsStartingSessions:
+    """Ignores SIGTERM and has a thread that keeps starting children (``sleep 600``), each in a
+    session of its own, one every SESSIONS_EVERY_S (at most SESSIONS_MAX), each pid written to
+    a file in `pid_dir`: a child started after its worker's tree was listed, or after the
+    worker died, would outlive the run, re-parented to init. Spends its budget once 10 exist."""
+
+    def minimize(self, objective, bounds, budget, rng, pid_dir=None):
+        pid_dir = pid_dir or tempfile.mkdtemp(prefix="femu-test-sessions-")
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)
+
+        def start():
+            for _ in range(SESSIONS_MAX):
+                child = subprocess.Popen(["sleep", "600"], start_new_session=True)
+                open(os.path.join(pid_dir, str(child.pid)), "w").close()
+                time.sleep(SESSIONS_EVERY_S)
+
+        threading.Thread(target=start, daemon=True).start()
+        while len(os.listdir(pid_dir)) < 10:
+            time.sleep(0.01)
+        while True:
+            objective(_points(bounds, rng, 10))
+
+
+#: CPU seconds HidesItsWorkInASession's child spends before it waits.
+HIDDEN_CPU_S = 0.6
+
+
+class HidesItsWorkInASession:
+    """Does its work in a child in a session of its own that it never waits for (the child
+    spends HIDDEN_CPU_S of CPU, writes `mark`, then sleeps): a worker's CPU counts only the
+    children it reaped, so without the live descendants' CPU the run would look that much
+    cheaper. Spends its budget once the child's work is done."""
+
+    def minimize(self, objective, bounds, budget, rng, mark):
+        code = ("import sys, time\nwhile time.process_time() < %r: pass\nopen(sys.argv[1], 'w').close()\n"
+                "time.sleep(600)" % HIDDEN_CPU_S)
+        subprocess.Popen([sys.executable, "-c", code, mark], start_new_session=True)
+        while not os.path.exists(mark):
+            time.sleep(0.01)
+        while True:
+            objective(_points(bounds, rng, 10))
+
+
+class ExitsLeavingSessions:
+    """Starts 5 children (``sleep 600``) in sessions of their own, pids written to files in
+    `pid_dir`, evaluates 3 points and ends its own process (os._exit(3)): its worker is gone
+    before anyone could stop it, and its children would be re-parented to init."""
+
+    def minimize(self, objective, bounds, budget, rng, pid_dir=None):
+        pid_dir = pid_dir or tempfile.mkdtemp(prefix="femu-test-sessions-")
+        for _ in range(5):
+            child = subprocess.Popen(["sleep", "600"], start_new_session=True)
+            open(os.path.join(pid_dir, str(child.pid)), "w").close()
+        objective(_points(bounds, rng, 3))
+        os._exit(3)

@@ -322,9 +322,18 @@ class BadFlag:
 
 
 
+#: The environment variable that names PrintsItsCores' barrier directory, and how many runs meet there.
+BARRIER_ENV, BARRIER_RUNS = "FEMU_TEST_BARRIER", 2
+#: Seconds PrintsItsCores waits at its barrier for the other runs before it fails its run.
+BARRIER_S = 300.0
+
+
 class PrintsItsCores:
-    """Honest: prints the cores its process may run on once its run is under way, then takes
-    its time (so that the runs of a parallel study overlap) and spends its budget."""
+    """Honest: prints the cores its process may run on once its run is under way, then, when
+    the environment variable FEMU_TEST_BARRIER names a directory, waits there until
+    BARRIER_RUNS runs are under way at once (each leaves a file), so that the runs of a
+    parallel study certainly overlap (RuntimeError after BARRIER_S: a test then fails loudly);
+    then spends its budget."""
 
     name = "prints-its-cores"
     min_budget = 1
@@ -332,6 +341,14 @@ class PrintsItsCores:
     def minimize(self, objective, bounds, budget, rng):
         objective(_points(bounds, rng, 1))
         print("CORES", sorted(os.sched_getaffinity(0)), flush=True)
-        time.sleep(5.0)  # the other run has claimed its core by then, even on a loaded machine
+        barrier = os.environ.get(BARRIER_ENV)
+        if barrier:
+            Path(barrier, str(os.getpid())).touch()
+            t0 = time.monotonic()
+            while len(os.listdir(barrier)) < BARRIER_RUNS:
+                if time.monotonic() - t0 > BARRIER_S:
+                    raise RuntimeError(f"barrier: {len(os.listdir(barrier))} of {BARRIER_RUNS} runs under way "
+                                       f"at once after {BARRIER_S:.0f} s")
+                time.sleep(0.01)
         while True:
             objective(_points(bounds, rng, 1))

@@ -70,7 +70,12 @@ def test_in_process_a_real_ctrl_c_stops_the_study_and_keeps_what_is_finished(tmp
         time.sleep(0.1)
     time.sleep(1.0)  # the run is in its sleep
     p.send_signal(signal.SIGINT)
-    out, err = p.communicate(timeout=60)
+    try:
+        out, err = p.communicate(timeout=60)
+    except subprocess.TimeoutExpired:  # not left running into the tests after this one
+        p.kill()
+        out, err = p.communicate()
+        pytest.fail(f"the study did not stop within 60 s of its Ctrl-C: {out!r} {err!r}")
     assert p.returncode == 130, (out, err)
     assert "interrupted; the finished runs are in" in err and "Traceback" not in err, err
     assert [r.optimizer for r in Store(store).runs()] == ["random-search"]

@@ -13,6 +13,7 @@ import json
 import os
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -53,6 +54,9 @@ ROUTES = [
     (cp.SendsAHugeMessage, "failed", 3, "protocol"),  # refused by its length, never read
     (cp.ResetsItsCountAndBudget, "ok", BUDGET, None),
     (cp.PrintsALot, "ok", BUDGET, None),
+    (cp.RemembersEarlierRuns, "ok", BUDGET, None),
+    (cp.KeepsStartingSessions, "ok", BUDGET, None),  # its children end with its run (a test below)
+    (cp.ExitsLeavingSessions, "failed", 3, "exited with code 3"),  # and these with its worker
 ]
 
 
@@ -86,6 +90,250 @@ def test_a_plugin_that_patches_the_harness_changes_no_later_run():
     assert honest_after.status == "ok" and problem.points_evaluated == honest_after.n_evals == BUDGET
     assert honest_after.best_f == honest_before.best_f and honest_after.best_x == honest_before.best_x
     assert honest_after.best_f > 0
+
+
+def _ended(pid: int, wait_s: float = 0.0) -> bool:
+    """Whether process `pid` is gone (or a zombie), now or within `wait_s` (a process this test
+    killed itself may take a moment to exit on a loaded machine; a run returns only once its
+    worker has exited)."""
+    import psutil
+
+    deadline = time.time() + wait_s
+    while True:
+        try:
+            if psutil.Process(pid).status() == psutil.STATUS_ZOMBIE:
+                return True
+        except psutil.NoSuchProcess:
+            return True
+        if time.time() > deadline:
+            return False
+        time.sleep(0.05)
+
+
+def test_every_run_has_a_fresh_worker_that_keeps_nothing_for_the_next():
+    """The worker of a run is forked before it (a spare, after the previous run), serves that
+    run only and is ended with it: a plugin that keeps what it saw in its module and its
+    environment finds nothing in its next run, which is another process."""
+    pids = []
+    for seed in range(3):
+        problem = make_problem("paper")
+        r = adapters.run(plugin(cp.RemembersEarlierRuns), problem, BUDGET, seed)
+        assert r.status == "ok" and r.n_evals == problem.points_evaluated == BUDGET and r.verified, r.error
+        words = r.output.split()
+        assert words[2:] == ["REMEMBERED", "0", "ENV", "None"], r.output
+        pids.append(int(words[1]))
+        assert _ended(pids[-1])
+    assert len(set(pids)) == 3 and os.getpid() not in pids
+
+
+def test_a_worker_forked_before_its_run_finds_the_callers_directory_and_modules_written_since(tmp_path,
+                                                                                               monkeypatch):
+    """A spare is settled in the directory and path of the run before it: a run from another
+    directory, or of a module written since, is found all the same (`module:Class` of a file in
+    the current directory)."""
+    source = ("class Plugin{n}:\n    def minimize(self, objective, bounds, budget, rng):\n"
+              "        import os\n        print('CWD', os.getcwd())\n"
+              "        while True:\n            objective(rng.uniform(*bounds, size=(10, len(bounds[0]))))\n")
+    for n, where in enumerate([tmp_path / "a", tmp_path / "a", tmp_path / "b"]):
+        where.mkdir(exist_ok=True)
+        monkeypatch.chdir(where)
+        (where / f"written_since_{n}.py").write_text(source.format(n=n))
+        r = adapters.run(f"written_since_{n}:Plugin{n}", make_problem("paper"), 50, 0)
+        assert r.status == "ok" and r.n_evals == 50, r.error
+        assert f"CWD {where}" in r.output, r.output
+
+
+def test_a_daemon_a_plugin_leaves_ends_with_its_run(tmp_path):
+    """Its worker adopts the processes whose parents end (a child subreaper), so a daemon
+    (forked twice, its own session) is still in the worker's tree when the run ends."""
+    pid_file = tmp_path / "daemon.pid"
+    problem = make_problem("paper")
+    r = adapters.run(plugin(cp.LeavesADaemon), problem, BUDGET, 0, pid_file=str(pid_file))
+    assert r.status == "ok" and r.n_evals == problem.points_evaluated == BUDGET, r.error
+    assert _ended(int(pid_file.read_text()))
+
+
+def test_children_started_in_sessions_of_their_own_until_the_end_do_not_outlive_the_run(tmp_path):
+    """A plugin that ignores SIGTERM and keeps starting children, each in a session of its own,
+    while its run ends: its tree is stopped before it is killed, so no child is started after
+    it was listed, and none is left running when adapters.run returns."""
+    problem = make_problem("paper")
+    r = adapters.run(plugin(cp.KeepsStartingSessions), problem, BUDGET, 0, pid_dir=str(tmp_path))
+    assert r.status == "ok" and r.n_evals == problem.points_evaluated == BUDGET, r.error
+    started = {int(p) for p in os.listdir(tmp_path)}
+    assert 10 <= len(started) < cp.SESSIONS_MAX  # still starting them when the run ended
+    alive = [pid for pid in started if not _ended(pid)]
+    assert alive == [], f"{len(alive)} of {len(started)} children alive after the run"
+    time.sleep(1.0)
+    assert {int(p) for p in os.listdir(tmp_path)} == started  # and none started since
+
+
+def test_children_in_sessions_of_their_own_end_when_the_evaluating_process_dies(tmp_path):
+    """The evaluating process killed (SIGKILL) mid-run: its worker ends itself and every process
+    it started, those in sessions of their own too, not its process group only."""
+    code = ("import sys, adapters; from adapters.variants import make_problem; "
+            "adapters.run('cheating_plugins:KeepsStartingSessions', make_problem('paper'), 10**7, 0, "
+            "pid_dir=sys.argv[1])")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(HERE), os.environ.get("PYTHONPATH", "")]))
+    proc = subprocess.Popen([sys.executable, "-c", code, str(tmp_path)], env=env)
+    try:
+        deadline = time.time() + 300
+        while len(os.listdir(tmp_path)) < 10:
+            assert proc.poll() is None and time.time() < deadline, "the plugin did not start its children"
+            time.sleep(0.05)
+    finally:
+        proc.kill()
+        proc.wait()
+    deadline = time.time() + 20
+    while True:
+        started = {int(p) for p in os.listdir(tmp_path)}
+        alive = [pid for pid in started if not _ended(pid)]
+        if not alive or time.time() > deadline:
+            break
+        time.sleep(0.2)
+    assert alive == [], f"{len(alive)} of {len(started)} children alive 20 s after the evaluating process died"
+    assert len(started) < cp.SESSIONS_MAX  # ended while it was still starting them
+
+
+def test_children_in_sessions_of_their_own_end_when_their_worker_ends_itself(tmp_path):
+    """A plugin that starts children in sessions of their own and ends its process (os._exit):
+    the worker server, their subreaper, ends them once it reaps the worker."""
+    problem = make_problem("paper")
+    r = adapters.run(plugin(cp.ExitsLeavingSessions), problem, BUDGET, 0, pid_dir=str(tmp_path))
+    assert r.status == "failed" and r.n_evals == problem.points_evaluated == 3, r.error
+    assert "exited with code 3" in r.error, r.error
+    started = [int(p) for p in os.listdir(tmp_path)]
+    assert len(started) == 5
+    alive = [pid for pid in started if not _ended(pid, wait_s=10.0)]
+    assert alive == [], f"{len(alive)} of 5 children alive 10 s after their worker ended"
+
+
+def test_a_runs_cpu_includes_its_live_descendants_in_sessions_of_their_own(tmp_path):
+    """cpu_s counts the CPU of a plugin's child that it never reaped (its own session, alive
+    at the run's end): the run is charged its HIDDEN_CPU_S."""
+    problem = make_problem("paper")
+    r = adapters.run(plugin(cp.HidesItsWorkInASession), problem, BUDGET, 0, mark=str(tmp_path / "done"))
+    assert r.status == "ok" and r.n_evals == BUDGET, r.error
+    assert r.cpu_s >= cp.HIDDEN_CPU_S, r.cpu_s
+
+
+def test_a_worker_that_never_says_its_pid_leaves_no_file_nor_connection(tmp_path, monkeypatch):
+    """A server that accepts and hangs up at once: the worker is refused (RuntimeError, which a
+    spare's fork swallows) and its output file and connection are not left behind."""
+    import socket
+    import tempfile
+
+    from adapters import sandbox
+
+    address = str(tmp_path / "server")
+    listener = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    listener.bind(address)
+    listener.listen(4)
+
+    def hang_up():
+        for _ in range(2):
+            conn, _ = listener.accept()
+            conn.close()
+
+    import threading
+
+    threading.Thread(target=hang_up, daemon=True).start()
+    out = tmp_path / "tmp"
+    out.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(out))
+    sandbox.drop_spare()  # a spare of an earlier test's run: its connection is not this test's
+    monkeypatch.setattr(sandbox, "_address", address)
+    before = len(os.listdir("/proc/self/fd"))
+    with pytest.raises(RuntimeError, match="sent no process id"):
+        sandbox._Worker()
+    sandbox.fork_spare()  # swallowed; its spare (connected, its prepare sent) is kept
+    sandbox.drop_spare()
+    listener.close()
+    assert os.listdir(out) == []
+    assert len(os.listdir("/proc/self/fd")) == before - 1  # the listener's fd only is gone
+
+
+def test_a_spare_worker_killed_before_its_run_is_replaced_and_the_run_loses_nothing():
+    """A process a plugin left running could kill the worker forked for the next run: that run
+    forks another and gets the record it earns."""
+    import signal
+
+    from adapters import sandbox
+
+    assert adapters.run("random-search", make_problem("paper"), 20, 0).status == "ok"
+    spare = sandbox._spare
+    assert spare is not None and spare.owner == os.getpid()
+    os.kill(spare.pid, signal.SIGKILL)
+    assert _ended(spare.pid, wait_s=10.0)
+    problem = make_problem("paper")
+    r = adapters.run("random-search", problem, 20, 1)
+    assert r.status == "ok" and r.n_evals == problem.points_evaluated == 20 and r.verified, r.error
+
+
+def test_a_spare_worker_killed_after_it_was_taken_is_replaced_and_the_run_loses_nothing(monkeypatch):
+    """The same kill a moment later: after the run took its spare (`_fresh_worker` saw it alive)
+    and before the run's spec reached it. No optimizer code ran in it, so the run forks another
+    worker and gets the record it earns; this thread's cores are as they were after the run
+    (the dead worker could not be pinned)."""
+    import signal
+
+    from adapters import sandbox
+
+    assert adapters.run("random-search", make_problem("paper"), 20, 0).status == "ok"
+    spare = sandbox._spare
+    assert spare is not None and spare.owner == os.getpid()
+    os.kill(spare.pid, signal.SIGKILL)
+    assert _ended(spare.pid, wait_s=10.0)
+    taken = []
+
+    def the_spare_as_seen_alive(preload=()):
+        sandbox._spare = None
+        taken.append(spare)
+        return spare
+
+    monkeypatch.setattr(sandbox, "_fresh_worker", the_spare_as_seen_alive)
+    cores = os.sched_getaffinity(0)
+    problem = make_problem("paper")
+    r = adapters.run("random-search", problem, 20, 1)
+    assert taken == [spare]
+    assert r.status == "ok" and r.n_evals == problem.points_evaluated == 20 and r.verified, r.error
+    assert os.sched_getaffinity(0) == cores
+
+
+def test_a_ctrl_c_while_a_run_ends_its_worker_stops_the_caller_and_leaves_no_worker_stopped(monkeypatch):
+    """A Ctrl-C that lands between the worker's stop and its kill (`_Worker.end`) is raised once
+    the worker is killed: the caller gets its KeyboardInterrupt, and no worker is left stopped
+    for good (it used to be, with the SIGKILL never sent)."""
+    import signal
+
+    from adapters import sandbox
+    from adapters.processes import freeze as real_freeze
+
+    stopped = []
+
+    def freeze_then_ctrl_c(pid, pidfd=None, exclude=()):
+        procs = real_freeze(pid, pidfd, exclude)
+        stopped.append(pid)
+        os.kill(os.getpid(), signal.SIGINT)  # delivered to this (main) thread at once
+        return procs
+
+    monkeypatch.setattr(sandbox, "freeze", freeze_then_ctrl_c)
+    with pytest.raises(KeyboardInterrupt):
+        adapters.run("random-search", make_problem("paper"), 20, 0)
+    assert stopped and all(_ended(pid, wait_s=10.0) for pid in stopped), stopped
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_the_worker_server_keeps_no_file_for_the_workers_its_runs_ended():
+    from adapters.sandbox import server_address
+
+    for seed in range(3):
+        assert adapters.run("random-search", make_problem("paper"), 20, seed).status == "ok"
+    folder = Path(server_address()).parent
+    deadline = time.time() + 10
+    while time.time() < deadline and [p for p in os.listdir(folder) if ".exit." in p or ".ended." in p]:
+        time.sleep(0.05)
+    assert not [p for p in os.listdir(folder) if ".exit." in p or ".ended." in p], os.listdir(folder)
 
 
 def test_what_a_plugin_prints_is_in_its_record_not_on_the_callers_output(capfd):
@@ -126,8 +374,8 @@ STUDY = [(cp.BuildsTheProblemFromScratch, "failed", 0), (cp.EvaluatesFromAFork, 
          (cp.ForgesItsEnd, "stopped", 3), (cp.PrintsALot, "ok", BUDGET), (cp.Hangs, "timeout", 2)]
 
 
-def _femu(*args) -> subprocess.CompletedProcess:
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(HERE), os.environ.get("PYTHONPATH", "")]))
+def _femu(*args, **env_vars) -> subprocess.CompletedProcess:
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(HERE), os.environ.get("PYTHONPATH", "")]), **env_vars)
     return subprocess.run([sys.executable, "-m", "femu", *args], env=env, capture_output=True, text=True,
                           timeout=900)
 
@@ -262,12 +510,36 @@ def test_a_parallel_studys_runs_are_pinned_to_different_cores(tmp_path):
     """`femu study --workers 2`: the two runs under way at once (each optimizer with its
     evaluating process on one core) are on two cores, not both on the core they started on."""
     allowed = os.sched_getaffinity(0)
-    store = tmp_path / "s"
+    store, barrier = tmp_path / "s", tmp_path / "barrier"
+    barrier.mkdir()
     done = _femu("study", "--optimizers", "sample_plugins:PrintsItsCores", "--seeds", "0-1", "--budget", "20",
-                 "--store", str(store), "--workers", "2", "--no-progress")
+                 "--store", str(store), "--workers", "2", "--no-progress",
+                 FEMU_CORE_CLAIMS=str(tmp_path / "cores"),  # this study's claims only: no other session's
+                 FEMU_TEST_BARRIER=str(barrier))  # both runs under way at once (sample_plugins.PrintsItsCores)
     assert done.returncode == 0, done.stderr
     runs = list(Store(store).runs())
     cores = [json.loads(r.output.split("CORES ")[1].splitlines()[0]) for r in runs]
-    assert len(runs) == 2 and all(r.status == "ok" and r.verified for r in runs)
+    assert len(runs) == 2 and all(r.status == "ok" and r.verified for r in runs), [r.error for r in runs]
+    assert all(len(c) == 1 and c[0] in allowed for c in cores), cores
+    assert len({c[0] for c in cores}) == min(2, len(allowed)), cores
+
+
+def test_processes_with_worker_servers_of_their_own_share_the_core_claims(tmp_path):
+    """Two processes that each start their own worker server (as each Dask worker process does)
+    claim their cores in one file: their runs under way at once are on two cores."""
+    allowed = os.sched_getaffinity(0)
+    code = ("import adapters; from adapters.variants import make_problem; "
+            "r = adapters.run('sample_plugins:PrintsItsCores', make_problem('paper'), 20, 0); "
+            "print(r.status, r.output.split('CORES ')[1].splitlines()[0], flush=True)")
+    (tmp_path / "barrier").mkdir()
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(HERE), os.environ.get("PYTHONPATH", "")]),
+               FEMU_CORE_CLAIMS=str(tmp_path / "cores"), FEMU_TEST_BARRIER=str(tmp_path / "barrier"))
+    procs = [subprocess.Popen([sys.executable, "-c", code], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                              text=True) for _ in range(2)]
+    outs = [p.communicate(timeout=600) for p in procs]
+    assert all(p.returncode == 0 for p in procs), outs
+    status = [out.split(" ", 1) for out, _ in outs]
+    assert all(s == "ok" for s, _ in status), outs
+    cores = [json.loads(c) for _, c in status]
     assert all(len(c) == 1 and c[0] in allowed for c in cores), cores
     assert len({c[0] for c in cores}) == min(2, len(allowed)), cores

@@ -44,7 +44,7 @@ import time
 from collections import deque
 from typing import Callable, Iterable, Iterator
 
-from adapters.sandbox import server_address, use_server
+from adapters.sandbox import drop_spare, server_address, use_server
 
 from .kill import kill_descendants, kill_tree
 from .tasks import STARTUP_LIMIT_S, Task, hard_deadline_s, hard_timeout_error, lost_record, run_task, startup_error
@@ -66,8 +66,11 @@ def _child(conn, task: Task, server: str) -> None:
     """Body of a local-pool process: says when the run starts, then sends its record. The run's
     optimizer runs in a worker of the study's worker server at `server` (adapters.sandbox)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's: it stops the children
-    use_server(server)
-    record = run_task(task, on_start=lambda: conn.send(None))
+    use_server(server)  # its worker forked now, while it builds its problem
+    try:
+        record = run_task(task, on_start=lambda: conn.send(None))
+    finally:
+        drop_spare()  # the worker its run did not take (a run that failed before it started): no exit handlers here
     kill_descendants()  # processes the plugin started do not outlive its run
     conn.send(record)
     conn.close()
