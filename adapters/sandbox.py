@@ -518,8 +518,8 @@ def _interrupt_after():
         yield
     finally:
         signal.signal(signal.SIGINT, signal.default_int_handler)
-    if pressed:
-        raise KeyboardInterrupt
+        if pressed:  # raised even when the block raised: a Ctrl-C is never lost
+            raise KeyboardInterrupt
 
 
 class _NeverGotItsRun(ValueError):

@@ -223,3 +223,22 @@ def test_a_candidate_found_by_its_label_is_the_listed_one(case, kind, profile, w
     a = np.asarray(listed.grid, dtype=float)[[3, 8]]
     for got, want in zip(found.forward(a), listed.forward(a)):
         assert np.array_equal(got, want)
+
+
+def test_a_size_that_is_not_a_number_is_solved_not_looked_up():
+    """A NaN size is no dictionary key (hash(nan) is per object since Python 3.10): the kept
+    sizes (`candidates._Remembered`) pass a batch holding one to the solve as it is, which gives
+    its rows (NaN for the NaN size), instead of failing on a key it just stored."""
+    from fe_problem.diagnosis.candidates import _Remembered
+
+    calls = []
+
+    def forward(a):
+        calls.append(np.array(a))
+        return np.outer(a, [1.0, 2.0]), np.zeros((len(a), 2, 3))
+
+    kept = _Remembered(forward)
+    hz, shapes = kept(np.array([0.5, np.nan]))
+    assert hz.shape == (2, 2) and shapes.shape == (2, 2, 3)
+    assert np.array_equal(hz[0], [0.5, 1.0]) and np.isnan(hz[1]).all()
+    assert len(calls) == 1 and np.array_equal(calls[0], [0.5, np.nan], equal_nan=True)

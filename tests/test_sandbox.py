@@ -303,7 +303,9 @@ def test_a_spare_worker_killed_after_it_was_taken_is_replaced_and_the_run_loses_
 def test_a_ctrl_c_while_a_run_ends_its_worker_stops_the_caller_and_leaves_no_worker_stopped(monkeypatch):
     """A Ctrl-C that lands between the worker's stop and its kill (`_Worker.end`) is raised once
     the worker is killed: the caller gets its KeyboardInterrupt, and no worker is left stopped
-    for good (it used to be, with the SIGKILL never sent)."""
+    for good (it used to be, with the SIGKILL never sent). The patched stop presses Ctrl-C each
+    time: first in the run's own stop after its last request (an interrupt there reaches
+    `_Worker.end` as before), then in the stop inside `_Worker.end`, the one this checks."""
     import signal
 
     from adapters import sandbox

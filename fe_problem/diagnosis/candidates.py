@@ -145,7 +145,7 @@ class _Remembered:
 
     def __call__(self, a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         a = np.asarray(a, dtype=float)
-        if a.size == 0:
+        if a.size == 0 or not np.isfinite(a).all():  # a NaN is no dict key (hash(nan) is per object)
             return self.solve(a)
         new = list(dict.fromkeys(float(v) for v in a if float(v) not in self.kept))
         if new:
