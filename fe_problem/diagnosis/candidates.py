@@ -151,7 +151,6 @@ class _Remembered:
         if new:
             hz, shapes = self.solve(np.array(new))
             for k, v in enumerate(new):
-                self.kept.pop(v, None)
                 self.kept[v] = (hz[k], shapes[k])
         rows = [self.kept[float(v)] for v in a]
         out = np.stack([r[0] for r in rows]), np.stack([r[1] for r in rows])

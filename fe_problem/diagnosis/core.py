@@ -267,8 +267,9 @@ def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str 
     # little about the noise (it would move every other class's evidence)
     reduced = [base.chi2 / obs.dof(1)] + [f.chi2 / obs.dof(2) for _, f, _ in fits]
     searched = _search_fits(obs, rounds) if several else []
+    chi2_s = min(f.chi2 for f in searched) if several else None
     if several:
-        reduced.append(min(f.chi2 for f in searched) / obs.dof(1 + len(rounds.sized)))
+        reduced.append(chi2_s / obs.dof(1 + len(rounds.sized)))
     if storeys is not None:
         reduced.append(storeys.fit.chi2 / obs.dof(1 + len(storeys.fit.theta)))
     d = max(1.0, min(reduced))
@@ -283,7 +284,6 @@ def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str 
         # on the modes every other row is judged on (`searched`), against the calibrated model's chi^2 there
         occam = sum(occam_log_factor(lambda a, c=c: [x.chi2 for x in chi2_batch(obs, c, np.asarray(a))], f.a,
                                      c.upper, d) for (c, _), f in zip(rounds.sized, searched))
-        chi2_s = min(f.chi2 for f in searched)
         one = len(rounds.sized) == 1
         search.append(ScoredClass(" + ".join(c.label for c, _ in rounds.sized), "local" if one else "several",
                                   len(rounds.sized), chi2_s, -(chi2_s - base.chi2) / (2 * d) + occam,
