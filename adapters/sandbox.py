@@ -472,9 +472,10 @@ def run_isolated(name: str, problem, budget: int, seed: int, time_limit_s: float
             try:
                 described = _load(worker, name, spec(worker))
             except _NeverGotItsRun:
-                # it died before it had its run's spec (a process a plugin left running killed
-                # the spare between `_fresh_worker`'s look and the spec): no optimizer code ran in
-                # it, nothing was evaluated; the run takes a worker forked now
+                # it died before it answered its run's spec (a process a plugin left running killed
+                # the spare between `_fresh_worker`'s look and the spec): nothing was evaluated; the
+                # run takes a worker forked now, once (an optimizer that ends its process as it is
+                # loaded does so again, and that is the run's error)
                 worker.end()
                 worker = _Worker(_preload(name))
                 _pin(worker.pid, core)
@@ -523,7 +524,9 @@ def _interrupt_after():
 
 
 class _NeverGotItsRun(ValueError):
-    """A worker that ended before its run's spec reached it (`_load`): no optimizer code ran in it."""
+    """A worker that ended before it answered its run's spec (`_load`): nothing was evaluated.
+    (A worker killed as it waits may still take the spec: its process shows as ended while a
+    thread of it has not yet closed its connection.)"""
 
 
 def _load(worker: _Worker, name: str, spec: dict) -> dict:
@@ -538,8 +541,8 @@ def _load(worker: _Worker, name: str, spec: dict) -> dict:
     try:
         kind, why = _pair(_receive(worker.conn))
     except (EOFError, OSError):
-        raise ValueError(f"optimizer {name!r}: its process ended while it was loaded: "
-                         f"{worker.output()[-500:]}") from None
+        raise _NeverGotItsRun(f"optimizer {name!r}: its process ended while it was loaded: "
+                              f"{worker.output()[-500:]}") from None
     if kind != "ready":
         raise ValueError(why)
     return _description(why)
