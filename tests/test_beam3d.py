@@ -241,10 +241,11 @@ def opensees_modes(frame: Frame, timoshenko: bool, n_modes: int = N_MODES, map_t
 def opensees_modes_fresh(frame: Frame, timoshenko: bool, n_modes: int = N_MODES, **options):
     """`opensees_modes` run in a fresh Python process: the same numbers whatever ran before in
     this one. OpenSees' -fullGenLapack modes of one structure differ by up to 3e-14 in
-    frequency and 1e-13 in shape with the state of the process that calls it (the frame3d
-    with a corner-column zone after a modal analysis of the H-frame in the same process, or
-    a 12-entry dict made first), and a diagnosis of the data built on them is not the same
-    then (tests/test_space_zones.py, test_truth_does_not_depend_on_what_ran_before)."""
+    frequency, 1e-13 in shape and in the sign of some modes with the state of the process that
+    calls it (the frame3d with a corner-column zone after a modal analysis of the H-frame in the
+    same process, or a 12-entry dict made first; tests/test_space_zones.py,
+    test_truth_does_not_depend_on_what_ran_before). The signs once changed the noise drawn on
+    those modes (test_frame3d.measured now fixes them)."""
     code = ("import pickle, sys\n"
             "import numpy as np\n"
             "from test_beam3d import opensees_modes\n"

@@ -21,7 +21,7 @@ import fe_problem as fp
 from fe_problem.dofs import SPACE_FRAME
 from femu.cli import main
 
-from test_beam3d import FRAMES, Frame, Prop, mac_diagonal, opensees_modes
+from test_beam3d import FRAMES, Frame, Prop, mac_diagonal, opensees_modes, opensees_modes_fresh
 
 N_MODES = 10
 
@@ -242,7 +242,7 @@ def opensees_data(element_id: int | None = None, stretch=(0.0, 1.0 / 3.0), ratio
     nodes, members, masses = frame.nodes, frame.members, dict(frame.masses)
     if mass is not None:
         masses[mass[0]] = masses.get(mass[0], 0.0) + mass[1]
-    f, shapes = opensees_modes(Frame(nodes, members, frame.fixed, masses), False, n_modes)
+    f, shapes = opensees_modes_fresh(Frame(nodes, members, frame.fixed, masses), False, n_modes)  # any process
     return measured(model, list(nodes), f, shapes, seed, freq_noise, shape_noise,
                     meta={"source": "OpenSeesPy", "freq_noise": freq_noise, "shape_noise": shape_noise})
 
