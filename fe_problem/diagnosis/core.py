@@ -54,7 +54,7 @@ from .evidence import FACTOR_10, Evidence, ScoredClass, occam_log_factor, ranked
 from .groups import distributed_candidates
 from .modelform import model_form_candidates, screen_forms
 from .plausibility import few_dof_note
-from .fit import Fit, chi2_batch, fit, look_along, profiled, screen
+from .fit import Fit, brings, chi2_batch, fit, look_along, profiled, screen
 from . import answer, group_free, sparse_class
 from .nested import require_dynesty, rescored
 from .record import Cause, CandidateFit, Diagnosis, Gain, Noise, PinnedParameter, Residuals, Selection
@@ -561,14 +561,18 @@ class Screening:
     fitted: dict[int, Fit]
 
 
-def screen_and_fit(cal: Calibration, kinds, n_fit: int | None, keep=None) -> Screening:
+def screen_and_fit(cal: Calibration, kinds, n_fit: int | None, keep=None, bring=None) -> Screening:
     """Screen every candidate (those `keep` accepts) by its first-order chi^2 drop; fit the
     `n_fit` most promising (None: all), and always the global candidates (no place: a
     first-order screen misjudges them, being far from linear) and the two best screened
-    of every kind (a kind is never judged by another's linearisation)."""
+    of every kind (a kind is never judged by another's linearisation); `bring`: measured modes
+    (indices into `cal.obs`) the calibrated model leaves unpaired, and every candidate that
+    pairs one of them at some size of its grid is fitted too (`fit.brings`)."""
     cands = [c for c in all_candidates(cal.setting, kinds) if keep is None or keep(c)]
     screened = look_at_clipped(cal, cands, screen_candidates(cal, cands), n_fit)
     order, chosen = to_fit(cands, screened, n_fit)
+    if bring is not None and len(bring):
+        chosen |= {i for i in order if i not in chosen and brings(cal.obs, cands[i], bring)}
     fitted = {i: fit(cal.obs, cands[i], screened[i][1]) for i in order if i in chosen}
     order = [i for i in order if i in fitted] + [i for i in order if i not in fitted]
     return Screening(cands, screened, order, fitted)

@@ -108,6 +108,15 @@ def look_along(obs: Observations, cand: Candidate, base: Fit) -> tuple[float, fl
     return max(base.chi2 - best.chi2, 0.0), best.a
 
 
+def brings(obs: Observations, cand: Candidate, modes: np.ndarray) -> bool:
+    """Whether the candidate, at some size of its grid (one batched solve, pairing afresh at
+    every size), pairs one of the measured `modes` (indices into `obs`) that the model it
+    extends leaves unpaired: a mode only such a candidate can bring (a spring to ground's
+    suspension mode) is invisible to a screen that holds the pairing, and a mode no candidate
+    can bring (a noise shape) is no reason to fit them all (rounds._next_cause)."""
+    return any(bool((f.pairing[modes] >= 0).any()) for f in chi2_batch(obs, cand, cand.grid))
+
+
 def reduced_forward(cand: Candidate):
     """The candidate's reduced forward on the diagnosis's shared basis (reduced.py), or None
     where it has none."""

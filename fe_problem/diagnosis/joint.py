@@ -89,7 +89,7 @@ def choose(cal, st, picks, sizes, skip: int, cal_k, found_k, step, obs=None):
 
 def choose_bringing(cal, st, picks, sizes, skip: int, found_k, step, obs):
     """`choose` for a round in which a measured mode of `obs` pairs only once a cause brings it (a
-    spring to ground's suspension mode; every candidate fitted, `found_k`): the linearised screen
+    spring to ground's suspension mode; every candidate that pairs it fitted, `found_k`): the linearised screen
     of `choose` holds the pairing and cannot see a mode come to pair, so the `N_JOINT` best fitted
     effects by their fit with the earlier causes held are the ones refitted jointly. A spring held
     beside another at the size it took alone takes part of the other's effect: held, a spring at

@@ -4,8 +4,10 @@ candidates of that round, quasi-likelihood dispersion, alpha); the causes are th
 jointly (each cause's size refitted with the others at theirs, on the measured modes that pair
 with the extended model) and every earlier cause is chosen again with the others in the model
 (`_revisit`: replaced when another candidate improves the joint fit, dropped when nothing is
-significant in its place, its tie judged again; when the cause left out is what pairs a measured
-mode, every candidate is fitted, as a first-order screen cannot see a mode come to pair). The
+significant in its place, its tie judged again; when a measured mode pairs with no mode of the
+model without the cause sought, every candidate that pairs it at some size of its grid is fitted
+besides the screened ones, as a first-order screen cannot see a mode come to pair, and a mode
+that no candidate pairs, a noise shape, costs no fits). The
 search stops when a round finds nothing significant, when its candidates tie (that cause enters
 the model with its best candidate and is reported as not identifiable), when the revisit returns
 the causes to a set the search already held (a further round would repeat itself), or after
@@ -27,6 +29,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
+import numpy as np
 from scipy.optimize import minimize_scalar
 from scipy.stats import chi2 as chi2_dist
 
@@ -116,11 +119,10 @@ def further_causes(cal, found, sel, cause: Cause, kinds, n_fit, alpha: float, ma
     if len(cal.unpaired):
         # a measured mode the model has no partner for (a suspension mode; a mode a deep crack
         # moved past pairing): every cause chosen again on every measured mode, so that a cause
-        # that brings its partner is preferred. While the causes found do not bring it, every
-        # candidate is fitted (a first-order screen cannot see a mode come to pair); once they
-        # do, the usual screen chooses among candidates judged on every mode
-        brings = _final_obs(cal, st, state[0], state[1]).n_modes == cal.obs_all.n_modes
-        again = _revisit(cal, st, state, len(state[0]), kinds, n_fit if brings else None, alpha, cal.obs_all)
+        # that brings its partner is preferred. Each round fits, besides the screened, every
+        # candidate that pairs a mode the model without the cause sought leaves unpaired (a
+        # first-order screen cannot see a mode come to pair: `_next_cause`)
+        again = _revisit(cal, st, state, len(state[0]), kinds, n_fit, alpha, cal.obs_all)
         changed = again[0] != state[0]
         state = _search(cal, st, again, kinds, n_fit, alpha, max_causes) if changed else again
         if _final_obs(cal, st, state[0], state[1]).n_modes < cal.obs_all.n_modes:
@@ -194,17 +196,18 @@ def _next_cause(cal, st: Setting, picks, sizes, kinds, n_fit, alpha: float, skip
     places = [(k, _location(lab), _zone_centre(lab) is None) for j, (k, lab) in enumerate(picks) if j != skip]
     cal_k = calibrate(_with(st.model, st, picks, sizes, skip), cal.data, cal.obs.freq_noise, cal.obs.shape_noise,
                       st.model)
-    bringing = False
+    unpaired = np.zeros(0, dtype=int)
     if obs is not None:
         cal_k = dataclasses.replace(cal_k, obs=obs, base=profiled(obs, cal_k.hz0, cal_k.sh0))
-        bringing = bool((cal_k.base.pairing < 0).any())
-        if bringing:
-            # a mode of `obs` that only the cause sought brings (a spring to ground's suspension
-            # mode): a first-order screen cannot see a mode come to pair, so every candidate is
-            # fitted; screened, the cause itself was missed and dropped, then found again, forever
-            n_fit = None
+        unpaired = np.flatnonzero(cal_k.base.pairing < 0)
+    bringing = bool(len(unpaired))
+    # a mode of `obs` that only the cause sought brings (a spring to ground's suspension mode): a
+    # first-order screen cannot see a mode come to pair (screened, the cause itself was missed and
+    # dropped, then found again, forever), so every candidate that pairs it at some size is fitted
+    # (`fit.brings`); a mode that none brings (a noise shape) asks for no more fits than a round's
     ids = (frozenset(st.model.element_ids), frozenset(st.model.node_ids))  # once, not per candidate
-    found_k = screen_and_fit(cal_k, kinds, n_fit, keep=lambda c: _new_place(c, st.model, places, ids))
+    found_k = screen_and_fit(cal_k, kinds, n_fit, keep=lambda c: _new_place(c, st.model, places, ids),
+                             bring=unpaired)
     if not found_k.candidates:
         return None
     sel_k = select(cal_k, found_k, alpha)
