@@ -395,3 +395,32 @@ def test_the_standard_crack_beside_a_thinner_member_is_named_not_decisively(caps
                             + 2].startswith("  cannot tell apart stiffness_loss@element=10(zone 0.")
     assert (f"from member_depth@element=10(thinner) (log evidence {fmt(a['log_evidence'])} against "
             f"{fmt(ru['log_evidence'])})") in out
+
+
+def test_an_answer_of_another_class_says_the_local_search_found_nothing_significant(capsys, tmp_path):
+    """Element 1 of the H-frame 3.5 % less deep (the model file's section edited; the data of
+    tests/test_diagnosis_answer.py): no local candidate is significant and the answer is the
+    member's depth, by the evidence between model classes. The text and the report do not print
+    the test's p-value beside that answer as if it were the answer's ('p = 0.19 ... significant
+    below 0.01'): they say the local search found nothing significant and where the answer comes from."""
+    from diagnosis_cases import thinner_truth
+
+    data = fp.synthetic_measurement(thinner_truth(HFRAME, 1, 0.965), 8, dofs=HFRAME.measured_dofs, freq_noise=0.002,
+                                    shape_noise=0.02, seed=658136741, model_name="hframe")
+    path = fp.save_modal_data(data, tmp_path / "thin.json")
+    code, out, err = femu(capsys, "diagnose", path, "--out", tmp_path / "out")
+    assert code == 0, err
+    lines = out.splitlines()
+    head = lines.index(next(line for line in lines if line.startswith("CAUSE")))
+    assert lines[head].startswith("CAUSE: member_depth at element 1: depth_factor 0.96"), lines[head]
+    block = lines[head:lines.index("", head)]
+    said = [line for line in block if line.startswith("  the local search found nothing significant (p 0.")]
+    assert len(said) == 1, block
+    assert said[0].endswith("significant below 0.01): the answer comes from the evidence between model classes, "
+                            "not from that test"), said
+    assert not any(line.startswith("  p ") for line in block), block  # no bare p-value beside the answer
+    p = float(said[0].split("(p ")[1].split()[0])
+    assert p >= 0.01  # it is the test's: nothing significant
+    report = (tmp_path / "out" / "report.md").read_text()
+    assert "- the local search found nothing significant (p " in report
+    assert "- adjusted p-value" not in report

@@ -27,7 +27,7 @@ if TYPE_CHECKING:
     from fe_problem.diagnosis import Diagnosis
 from femu.reports.diagnosis_text import (answer_lines, cause_text, causes_lines, coordinate_labels, data_check_lines,
                                          estimate_text, evidence_lines, fmt, hz, mode_ranges, noise_text, pct,
-                                         threshold_chi2_drop, verdict_lines)
+                                         significance_beside_another_class, threshold_chi2_drop, verdict_lines)
 
 #: How many alternatives and COMAC coordinates the terminal summary lists.
 N_ALTERNATIVES = 5
@@ -149,8 +149,9 @@ def _cause_lines(diag: Diagnosis) -> list[str]:
     cause, sel = diag.cause, diag.selection
     head = "CAUSE" if diag.adequate is not False or cause.is_none else "CAUSE (best explanation, NOT an adequate fit)"
     lines = [f"{head}: {cause_text(cause)}"] + [f"  {line}" for line in answer_lines(diag)] + [
-             f"  p {_p_text(cause.p_adjusted)} (adjusted over {sel.n_candidates} candidates; "
-             f"significant below {fmt(sel.alpha, 2)})"]
+             "  " + (significance_beside_another_class(diag, _p_text(cause.p_adjusted).removeprefix("= "))
+                     or f"p {_p_text(cause.p_adjusted)} (adjusted over {sel.n_candidates} candidates; "
+                        f"significant below {fmt(sel.alpha, 2)})")]
     best, needed = diag.best, threshold_chi2_drop(sel)
     if cause.is_none and best is not None and needed is not None:
         lines.append(f"  best candidate {best.label}: chi^2 drop {fmt(best.chi2_drop)}, {fmt(needed, 3)} needed")

@@ -111,6 +111,24 @@ def answer_lines(diag: Diagnosis) -> list[str]:
     return lines
 
 
+def significance_beside_another_class(diag: Diagnosis, p_text: str) -> str | None:
+    """The significance test's outcome in words when the answer is not the local search's (a
+    distributed, sparse or model-form class), else None (the p-value line is the answer's own).
+    The test asks whether any local candidate is there; beside another class its p-value (a
+    'p 0.193 ... significant below 0.01' next to a thinner member) read as the answer's. p_text:
+    the adjusted p-value as the caller shows it."""
+    a = getattr(diag, "answer", None)
+    if a is None or a.is_local:
+        return None
+    sel = diag.selection
+    test = f"p {p_text} adjusted over {sel.n_candidates} candidates, significant below {fmt(sel.alpha, 2)}"
+    if diag.cause.p_adjusted >= sel.alpha:
+        return (f"the local search found nothing significant ({test}): the answer comes from the evidence "
+                "between model classes, not from that test")
+    return (f"the local search found a significant cause ({test}), but the answer comes from the evidence "
+            "between model classes, which puts another class first")
+
+
 #: How many model classes the evidence table shows.
 N_CLASSES = 6
 
@@ -258,8 +276,9 @@ def render_markdown(diag: Diagnosis, figures: dict, data_source: str, model_name
 def _cause_section(diag: Diagnosis, extended_file: str | None) -> list[str]:
     cause, sel = diag.cause, diag.selection
     md = ["## Cause", "", f"**{cause_text(cause)}**", "",
-          f"- adjusted p-value {fmt(cause.p_adjusted, 3)} (likelihood ratio against the calibrated model, "
-          f"Bonferroni over {sel.n_candidates} candidates; significant below {fmt(sel.alpha, 2)})"]
+          "- " + (significance_beside_another_class(diag, fmt(cause.p_adjusted, 3))
+                  or f"adjusted p-value {fmt(cause.p_adjusted, 3)} (likelihood ratio against the calibrated model, "
+                     f"Bonferroni over {sel.n_candidates} candidates; significant below {fmt(sel.alpha, 2)})")]
     best, needed = diag.best, threshold_chi2_drop(sel)
     if best is not None and needed is not None:
         md.append(f"- the best candidate, {best.label}, lowers chi^2 by {fmt(best.chi2_drop)}; significance needs "
