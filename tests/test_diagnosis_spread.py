@@ -19,7 +19,7 @@ Two translational springs to ground (`diagnosis_cases.springs_truth`, the issue'
 one, adequate, in 3 of 7"): two cases of seed 19 did not finish within hours. The revisit of a
 spring that alone pairs a measured (suspension) mode screened its place to first order, missed
 the spring and dropped it; the next round added it again, for ever (`rounds._next_cause` now
-fits every candidate then, and `rounds._search` stops when a revisit returns to causes it held).
+fits every candidate that pairs that mode at some size of its grid, `fit.brings`, and `rounds._search` stops when a revisit returns to causes it held).
 """
 
 import json

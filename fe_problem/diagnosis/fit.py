@@ -113,8 +113,13 @@ def brings(obs: Observations, cand: Candidate, modes: np.ndarray) -> bool:
     every size), pairs one of the measured `modes` (indices into `obs`) that the model it
     extends leaves unpaired: a mode only such a candidate can bring (a spring to ground's
     suspension mode) is invisible to a screen that holds the pairing, and a mode no candidate
-    can bring (a noise shape) is no reason to fit them all (rounds._next_cause)."""
-    return any(bool((f.pairing[modes] >= 0).any()) for f in chi2_batch(obs, cand, cand.grid))
+    can bring (a noise shape) is no reason to fit them all (rounds._next_cause).
+
+    Solved on the candidate's reduced forward where it has one (the sparse path's shared basis:
+    frequencies within 1e-6 of full solves over every grid, reduced.py); a full solve of the grid
+    costs there more than the candidate's fit, whose search runs on that basis too."""
+    fits = chi2_batch(obs, cand, cand.grid, forward=reduced_forward(cand))
+    return any(bool((f.pairing[modes] >= 0).any()) for f in fits)
 
 
 def reduced_forward(cand: Candidate):
