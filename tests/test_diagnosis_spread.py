@@ -244,3 +244,100 @@ def test_a_revisit_keeps_a_spring_that_brings_a_mode_only_it_pairs():
     assert any(p.endswith("direction=y") for p in places), kept  # the y spring (10 y or a tie of it)
     _, _, chi2_kept = _joint_refit(cal, st, kept, kept_sizes, obs)
     assert chi2_kept <= chi2_both * 1.01, (chi2_kept, chi2_both)
+
+
+#: Two consecutive column elements lowered by different amounts (element moduli in the model file)
+#: and the seeds: on the code before the two-adjacent-members class, (9, 10) was named as element
+#: 10 alone (uniform or a weak zone), adequate and decisive, in 5 of these 6 cases; (1, 2) at
+#: 0.85/0.75 as element 2 with a mass, decisive, in seeds 2 and 3. Not here: (9, 10) at 0.8/0.9 in
+#: seed 3, still a weak zone in element 10, decisive by 2.40 over the pair (ln 10 = 2.30).
+GRADIENTS = [((9, 10), (0.85, 0.75), 1), ((9, 10), (0.85, 0.75), 2), ((9, 10), (0.85, 0.75), 3),
+             ((9, 10), (0.8, 0.9), 1), ((9, 10), (0.8, 0.9), 2), ((1, 2), (0.85, 0.75), 2),
+             ((1, 2), (0.85, 0.75), 3), ((2, 3), (0.8, 0.9), 3)]
+
+
+@pytest.mark.parametrize("members, factors, seed", GRADIENTS)
+def test_a_two_member_gradient_is_named_or_not_decisive(members, factors, seed):
+    """Two consecutive elements of one H-frame column at different moduli: the answer names both
+    members softer (the local search's two causes, two adjacent members free, the sparse class),
+    or it is not decisive and the evidence table holds such a class (in seed 2 of 0.8/0.9 the
+    answer is a moved node 6, not decisive against a weak zone in element 10, the pair third);
+    never one member (a weak zone or a uniform loss) or other physics, decisive."""
+    from fe_problem.diagnosis.answer import members_changed
+
+    diag = fp.diagnose(HFRAME, _hframe_data(dict(zip(members, factors)), seed))
+    both = frozenset((e, -1) for e in members)
+    rows = {c.label: c for c in diag.evidence.classes}
+    a = diag.answer
+    answer_row = rows.get(a.label)
+    named = answer_row is not None and members_changed(answer_row) == both
+    flagged = not a.decisive and any(members_changed(c) == both for c in diag.evidence.classes)
+    assert named or flagged, (a.label, a.decisive, a.runner_up and a.runner_up["label"])
+    if named and a.family != "several":  # a class of moduli as the answer: its ratios near the truth
+        est = answer_row.estimate
+        ratios = dict(zip(est["members"], est["modulus_ratio"]))  # against the rest of the frame
+        for e, f in zip(members, factors):
+            assert ratios[e] == pytest.approx(f, abs=0.05), ratios
+
+
+def test_two_separated_members_are_the_sparse_answer():
+    """The `separated_members` case of `diagnosis_cases.cases(6)` (REAL, one per class): members 2 and
+    9 of the H-frame with their section inertia times 0.814 and 0.775 in the model file (bending
+    alone), 2.75 % largest shift. Before, the search named element 2 only, adequate, and the sparse
+    class holding both, with the full range 0.1-4 for each ratio, was 1.6 below it in log
+    evidence: a confident, incomplete answer. With each member's change on the local family's range
+    for its side (a loss on the loss candidate's) the sparse class is the answer with both members'
+    ratios near the truth; not decisive (member 9 alone gives a chi^2 drop of 15), the runner-up
+    element 2 alone, and the text says it cannot tell them apart."""
+    from diagnosis_cases import REAL, cases, classify_real
+    from fe_problem.diagnosis.sparse_class import KIND as SPARSE
+
+    case = cases(6, {k: 1 for k in REAL})[-1]
+    assert case.cls == "separated_members" and sorted(loc["element"] for _, loc in case.truths) == [2, 9]
+    diag = fp.diagnose(HFRAME, case.data())
+    a = diag.answer
+    assert (a.kind, a.location) == (SPARSE, {"members": [2, 9]}), (a.label, a.decisive)
+    assert not a.decisive and a.runner_up["label"] == "stiffness_loss@element=2"
+    assert any(w.startswith("answer not decisive: cannot tell apart " + a.label) for w in diag.warnings)
+    ratios = dict(zip(a.estimate["members"], a.estimate["modulus_ratio"]))
+    assert ratios[2] == pytest.approx(0.814, abs=0.04) and ratios[9] == pytest.approx(0.775, abs=0.06)
+    assert diag.adequate and classify_real(case, diag.to_dict()) == "right"
+
+
+def _line_frame() -> fp.FrameModel:
+    """A two-bay three-storey steel frame (`regular_frame`: 6 m bays, 3 m storeys, 2 t at each
+    node above the base), x and y measured at those nodes."""
+    return fp.regular_frame(2, 3, 6.0, 3.0, floor_mass_kg=2000.0, name="frame2x3")
+
+
+def _columns_at(model: fp.FrameModel, ratios: dict) -> fp.FrameModel:
+    """The columns at x (m) with their moduli times ratios[x], in the model file."""
+    moduli = {}
+    for e in model.elements:
+        a, b = model.node(e.node_i), model.node(e.node_j)
+        if a.x == b.x and a.x in ratios:
+            moduli[e.id] = model.element_modulus_pa(e.id) * ratios[a.x]
+    return _through_file(model.with_element_moduli(moduli))
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_a_column_line_pattern_is_every_column_line_free(seed):
+    """One column line 15 % softer (x = 0), another 15 % stiffer (x = 6 m), the third as modelled
+    (6 modes, default noise): the local search names a gain and a loss of two columns; the class
+    "every column line free" is the answer, decisive and adequate, each line's ratio within 2 % of
+    the truth, and its extended model carries them. (Its fit moves two close modes past each other:
+    fitted with the nominal pairing only, it stopped at chi^2 662 instead of 89.)"""
+    from fe_problem.diagnosis.group_free import FAMILY
+
+    model = _line_frame()
+    data = fp.synthetic_measurement(_columns_at(model, {0.0: 0.85, 6.0: 1.15}), 6, dofs=model.measured_dofs,
+                                    freq_noise=FREQ_NOISE, shape_noise=SHAPE_NOISE, seed=seed, model_name="frame2x3")
+    diag = fp.diagnose(model, data)
+    a = diag.answer
+    assert a.family == FAMILY and a.kind == "every_column_line_free" and a.decisive, (a.label, a.decisive)
+    assert a.location == {"groups": ["column_line_x0", "column_line_x6", "column_line_x12"]}
+    assert np.allclose(a.estimate["column_line_ratio"], [0.85, 1.15, 1.0], atol=0.02), a.estimate
+    assert diag.adequate and diag.evidence.classes[0].label == a.label
+    ext = diag.extended_model
+    ratio = {x: ext.element_modulus_pa(e) / model.element_modulus_pa(e) for x, e in ((0.0, 1), (6.0, 2), (12.0, 3))}
+    assert [ratio[x] for x in (0.0, 6.0, 12.0)] == pytest.approx(a.estimate["column_line_ratio"], rel=1e-9)

@@ -9,11 +9,14 @@ classes of the evidence table
 (evidence.py) compete: the local search's result (one cause, or several: rounds.py, whose own
 tests with joint refits choose within the local family), the distributed classes (groups.py),
 "every member" sparse (sparse_class.py) and the model-form classes (modelform.py, supports.py).
-The answer is the best of them by log evidence; when the best is the local family's, the answer
-is the local search's result.
+The answer is the best of them by log evidence; when the best is the local family's, or a class
+that changes the same members' stiffness the same way as the local search's result
+(`same_answer`: two members as several causes and as two adjacent members free), the answer is
+the local search's result.
 
 Decisive: the best class that is a different answer (another family, or another kind or place:
-the profiles of one element's loss are one answer) must lie at least ln 10 below the answer in
+the profiles of one element's loss are one answer; so are classes that soften or stiffen the
+same members, `members_changed`) must lie at least ln 10 below the answer in
 log evidence (a factor of 10, `evidence.FACTOR_10`); otherwise the answer is still named, marked
 not decisive, and the text says which class it cannot be told apart from. (Naming "cannot tell
 apart" alone would lose a crack whose thinner-member twin is within 1.6 of it: the crack is the
@@ -31,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..model import FrameModel
-from . import group_free, plausibility, sparse_class
+from . import plausibility, sparse_class
 from .candidates import Candidate, scale_stiffness
 from .evidence import FACTOR_10, Evidence, ScoredClass
 from .record import NON_LOCAL, Answer, Cause, Gain, Verdict
@@ -45,6 +48,37 @@ def answer_key(c: ScoredClass) -> tuple[str, str]:
     """(family, kind@place) of a class: classes with one key are one answer (the profiles of one
     element's loss, a member thinner or deeper); several causes are one answer as a whole."""
     return c.family, (c.label if c.family in ("none", "several") else c.label.split("(")[0])
+
+
+def members_changed(c: ScoredClass) -> frozenset | None:
+    """The members whose stiffness a class changes, each with the sign of its change ((element,
+    -1) softer, (element, +1) stiffer), when the class is nothing but such changes: a local
+    stiffness loss or gain (uniform or a weak zone: profiles of one element's loss), several of
+    them, the sparse class, two adjacent members free. Else None."""
+    if c.family in ("local", "several"):
+        out = set()
+        for part in c.label.split(" + "):
+            kind, _, where = part.partition("@")
+            where = where.split("(")[0]
+            if kind not in ("stiffness_loss", "stiffness_gain") or not where.startswith("element=") \
+                    or not where[len("element="):].isdigit():
+                return None
+            out.add((int(where[len("element="):]), -1 if kind == "stiffness_loss" else 1))
+        return frozenset(out)
+    est = c.estimate or {}
+    if c.family in ("sparse", "distributed") and "modulus_ratio" in est and isinstance(est["modulus_ratio"], list):
+        return frozenset((int(e), -1 if r < 1.0 else 1) for e, r in zip(est["members"], est["modulus_ratio"]))
+    return None
+
+
+def same_answer(a: ScoredClass, b: ScoredClass) -> bool:
+    """Whether two classes are one answer: one key (`answer_key`), or the same members' stiffness
+    changed the same way (`members_changed`: a member's loss found by the local search and by the
+    sparse class, two members as several causes and as two adjacent members free)."""
+    if answer_key(a) == answer_key(b):
+        return True
+    ma, mb = members_changed(a), members_changed(b)
+    return ma is not None and ma == mb
 
 
 def search_key(rounds) -> tuple[str, str]:
@@ -64,11 +98,11 @@ def choose(ev: Evidence, search: tuple[str, str], significant: bool) -> tuple[Sc
     rows = list(ev.classes)
     own = next((c for c in rows if answer_key(c) == search), None)
     best = rows[0] if rows else None
-    if own is None or (significant and best is not None and best.family in NON_LOCAL):
-        own = best
+    if own is None or (significant and best is not None and best.family in NON_LOCAL and not same_answer(best, own)):
+        own = best  # a non-local class that is the search's answer (the same members changed) leaves it the answer
     if own is None:
         return None, None, True
-    runner = next((c for c in rows if answer_key(c) != answer_key(own)), None)
+    runner = next((c for c in rows if not same_answer(c, own)), None)
     decisive = runner is None or own.log_evidence - runner.log_evidence >= FACTOR_10
     return own, runner, decisive
 
@@ -112,9 +146,9 @@ class NonLocal:
 
 
 def non_local(cal, row: ScoredClass, fitted: dict, sparse, p_adjusted: float, alpha: float, user: FrameModel,
-              gain_of, search_labels: list[str], storeys=None, why: str | None = None) -> NonLocal:
+              gain_of, search_labels: list[str], groups: dict | None = None, why: str | None = None) -> NonLocal:
     """The answer's class (a Candidate with its fit in `fitted`, label -> (candidate, Fit), the
-    sparse class `sparse` or the every-storey-free class `storeys`, group_free.StoreyFit) as the
+    sparse class `sparse` or a free group class of `groups`, label -> group_free.GroupFit) as the
     record's cause, extended model, gain and verdict. p_adjusted: the significance test's
     (core.select); gain_of: core.gain; search_labels: the local search's causes; why: the cause's
     explanation (default: the answer is the best class, the local search's causes are in `causes`)."""
@@ -122,15 +156,16 @@ def non_local(cal, row: ScoredClass, fitted: dict, sparse, p_adjusted: float, al
     found = ", ".join(search_labels) or "none"
     why = why or (f"the answer is the best class by evidence ({row.family}: {row.label}); the local search's "
                   f"cause(s), {found}, are in `causes` (the local class's)")
-    if row.family == "sparse" or (storeys is not None and row.label == storeys.label):
+    groups = groups or {}
+    if row.family == "sparse" or row.label in groups:
         if row.family == "sparse":
             am, f = sparse_class._AllMembers(cal.setting), sparse
             cause = Cause(sparse_class.KIND, {"members": list(sparse.members)}, sparse.estimate(), True, p_adjusted,
                           row.label, explanation=why)
         else:
-            am, f = storeys.params, storeys.fit
-            cause = Cause(group_free.KIND, {"groups": list(storeys.storeys)}, storeys.estimate(), True, p_adjusted,
-                          row.label, explanation=why)
+            g = groups[row.label]
+            am, f = g.params, g.fit
+            cause = Cause(g.kind, g.location, g.estimate(), True, p_adjusted, row.label, explanation=why)
         extended, fit, gain, n = _moduli_class(cal, am, f, gain_of)
     else:
         cand, fit = fitted[row.label]

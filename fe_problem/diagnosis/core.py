@@ -150,7 +150,7 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
     if row.family in answer.NON_LOCAL:  # the best class by evidence is not the local search's
         other = answer.non_local(cal, row, scored.fitted, scored.sparse, sel.selection.p_adjusted, alpha, model,
                                  gain, [c.label or f"{c.kind} ({len(c.indistinguishable)} candidates tie)"
-                                        for c in causes], scored.storeys)
+                                        for c in causes], scored.groups)
         cause, gained, v, n_params = other.cause, other.gain, other.verdict, other.n_params
         extended = _named(cal.setting.model, other.extended_model, [cause])
     else:
@@ -192,7 +192,7 @@ def _beyond_the_test(cal: "Calibration", scored: "Scored", v, sel: "Selected", a
     why = (f"no local candidate is significant (p {p:.3g}), but the calibrated model does not fit within the noise "
            f"(reduced chi^2 {v.reduced_chi2:.3g}) and the best class by evidence, {best.label} ({best.family}), "
            f"does, with log evidence {best.log_evidence:.3g} over no effect: it is the answer")
-    other = answer.non_local(cal, best, scored.fitted, scored.sparse, p, alpha, model, gain, [], scored.storeys, why)
+    other = answer.non_local(cal, best, scored.fitted, scored.sparse, p, alpha, model, gain, [], scored.groups, why)
     return other if other.verdict.adequate else None
 
 
@@ -208,13 +208,13 @@ EVIDENCE_METHODS = ("laplace", "nested")
 @dataclass(frozen=True, eq=False)
 class Scored:
     """The evidence table, and what its classes were fitted with: label -> (candidate, Fit) of every
-    fitted one-parameter class, the sparse class's fit and the every-storey-free class's
-    (group_free.StoreyFit; None: not scored)."""
+    fitted one-parameter class, the sparse class's fit (None: not scored) and label -> fit of the
+    free group classes scored (group_free.GroupFit)."""
 
     evidence: Evidence
     fitted: dict
     sparse: object = None
-    storeys: object = None
+    groups: dict = dataclasses.field(default_factory=dict)
 
 
 def model_form_fits(cal: "Calibration") -> list[tuple[Candidate, Fit]]:
@@ -242,8 +242,9 @@ def _form_explains(cal: "Calibration", forms, first: Fit, dispersion: float, alp
 def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str = "laplace",
                   forms: list | None = None) -> Scored:
     """Every class scored by its Laplace evidence against the calibrated model: no effect, each
-    fitted local candidate, the best-screened distributed classes (groups.py), "every member"
-    sparse (sparse_class.py), the model-form classes (when a cause was found; `forms`, as
+    fitted local candidate, the best-screened distributed classes (groups.py), the free group
+    classes (group_free.py: every storey, column line or floor free, two adjacent members free),
+    "every member" sparse (sparse_class.py), the model-form classes (when a cause was found; `forms`, as
     `model_form_fits` gives them, when already fitted) and the local
     search's result: with several causes the model with all of them, with one its cause when no
     first-round fit is at its place; the best few with their held-out prediction error. evidence
@@ -262,7 +263,8 @@ def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str 
     several = rounds is not None and (len(rounds.sized) > 1 or answer.search_key(rounds)[1] not in {
         c.label.split("(")[0] for c, f, family in fits if family == "local" and f.chi2 < base.chi2 - 1e-9})
     sparse = sparse_class.fit_sparse(cal.setting, obs, base.pairing)  # "every member", sparse (None: n/a)
-    storeys = group_free.fit_storeys(cal.setting, obs, base.pairing)  # every storey free (None: n/a)
+    partitions = group_free.fit_partitions(cal.setting, obs, base.pairing)  # every storey / line / floor free
+    pair = group_free.fit_pair(cal.setting, obs, base.pairing, pair_seeds(fits, sparse, rounds))
     # the sparse class does not set the dispersion: with many members and few data its misfit says
     # little about the noise (it would move every other class's evidence)
     reduced = [base.chi2 / obs.dof(1)] + [f.chi2 / obs.dof(2) for _, f, _ in fits]
@@ -270,8 +272,7 @@ def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str 
     chi2_s = min(f.chi2 for f in searched) if several else None
     if several:
         reduced.append(chi2_s / obs.dof(1 + len(rounds.sized)))
-    if storeys is not None:
-        reduced.append(storeys.fit.chi2 / obs.dof(1 + len(storeys.fit.theta)))
+    reduced += [g.fit.chi2 / obs.dof(1 + len(g.fit.theta)) for g in partitions]  # not the pair's: chosen among pairs
     d = max(1.0, min(reduced))
     classes = [ScoredClass("calibrated model (no effect)", "none", 0, base.chi2, 0.0)]
     for cand, f, family in fits:
@@ -291,9 +292,10 @@ def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str 
     if sparse is not None:
         classes.append(sparse_class.with_dispersion(sparse, d).scored(base.chi2, d, sparse_class.held_out_error(
             cal.setting, cal.data, cal.used, sparse, obs.freq_noise, obs.shape_noise)))
-    if storeys is not None:
-        classes.append(storeys.scored(base.chi2, d, group_free.held_out_error(
-            cal.setting, cal.data, cal.used, storeys, obs.freq_noise, obs.shape_noise)))
+    groups = {g.label: g for g in partitions + ([pair] if pair is not None else [])}
+    for g in groups.values():
+        classes.append(g.scored(base.chi2, d, group_free.held_out_error(
+            cal.setting, cal.data, cal.used, g, obs.freq_noise, obs.shape_noise)))
     # the search's result is significant by its own tests: never merged away (its key is its own)
     ev = ranked(_one_per_answer(classes) + search, "laplace", d)
     by_label = {c.label: c for c, _, _ in fits}
@@ -308,10 +310,28 @@ def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str 
                       for c, _, _ in fits}
         if sparse is not None:
             integrands[sparse.label] = (sparse_class.chi2_function(cal.setting, obs, sparse),
-                                        np.full(len(sparse.members), sparse_class.LOW),
-                                        np.full(len(sparse.members), sparse_class.HIGH), -sparse.support_log_penalty)
+                                        *sparse_class.sided(sparse.theta), -sparse.support_log_penalty)
         ev = rescored(ev, integrands, base.chi2, d)
-    return Scored(ev, answer.fitted_candidates(fits), sparse, storeys)
+    return Scored(ev, answer.fitted_candidates(fits), sparse, groups)
+
+
+#: Local stiffness classes (the best by chi^2) whose elements seed the two-adjacent-members class.
+N_PAIR_SEEDS = 3
+
+
+def pair_seeds(fits, sparse, rounds) -> set[int]:
+    """The elements whose chains the two-adjacent-members class is fitted on (group_free.fit_pair):
+    those of the `N_PAIR_SEEDS` best local stiffness classes fitted, of the local search's causes
+    and of the sparse class's members."""
+    from .rounds import STIFFNESS_KINDS
+
+    local = sorted((f.chi2, c.location["element"]) for c, f, family in fits
+                   if family == "local" and c.kind in STIFFNESS_KINDS and "element" in (c.location or {}))
+    out = {e for _, e in local[:N_PAIR_SEEDS]}
+    if rounds is not None:
+        out |= {c.location["element"] for c, _ in rounds.sized if c.kind in STIFFNESS_KINDS
+                and "element" in (c.location or {})}
+    return out | (set(sparse.members) if sparse is not None else set())
 
 
 def _search_fits(obs: Observations, rounds) -> list[Fit]:

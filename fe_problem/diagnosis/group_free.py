@@ -1,24 +1,37 @@
-"""Every storey free: one stiffness per storey, the distributed class of a gradient over height.
+"""Free group classes: one stiffness per member group, for members that deviate together and unevenly.
 
-Real storeys deviate together and unevenly (a laboratory four-storey shear frame: about 0.71,
-0.81, 0.91 and 1.47 of nominal from the base up). No one-parameter class of groups.py expresses
-that: a storey group moves one storey, a linear or quadratic trend cannot make the top storey
-stiffer while the lower ones stiffen with height. This class frees every storey (the storey
-groups of `groups.member_groups`): the columns of storey k have the modulus E0 (1 + theta_k).
-The global stiffness-to-mass scale s, profiled out as in every class, is the top storey's own:
-a common change of every storey is that scale (up to the beams'), so the top storey has no
-parameter of its own and n - 1 parameters remain, theta_k in [LOW, HIGH] (sparse_class's range,
-a ratio 0.1 to 4 to the top storey). The estimate gives each storey's stiffness relative to the
-nominal model, s (1 + theta_k) (the top storey s), with the mass as modelled.
+Real members deviate together and unevenly (a laboratory four-storey shear frame: storeys about
+0.71, 0.81, 0.91 and 1.47 of nominal from the base up; one column line softer, another stiffer;
+a column's two lower elements lowered by different amounts). No one-parameter class of groups.py
+expresses that: a group class moves one group, a trend cannot make the top storey stiffer while
+the lower ones stiffen with height. Each class here frees a set of groups, the members of group k
+with the modulus E0 (1 + theta_k):
 
-Fitted by bounded nonlinear least squares from the nominal model (`sparse_class.refit`); its
+- ``every_storey_free``: every storey (the storey groups of `groups.member_groups`);
+- ``every_column_line_free``: every column line (the vertical members at one x);
+- ``every_floor_free``: every floor's beams (the horizontal members at one y);
+- ``adjacent_members_free``: two adjacent members of one chain (collinear members sharing a
+  node: a column's consecutive elements), each its own group.
+
+For the first three the groups cover the members of that kind; a common change of all of them is
+(up to the other members') the global stiffness-to-mass scale s, profiled out in every class, so
+the last group (the top storey, the right-most column line, the top floor) is the reference with
+no parameter of its own: n - 1 parameters, each a ratio to that group. They apply with at least
+`MIN_GROUPS` groups: with two, the class is one group's change and the scale, which groups.py's
+group classes already are. The pair's two members are both free (the rest of the structure is the
+reference, at s). Every theta_k lies in [LOW, HIGH] (sparse_class's range, a ratio 0.1 to 4). The
+estimate gives each group's stiffness relative to the nominal model, s (1 + theta_k) (a
+reference group s), with the mass as modelled.
+
+Fitted by bounded nonlinear least squares from the nominal model (`sparse_class.refit`); the
 evidence is Laplace's with the Gauss-Newton Hessian and each parameter's Gaussian truncated to
-its prior (`sparse_class.log_occam`, one support: no combinatorial charge), comparable with the
-other classes (evidence.py). Only for planar models on the dense solver path (as the sparse
-class) with at least three storeys: with two, the class is one storey's change and the global
-scale, which groups.py's storey classes already are. Under ``--evidence nested`` the class keeps
-its Laplace value (its row says so): a diagnosis of the shear frame with it sampled did not end
-within 15 minutes on the loaded shared machine.
+its prior (`sparse_class.log_occam`, one support: no combinatorial charge, as every group class
+and every local label), comparable with the other classes (evidence.py). The pair is fitted on
+the chains through the elements the other classes point at (the best local stiffness classes,
+the sparse class's members: `pair_seeds`), the best of those pairs by chi^2 entering the table.
+Only for planar models on the dense solver path (as the sparse class). Under ``--evidence
+nested`` every class here keeps its Laplace value (its row says so): a diagnosis of the shear
+frame with the storeys sampled did not end within 15 minutes on the loaded shared machine.
 """
 
 from __future__ import annotations
@@ -30,75 +43,156 @@ import numpy as np
 from . import sparse_class
 from .candidates import Setting
 from .evidence import ScoredClass
-from .groups import member_groups
+from .groups import _direction, member_groups
 from .residuals import Observations
 
-#: The class's label's kind, and its family in the evidence table.
+#: The every-storey class's label's kind, and the family of every class here in the evidence table.
 KIND, FAMILY = "every_storey_free", "distributed"
-#: Storeys the model must have for the class to apply (see the module docstring).
-MIN_STOREYS = 3
+#: The classes of a partition of one kind of member: kind -> (group-name prefix, estimate's unit).
+PARTITIONS = {"every_storey_free": ("storey", "storey"), "every_column_line_free": ("column_line_x", "column_line"),
+              "every_floor_free": ("floor_y", "floor")}
+#: The two-adjacent-members class's kind.
+PAIR_KIND = "adjacent_members_free"
+#: Groups a partition must have for its class to apply (see the module docstring).
+MIN_GROUPS = MIN_STOREYS = 3
+#: Two members are of one chain when their directions are within this of each other (cosine).
+CHAIN_COS = 0.999
 
 
 @dataclass(frozen=True, eq=False)
-class StoreyFit:
-    """The storeys (group names, base first), their columns, the fit of the n - 1 lower storeys'
-    parameters (`sparse_class.SparseFit`: theta, std at D = 1, chi^2, s, Jacobian) and the
-    parameter set it was fitted on (to refit it: held-out error, nested sampling)."""
+class GroupFit:
+    """A free group class: its kind, its groups (names, the reference last), their members, the fit
+    of its parameters (`sparse_class.SparseFit`: theta, std at D = 1, chi^2, s, Jacobian), the
+    parameter set it was fitted on (to refit it: held-out error, the extended model) and whether
+    the last group is the reference (no parameter of its own)."""
 
-    storeys: tuple[str, ...]
+    kind: str
+    groups: tuple[str, ...]
     members: tuple[int, ...]
     fit: sparse_class.SparseFit
     params: object
+    reference: bool = True
+
+    @property
+    def storeys(self) -> tuple[str, ...]:
+        """The groups (the name of the every-storey class's)."""
+        return self.groups
 
     @property
     def label(self) -> str:
-        return f"{KIND}@groups={'+'.join(self.storeys)}"
+        if self.kind == PAIR_KIND:
+            return f"{PAIR_KIND}@members={'+'.join(str(e) for e in self.members)}"
+        return f"{self.kind}@groups={'+'.join(self.groups)}"
+
+    @property
+    def location(self) -> dict:
+        return {"members": list(self.members)} if self.kind == PAIR_KIND else {"groups": list(self.groups)}
 
     def estimate(self, dispersion: float = 1.0) -> dict:
-        """Each storey's stiffness relative to nominal, s (1 + theta_k), base first (the top one
-        s), with its std at the dispersion D (theta's std times s; the scale's own spread is not
-        included), the columns and the global scale."""
+        """Each group's stiffness relative to nominal, s (1 + theta_k) (a reference group s), with
+        its std at the dispersion D (theta's std times s; the scale's own spread is not included),
+        the members and the global scale; for the pair, as the sparse class's, each member's
+        modulus ratio 1 + theta_k to the rest of the structure (at the global scale) and its std."""
         s = self.fit.s
-        ratios = [float(s * (1.0 + t)) for t in self.fit.theta] + [float(s)]
-        std = [float(s * x * np.sqrt(dispersion)) for x in self.fit.theta_std] + [0.0]
-        return {"groups": list(self.storeys), "members": list(self.members), "storey_ratio": ratios,
-                "storey_ratio_std": std, "global_scale": float(s)}
+        if self.kind == PAIR_KIND:  # as the sparse class's: each member's modulus against the rest's
+            return {"members": list(self.members), "modulus_ratio": [float(1.0 + t) for t in self.fit.theta],
+                    "modulus_ratio_std": [float(x * np.sqrt(dispersion)) for x in self.fit.theta_std],
+                    "global_scale": float(s)}
+        ratios = [float(s * (1.0 + t)) for t in self.fit.theta] + ([float(s)] if self.reference else [])
+        std = [float(s * x * np.sqrt(dispersion)) for x in self.fit.theta_std] + ([0.0] if self.reference else [])
+        unit = PARTITIONS[self.kind][1]
+        return {"groups": list(self.groups), "members": list(self.members), f"{unit}_ratio": ratios,
+                f"{unit}_ratio_std": std, "global_scale": float(s)}
+
+    def prior(self) -> tuple:
+        """The uniform prior's range of each parameter: [LOW, HIGH] (sparse_class's), or for the
+        pair each member's as the local family's and the sparse class's, by the side its fit lies
+        on (`sparse_class.sided`)."""
+        if self.kind != PAIR_KIND:
+            return sparse_class.LOW, sparse_class.HIGH
+        return sparse_class.sided(self.fit.theta)
 
     def scored(self, chi2_base: float, dispersion: float, held_out_error_pct: float | None = None) -> ScoredClass:
         """The class's row of the evidence table (log evidence against the calibrated model)."""
         f = self.fit
-        occam = sparse_class.log_occam(f.theta, f.jacobian, len(f.theta), dispersion)
+        occam = sparse_class.log_occam(f.theta, f.jacobian, len(f.theta), dispersion, *self.prior())
         return ScoredClass(self.label, FAMILY, len(f.theta), f.chi2, -(f.chi2 - chi2_base) / (2 * dispersion) + occam,
                            self.estimate(dispersion), held_out_error_pct)
 
 
+#: The every-storey class's fit (the name it had when it was the only class here).
+StoreyFit = GroupFit
+
+
+def partition(st: Setting, kind: str = KIND) -> dict[str, tuple[int, ...]]:
+    """The groups of a partition class (`PARTITIONS`) of the model, ordered by height or x (the
+    reference last): name -> element ids."""
+    prefix = PARTITIONS[kind][0]
+    found = {k: v for k, v in member_groups(st.model).items() if k.startswith(prefix)}
+    return dict(sorted(found.items(), key=lambda kv: float(kv[0][len(prefix):])))
+
+
 def storeys(st: Setting) -> dict[str, tuple[int, ...]]:
     """The storey groups of the model, base first: name -> element ids."""
-    found = {k: v for k, v in member_groups(st.model).items() if k.startswith("storey")}
-    return dict(sorted(found.items(), key=lambda kv: int(kv[0][len("storey"):])))
+    return partition(st, KIND)
 
 
-def applicable(st: Setting) -> bool:
-    """Planar, the dense solver path (`sparse_class.applicable`) and at least `MIN_STOREYS` storeys."""
-    return sparse_class.applicable(st) and len(storeys(st)) >= MIN_STOREYS
+def applicable(st: Setting, kind: str = KIND) -> bool:
+    """Planar, the dense solver path (`sparse_class.applicable`) and at least `MIN_GROUPS` groups."""
+    return sparse_class.applicable(st) and len(partition(st, kind)) >= MIN_GROUPS
 
 
-def fit_storeys(st: Setting, obs: Observations, base_pairing: np.ndarray) -> StoreyFit | None:
-    """The class fitted to `obs` (None where it does not apply)."""
-    if not applicable(st):
-        return None
-    groups = storeys(st)
+def _fit(st: Setting, obs: Observations, base_pairing: np.ndarray, kind: str, groups: dict, reference: bool
+         ) -> GroupFit:
     names = list(groups)
+    free = names[:-1] if reference else names
     ids = list(st.model.element_ids)
-    weights = np.zeros((len(ids), len(names) - 1))
-    for k, name in enumerate(names[:-1]):
+    weights = np.zeros((len(ids), len(free)))
+    for k, name in enumerate(free):
         weights[[ids.index(e) for e in groups[name]], k] = 1.0
-    params = sparse_class._AllMembers(st, weights, names[:-1])
-    f = sparse_class.refit(params, obs, np.arange(len(names) - 1), np.zeros(len(names) - 1), base_pairing)
-    return StoreyFit(tuple(names), tuple(sorted(e for g in groups.values() for e in g)), f, params)
+    params = sparse_class._AllMembers(st, weights, free)
+    f = sparse_class.refit(params, obs, np.arange(len(free)), np.zeros(len(free)), base_pairing)
+    return GroupFit(kind, tuple(names), tuple(sorted(e for g in groups.values() for e in g)), f, params, reference)
 
 
-def held_out_error(st: Setting, data, used: np.ndarray, sf: StoreyFit, freq_noise: float,
+def fit_storeys(st: Setting, obs: Observations, base_pairing: np.ndarray, kind: str = KIND) -> GroupFit | None:
+    """The partition class `kind` (default every storey) fitted to `obs` (None where it does not apply)."""
+    if not applicable(st, kind):
+        return None
+    return _fit(st, obs, base_pairing, kind, partition(st, kind), True)
+
+
+def fit_partitions(st: Setting, obs: Observations, base_pairing: np.ndarray) -> list[GroupFit]:
+    """Every partition class (storeys, column lines, floors) that applies, fitted to `obs`."""
+    return [f for f in (fit_storeys(st, obs, base_pairing, kind) for kind in PARTITIONS) if f is not None]
+
+
+def adjacent_pairs(st: Setting, elements) -> list[tuple[int, int]]:
+    """The pairs of members of one chain (collinear, sharing a node) that hold one of `elements`."""
+    model = st.model
+    ends = {e.id: {e.node_i, e.node_j} for e in model.elements}
+    direction = {e.id: _direction(model, e.id)[2] for e in model.elements}
+    out = set()
+    for a in elements:
+        if a not in ends:
+            continue
+        for b in ends:
+            if b != a and ends[a] & ends[b] and abs(float(direction[a] @ direction[b])) >= CHAIN_COS:
+                out.add((min(a, b), max(a, b)))
+    return sorted(out)
+
+
+def fit_pair(st: Setting, obs: Observations, base_pairing: np.ndarray, elements) -> GroupFit | None:
+    """The best (lowest chi^2) two-adjacent-members class over the chains through `elements`
+    (None where the class does not apply or no such pair exists)."""
+    if not sparse_class.applicable(st):
+        return None
+    fits = [_fit(st, obs, base_pairing, PAIR_KIND, {str(a): (a,), str(b): (b,)}, False)
+            for a, b in adjacent_pairs(st, elements)]
+    return min(fits, key=lambda g: g.fit.chi2) if fits else None
+
+
+def held_out_error(st: Setting, data, used: np.ndarray, sf: GroupFit, freq_noise: float,
                    shape_noise: float) -> float | None:
     """Mean |frequency error| (%) on the held-out modes of the class refitted on the others
     (`sparse_class.held_out_error`)."""
