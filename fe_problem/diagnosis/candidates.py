@@ -117,6 +117,10 @@ class Candidate:
     #: fit's search only; built on each call), or None where the basis does not apply; None: no
     #: reduced form
     reduced: Callable[[], Callable | None] | None = None
+    #: () -> the reduced forward of a change spread over many members (`SharedBasis.spread`), for
+    #: ranking the distributed classes only (`fit.class_promises`), or None where the basis does
+    #: not apply; None: no such form
+    reduced_screen: Callable[[], Callable | None] | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.forward, _Remembered):  # a copy (dataclasses.replace) shares the kept sizes

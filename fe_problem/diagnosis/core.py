@@ -54,7 +54,7 @@ from .evidence import FACTOR_10, Evidence, ScoredClass, occam_log_factor, ranked
 from .groups import distributed_candidates
 from .modelform import model_form_candidates, screen_forms
 from .plausibility import few_dof_note
-from .fit import Fit, chi2_batch, fit, look_along, profiled, screen
+from .fit import Fit, chi2_batch, class_promises, fit, look_along, profiled, promise, screen
 from . import answer, group_free, sparse_class
 from .nested import require_dynesty, rescored
 from .record import Cause, CandidateFit, Diagnosis, Gain, Noise, PinnedParameter, Residuals, Selection
@@ -251,7 +251,7 @@ def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str 
     local search's model keeps its Laplace value)."""
     obs, base = cal.obs, cal.base
     distributed = distributed_candidates(cal.setting)
-    promise = [max(screen(obs, c, base), look_along(obs, c, base), key=lambda x: x[0]) for c in distributed]
+    promise = class_promises(obs, distributed, base, N_DISTRIBUTED_FIT)
     top = sorted(range(len(distributed)), key=lambda i: -promise[i][0])[:N_DISTRIBUTED_FIT]
     fits = [(found.candidates[i], f, "local") for i, f in found.fitted.items()]
     fits += [(distributed[i], fit(obs, distributed[i], promise[i][1]), "distributed") for i in top]
@@ -633,7 +633,7 @@ def look_at_clipped(cal: Calibration, cands: list[Candidate], screened: list[tup
 def _screen_solved(cal: Calibration, cand: Candidate) -> tuple[float, float]:
     """The larger promise of the first-order step (`fit.screen`) and of a look at a few sizes
     along the candidate's grid (`fit.look_along`)."""
-    return max(screen(cal.obs, cand, cal.base), look_along(cal.obs, cand, cal.base), key=lambda x: x[0])
+    return promise(cal.obs, cand, cal.base)
 
 
 # == 3. select ==================================================================================
