@@ -99,6 +99,13 @@ def solve(system: AffineModel, theta: np.ndarray, coords, n_modes: int):
     return frequencies_hz(lam), system.at_rows(phi, system.nodal_rows(coords))
 
 
+def solve_model(model: FrameModel, st: Setting):
+    """`solve` of one model at its own properties (a size of a candidate that builds a model per
+    size): frequencies (1, k) Hz, shapes (1, n_coord, k); its zero-energy count and its modes
+    from one eigen-solve on the sparse path (`AffineModel`'s `x0_modes`)."""
+    return solve(AffineModel(model, x0_modes=st.n_modes), np.zeros((1, 0)), st.coords, st.n_modes)
+
+
 @dataclass(eq=False)
 class Candidate:
     """One extension. `forward(a)` gives the modes for effect sizes a (b,)."""
@@ -419,7 +426,7 @@ def joint_flexibility(st: Setting) -> Iterator[Candidate]:
             def forward(a, system=system, ref=ref, extend=extend, alone=alone):
                 a = np.asarray(a, dtype=float)
                 if not alone:
-                    out = [solve(AffineModel(extend(v)), np.zeros((1, 0)), st.coords, st.n_modes) for v in a]
+                    out = [solve_model(extend(v), st) for v in a]
                     return np.concatenate([o[0] for o in out]), np.concatenate([o[1] for o in out])
                 hz, shapes = solve(system(), (ref / np.maximum(a, 1e-12))[:, None], st.coords, st.n_modes)
                 rigid = a <= 0.0
@@ -453,7 +460,7 @@ def shear_deformation(st: Setting) -> Iterator[Candidate]:
 
     def forward(a):
         a = np.atleast_1d(np.asarray(a, dtype=float))
-        out = [solve(AffineModel(model_at(v)) if v > 0 else baseline(), np.zeros((1, 0)), st.coords, st.n_modes)
+        out = [solve_model(model_at(v), st) if v > 0 else solve(baseline(), np.zeros((1, 0)), st.coords, st.n_modes)
                for v in a]
         return np.concatenate([o[0] for o in out]), np.concatenate([o[1] for o in out])
 
