@@ -98,7 +98,7 @@ class AffineModel:
     sparse path, for a model with no parameter (solved at its own properties only), the elastic
     modes the caller will ask for: the solve that counts the zero-energy modes returns them too,
     so the model costs one eigen-solve, not two (their shift is the count's, not the one set
-    from the first elastic mode: the same modes to ARPACK's tolerance; tests/test_sparse_solver.py).
+    from the first elastic mode: the same modes to ARPACK's tolerance; tests/test_sparse.py).
     """
 
     @blas_pinned  # K and M are built with BLAS products: the same matrices on any thread count
