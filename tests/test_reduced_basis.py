@@ -312,3 +312,63 @@ def test_a_size_that_is_not_a_number_is_solved_not_looked_up():
     assert hz.shape == (2, 2) and shapes.shape == (2, 2, 3)
     assert np.array_equal(hz[0], [0.5, 1.0]) and np.isnan(hz[1]).all()
     assert len(calls) == 1 and np.array_equal(calls[0], [0.5, np.nan], equal_nan=True)
+
+
+def test_the_models_own_system_is_built_once_and_solves_as_a_fresh_one(case, monkeypatch):
+    """`Setting.system` (the calibration's system, kept for the first-order screen's baseline, the
+    shared basis and every candidate's size a = 0) gives what a system built afresh gives, bit for
+    bit; the screen's baseline is made once per model and pairing (`Setting.baselines`) and the
+    screen from it is the screen from a fresh system and baseline."""
+    from fe_problem.diagnosis import screening
+    from fe_problem.diagnosis.candidates import Setting, solve
+
+    cal, cands = case
+    st = cal.setting
+    fresh_st = Setting(st.model, st.coords, st.n_modes)  # nothing kept: builds its own
+    kept = solve(st.system, np.zeros((1, 0)), st.coords, st.n_modes)
+    fresh = solve(fp.AffineModel(st.model), np.zeros((1, 0)), st.coords, st.n_modes)
+    np.testing.assert_array_equal(kept[0], fresh[0])
+    np.testing.assert_array_equal(kept[1], fresh[1])
+    np.testing.assert_array_equal(kept[0][0], cal.hz0)
+    # a = 0 of a candidate whose size 0 is the unextended model: from the kept system
+    for c in (next(x for x in cands if x.kind == "joint_flexibility"),
+              next(x for x in cands if x.kind == "shear_deformation"),
+              next(x for x in cands if x.kind == "boundary_stiffness")):
+        hz0, sh0 = c.forward(np.zeros(1))
+        np.testing.assert_array_equal(hz0[0], fresh[0][0])
+        np.testing.assert_array_equal(sh0[0], fresh[1][0])
+    termed = [c for c in cands if c.term is not None][::7]
+    real, made = screening.baseline, []
+    monkeypatch.setattr(screening, "baseline", lambda *a, **k: made.append(1) or real(*a, **k))
+    once = screening.screen_all(cal.obs, cal.base, st.model, st.coords, st.n_modes, termed, fresh_st)
+    again = screening.screen_all(cal.obs, cal.base, st.model, st.coords, st.n_modes, termed, fresh_st)
+    assert len(made) == 1 and len(fresh_st.baselines) == 1  # the second screen made none
+    from_scratch = screening.screen_all(cal.obs, cal.base, st.model, st.coords, st.n_modes, termed)
+    assert len(made) == 2
+    on_the_calibration = screening.screen_all(cal.obs, cal.base, st.model, st.coords, st.n_modes, termed, st)
+    assert len(termed) > 50 and max(d for d, _ in once) > 0.0
+    for other in (again, from_scratch, on_the_calibration):
+        np.testing.assert_array_equal(np.array(other, dtype=float), np.array(once, dtype=float))
+
+
+def test_shear_sizes_on_the_kept_timoshenko_copy_are_the_models_built_afresh(case):
+    """The shear candidate's sizes are built on one Timoshenko copy of the model: the modes are
+    those of the model built from scratch at each size (its formulation and sections edited)."""
+    import dataclasses as dc
+
+    from fe_problem.diagnosis.candidates import solve_model
+    from fe_problem.model import with_formulation
+
+    cal, cands = case
+    st = cal.setting
+    c = next(x for x in cands if x.kind == "shear_deformation")
+    sizes = np.array([0.5, 3.0])
+    hz, sh = c.forward(sizes)
+    for k, a in enumerate(sizes):
+        model = with_formulation(st.model, "timoshenko")
+        model = model.replace(sections={n: dc.replace(v, shear_coefficient=v.shear_coefficient / a)
+                                        for n, v in st.model.sections.items()})
+        hz_ref, sh_ref = solve_model(model, st)
+        np.testing.assert_array_equal(hz[k], hz_ref[0])
+        np.testing.assert_array_equal(sh[k], sh_ref[0])
+    assert np.abs(hz[1] - cal.hz0).max() > 1e-3 * cal.hz0.min()  # the sizes do change the modes

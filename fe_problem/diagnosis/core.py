@@ -490,9 +490,11 @@ def calibrate(model: FrameModel, data: ModalData, freq_noise: float, shape_noise
               reference: FrameModel | None = None) -> Calibration:
     """Fit the global stiffness-to-mass scale; measured modes that pair with no model mode are
     shown, never fitted. reference: the user's model when `model` is it extended (Setting)."""
-    st = Setting(model, data.dofs, min(data.n_modes + 6, AffineModel(model).n_elastic), reference)
+    system = AffineModel(model)
+    st = Setting(model, data.dofs, min(data.n_modes + 6, system.n_elastic), reference)
+    st.__dict__["system"] = system  # `Setting.system`'s cache: the model's one system
     obs_all = Observations.of(data, freq_noise=freq_noise, shape_noise=shape_noise)
-    hz, sh = solve(AffineModel(model), np.zeros((1, 0)), st.coords, st.n_modes)
+    hz, sh = solve(system, np.zeros((1, 0)), st.coords, st.n_modes)
     hz0, sh0 = hz[0], sh[0]
     base_all = profiled(obs_all, hz0, sh0)
     unpaired = np.flatnonzero(base_all.pairing < 0)
@@ -594,7 +596,7 @@ def screen_candidates(cal: Calibration, cands: list[Candidate]) -> list[tuple[fl
     st = cal.setting
     if solver_path(len(st.local.dofmap.free)) == "dense" or not cands:
         return [_screen_solved(cal, c) for c in cands]
-    first = screen_all(cal.obs, cal.base, st.model, st.coords, st.n_modes, cands)
+    first = screen_all(cal.obs, cal.base, st.model, st.coords, st.n_modes, cands, st)
     return [_screen_solved(cal, c) if c.term is None else f for c, f in zip(cands, first)]
 
 
