@@ -315,9 +315,9 @@ def test_a_size_that_is_not_a_number_is_solved_not_looked_up():
 
 
 def test_the_models_own_system_is_built_once_and_solves_as_a_fresh_one(case, monkeypatch):
-    """`Setting.system` (the calibration's system, kept for the first-order screen's baseline, the
-    shared basis and every candidate's size a = 0) gives what a system built afresh gives, bit for
-    bit; the screen's baseline is made once per model and pairing (`Setting.baselines`) and the
+    """`Setting.system` (the calibration's system, kept for the first-order screen's baseline and the
+    shared basis) and `Setting.modes0` (its modes, for the calibration and every candidate's size
+    a = 0) give what a system built afresh gives, bit for bit; the screen's baseline is made once per model and pairing (`Setting.baselines`) and the
     screen from it is the screen from a fresh system and baseline."""
     from fe_problem.diagnosis import screening
     from fe_problem.diagnosis.candidates import Setting, solve
@@ -330,6 +330,10 @@ def test_the_models_own_system_is_built_once_and_solves_as_a_fresh_one(case, mon
     np.testing.assert_array_equal(kept[0], fresh[0])
     np.testing.assert_array_equal(kept[1], fresh[1])
     np.testing.assert_array_equal(kept[0][0], cal.hz0)
+    mine = st.modes0  # the model's modes solved once (`Setting.modes0`), each caller its own copy
+    mine[0][:] = 0.0
+    np.testing.assert_array_equal(st.modes0[0], fresh[0])
+    np.testing.assert_array_equal(st.modes0[1], fresh[1])
     # a = 0 of a candidate whose size 0 is the unextended model: from the kept system
     for c in (next(x for x in cands if x.kind == "joint_flexibility"),
               next(x for x in cands if x.kind == "shear_deformation"),

@@ -85,6 +85,18 @@ class Setting:
         return AffineModel(self.model)
 
     @functools.cached_property
+    def _modes0(self):
+        return solve(self.system, np.zeros((1, 0)), self.coords, self.n_modes)
+
+    @property
+    def modes0(self) -> tuple[np.ndarray, np.ndarray]:
+        """`solve` of the model itself (frequencies (1, k) Hz, shapes (1, n_coord, k)), solved once
+        and copied out: the calibration's modes and every candidate's size a = 0 that is the
+        model unextended (a rigid joint, no shear deformation, no spring)."""
+        hz, shapes = self._modes0
+        return hz.copy(), shapes.copy()
+
+    @functools.cached_property
     def baselines(self) -> dict:
         """The first-order screen's baselines of `system` (screening.baseline), by the modes they
         cover: the first screen and the model-form screen (both on the calibrated model's
@@ -412,7 +424,6 @@ def joint_flexibility(st: Setting) -> Iterator[Candidate]:
     that axis, terms.py). At a corner (two ends) one candidate per axis: releasing either end
     about the same axis is the same model (the first end's; the second's only about an axis
     along none of the first's, as at a gable's ridge)."""
-    baseline = lazy_system(lambda: st.system)
     planar = len(st.model.layout.hinges) == 1
     rotations = bending_hinges(st.model) + tuple(r for r in st.model.layout.hinges if r not in bending_hinges(st.model))
     for node in joint_nodes(st.model):
@@ -445,7 +456,7 @@ def joint_flexibility(st: Setting) -> Iterator[Candidate]:
                 hz, shapes = solve(system(), (ref / np.maximum(a, 1e-12))[:, None], st.coords, st.n_modes)
                 rigid = a <= 0.0
                 if rigid.any():  # a = 0 is the rigid joint: the unextended model itself
-                    hz0, sh0 = solve(baseline(), np.zeros((1, 0)), st.coords, st.n_modes)
+                    hz0, sh0 = st.modes0
                     hz[rigid], shapes[rigid] = hz0[0], sh0[0]
                 return hz, shapes
 
@@ -465,7 +476,6 @@ def shear_deformation(st: Setting) -> Iterator[Candidate]:
         return
     if "timoshenko" not in formulations(st.model.layout):  # no shear-deformable element of this layout
         return
-    baseline = lazy_system(lambda: st.system)
     # the Timoshenko copy once (a copy of every element: 45 ms at 3,000 DOFs), each size's sections on it
     timoshenko = functools.lru_cache(maxsize=1)(lambda: with_formulation(st.model, "timoshenko"))
 
@@ -476,8 +486,7 @@ def shear_deformation(st: Setting) -> Iterator[Candidate]:
 
     def forward(a):
         a = np.atleast_1d(np.asarray(a, dtype=float))
-        out = [solve_model(model_at(v), st) if v > 0 else solve(baseline(), np.zeros((1, 0)), st.coords, st.n_modes)
-               for v in a]
+        out = [solve_model(model_at(v), st) if v > 0 else st.modes0 for v in a]
         return np.concatenate([o[0] for o in out]), np.concatenate([o[1] for o in out])
 
     def estimate(a, s):
@@ -542,7 +551,7 @@ def boundary_stiffness(st: Setting) -> Iterator[Candidate]:
                 new = system.n_elastic - baseline().n_elastic
                 hz, shapes = np.roll(hz, -new, axis=1), np.roll(shapes, -new, axis=2)
                 if (a <= 0.0).any():  # no spring: the unextended model itself
-                    hz0, sh0 = solve(baseline(), np.zeros((1, 0)), st.coords, st.n_modes)
+                    hz0, sh0 = st.modes0
                     hz[a <= 0.0], shapes[a <= 0.0] = hz0[0], sh0[0]
                 return hz, shapes
 

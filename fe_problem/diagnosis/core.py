@@ -494,7 +494,7 @@ def calibrate(model: FrameModel, data: ModalData, freq_noise: float, shape_noise
     st = Setting(model, data.dofs, min(data.n_modes + 6, system.n_elastic), reference)
     st.__dict__["system"] = system  # `Setting.system`'s cache: the model's one system
     obs_all = Observations.of(data, freq_noise=freq_noise, shape_noise=shape_noise)
-    hz, sh = solve(system, np.zeros((1, 0)), st.coords, st.n_modes)
+    hz, sh = st.modes0
     hz0, sh0 = hz[0], sh[0]
     base_all = profiled(obs_all, hz0, sh0)
     unpaired = np.flatnonzero(base_all.pairing < 0)
