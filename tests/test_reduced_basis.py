@@ -376,3 +376,20 @@ def test_shear_sizes_on_the_kept_timoshenko_copy_are_the_models_built_afresh(cas
         np.testing.assert_array_equal(hz[k], hz_ref[0])
         np.testing.assert_array_equal(sh[k], sh_ref[0])
     assert np.abs(hz[1] - cal.hz0).max() > 1e-3 * cal.hz0.min()  # the sizes do change the modes
+
+
+def test_the_model_form_screen_takes_the_first_screens_baseline_then_drops_it(case, monkeypatch):
+    """The first screen and the model-form screen of the calibrated model share one baseline (one
+    eigen-solve and one bordered factorisation per paired mode); after the model-form screen,
+    its last use, the baseline's adjoint blocks are let go."""
+    from fe_problem.diagnosis import screening
+    from fe_problem.diagnosis.core import model_form_fits, screen_candidates
+
+    cal, cands = case
+    cal.setting.baselines.clear()
+    real, made = screening.baseline, []
+    monkeypatch.setattr(screening, "baseline", lambda *a, **k: made.append(1) or real(*a, **k))
+    screen_candidates(cal, [c for c in cands if c.term is not None][:40])
+    assert len(made) == 1 and len(cal.setting.baselines) == 1
+    forms = model_form_fits(cal)
+    assert len(made) == 1 and cal.setting.baselines == {} and len(forms) > 0

@@ -109,7 +109,9 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
         v = verdict(cal.obs, cal.base, 1, alpha, what="the calibrated model (no candidate significant)")
         checks = checks + spurious_modes(cal.unpaired, cal.unpaired, cal.obs_all.frequencies_hz, _explained(checks))
         # the calibrated model misfits: the model-form classes are scored too (as when a cause is found)
-        scored = score_classes(cal, found, None, evidence, None if v.adequate else model_form_fits(cal))
+        forms = None if v.adequate else model_form_fits(cal)
+        cal.setting.baselines.clear()  # (`model_form_fits` clears it too): no later screen of this model
+        scored = score_classes(cal, found, None, evidence, forms)
         ev = scored.evidence
         other = _beyond_the_test(cal, scored, v, sel, alpha, model)
         row, runner, decisive = answer.choose(ev, answer.search_key(None), other is not None)
@@ -223,6 +225,7 @@ def model_form_fits(cal: "Calibration") -> list[tuple[Candidate, Fit]]:
     obs, base = cal.obs, cal.base
     forms = model_form_candidates(cal.setting)
     drops = [d for d, _ in screen_forms(obs, base, cal.setting, forms)]
+    cal.setting.baselines.clear()  # the last screen of this model: its adjoint blocks (87 MB at 3,024 DOFs) go
     return [(forms[i], coarse_fit(obs, forms[i])) for i in sorted(range(len(forms)), key=lambda i: -drops[i])[:N_FORM_FIT]]
 
 
