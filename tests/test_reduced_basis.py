@@ -317,8 +317,9 @@ def test_a_size_that_is_not_a_number_is_solved_not_looked_up():
 def test_the_models_own_system_is_built_once_and_solves_as_a_fresh_one(case, monkeypatch):
     """`Setting.system` (the calibration's system, kept for the first-order screen's baseline and the
     shared basis) and `Setting.modes0` (its modes, for the calibration and every candidate's size
-    a = 0) give what a system built afresh gives, bit for bit; the screen's baseline is made once per model and pairing (`Setting.baselines`) and the
-    screen from it is the screen from a fresh system and baseline."""
+    a = 0) give what a system built afresh gives, bit for bit; the screen's baseline is made once
+    per model and pairing (`Setting.baselines`) and the screen from it is the screen from a fresh
+    system and baseline."""
     from fe_problem.diagnosis import screening
     from fe_problem.diagnosis.candidates import Setting, solve
 
