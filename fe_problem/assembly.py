@@ -94,12 +94,16 @@ class AffineModel:
     "sparse" forces one). Zero-energy modes (rigid-body motions of an unsupported structure,
     mechanisms; counted at the initial parameters) are dropped, and the `n_modes` lowest
     elastic modes are returned. `workers`: threads for a batch on the sparse path (default:
-    the cores this process may use); the result does not depend on it.
+    the cores this process may use); the result does not depend on it. `x0_modes`: on the
+    sparse path, for a model with no parameter (solved at its own properties only), the elastic
+    modes the caller will ask for: the solve that counts the zero-energy modes returns them too,
+    so the model costs one eigen-solve, not two (their shift is the count's, not the one set
+    from the first elastic mode: the same modes to ARPACK's tolerance; tests/test_sparse.py).
     """
 
     @blas_pinned  # K and M are built with BLAS products: the same matrices on any thread count
     def __init__(self, model: FrameModel, parameters: tuple[Parameter, ...] = (), solver: str = "auto",
-                 workers: int | None = None):
+                 workers: int | None = None, x0_modes: int = 0):
         self.model = model
         self.parameters = tuple(parameters)
         terms = Terms(model, self.parameters)
@@ -126,7 +130,8 @@ class AffineModel:
             n_null = self._n_rigid_motions(k_trip, np.where(self.x0 != 0.0, self.x0, self.upper))
             self._solver = ModalSolver(k0, m0, dk, dm, self.x0, model.name, n_body=n_body, n_null=n_null)
         else:
-            self._solver = SparseModalSolver(k_trip, m_trip, n, self.x0, model.name, workers, min_zero=n_body)
+            self._solver = SparseModalSolver(k_trip, m_trip, n, self.x0, model.name, workers, min_zero=n_body,
+                                             x0_modes=x0_modes)
         #: None, or what moves in the zero-energy motions that are not rigid-body motions
         self.mechanism: str | None = self._find_mechanism() if self.n_rigid > n_body else None
 

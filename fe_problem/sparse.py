@@ -104,7 +104,9 @@ class SparseModalSolver:
     and k for parameter k (terms.py). `n_rigid` counts the zero-energy modes at `x0` (dropped):
     the eigenvalues below `ZERO_TOL` of the 12th, and at least `min_zero` (the rigid-body
     motions the supports allow, known from the geometry). `n_elastic`: the modes left. `name`
-    names the model in errors.
+    names the model in errors. `x0_modes`: for a system with no parameter (solved at x0 only),
+    the elastic modes the caller will ask for: the count's solve then finds those too, with
+    their vectors (at the provisional shift), and `eigen` returns them without a second solve.
     """
 
     #: An eigenvalue below this fraction of the first clearly elastic one is a zero-energy mode.
@@ -113,7 +115,8 @@ class SparseModalSolver:
     SHIFT = 0.5
 
     def __init__(self, k_trip, m_trip, n: int, x0: np.ndarray, name: str, workers: int | None = None,
-                 min_zero: int = 0, factorization: str | None = None, arpack_tol: float = ARPACK_TOL):
+                 min_zero: int = 0, factorization: str | None = None, arpack_tol: float = ARPACK_TOL,
+                 x0_modes: int = 0):
         self.n_free, self.name, self.n_params = n, name, len(x0)
         self.workers = default_workers() if workers is None else int(workers)
         self.factorization = default_factorization() if factorization is None else factorization
@@ -135,12 +138,20 @@ class SparseModalSolver:
         self._token, self._blob = uuid.uuid4().hex, None  # how worker processes know this solver
         self.sigma = -1.0  # provisional; set from the first elastic mode below
         self._order(x0)
-        lam = self._lowest(x0[None, :])
+        self._x0_pairs = None  # the modes at x0 the count's solve found (`x0_modes`), or None
+        if x0_modes > 0 and self.n_params == 0:
+            k = min(n, max(12, min_zero + x0_modes))
+            pairs = self._point(x0, k, vectors=True)
+            lam = pairs[0][:min(n, 12)]
+        else:
+            lam = self._lowest(x0[None, :])
         nonzero = lam > self.ZERO_TOL * lam[-1] if lam[-1] > 0 else np.zeros(len(lam), bool)
         self.n_rigid = max(int(len(lam) - nonzero.sum()), min(min_zero, len(lam)))
         if self.n_rigid < len(lam):
             self.sigma = -self.SHIFT * float(lam[self.n_rigid])
         self.n_elastic = n - self.n_rigid
+        if x0_modes > 0 and self.n_params == 0 and self.n_rigid + min(x0_modes, self.n_elastic) <= len(pairs[0]):
+            self._x0_pairs = pairs
 
     def _affine(self, slot, trip, nnz: int):
         """Constant values (nnz,) and the sparse (nnz, p) map G of one family."""
@@ -297,7 +308,11 @@ class SparseModalSolver:
         # with the assembled K's own rounding (3e-6 there; 1e-12 on ordinary frames, where it
         # changes nothing that matters). Hence vectors even when only values are asked for.
         matrices = self._matrices(theta)  # built once: the solve's and the quotients'
-        lam, phi = self._point(theta, self.n_rigid + n_modes, True, matrices)
+        k = self.n_rigid + n_modes
+        if self._x0_pairs is not None and k <= len(self._x0_pairs[0]):  # no parameters: theta is x0
+            lam, phi = self._x0_pairs[0][:k], self._x0_pairs[1][:, :k]
+        else:
+            lam, phi = self._point(theta, k, True, matrices)
         phi = phi[:, self.n_rigid:]
         mass = np.einsum("im,im->m", phi, matrices[3] @ phi)
         lam = np.einsum("im,im->m", phi, matrices[2] @ phi) / mass

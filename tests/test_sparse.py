@@ -385,3 +385,41 @@ def test_the_dense_path_keeps_the_first_real_mode_of_a_fine_mesh():
     lam_s, _ = sparse.eigen(sparse.x0[None, :], 8)
     np.testing.assert_allclose(lam_d, lam_s, rtol=1e-8)
     assert 56.0 < np.sqrt(lam_d[0, 0]) / (2 * np.pi) < 56.5
+
+
+def _counting_points(monkeypatch):
+    """The eigen-solves (`SparseModalSolver._point` calls) made from here on, counted."""
+    from fe_problem.sparse import SparseModalSolver
+    calls = []
+    original = SparseModalSolver._point
+
+    def counted(self, *args, **kw):
+        calls.append(args[1])
+        return original(self, *args, **kw)
+    monkeypatch.setattr(SparseModalSolver, "_point", counted)
+    return calls
+
+
+@pytest.mark.parametrize("case,n_modes,n_rigid,solves", [
+    ("grid", 10, 0, 1),        # supported, 1,500 DOFs: the count's solve gives the 10 modes
+    ("free", 8, 3, 1),         # free-free: three rigid-body modes dropped, 3 + 8 within the 12
+    ("free", 12, 3, 1),        # 3 + 12: the count's solve widened to 15
+    ("mechanism", 8, 4, 1),    # a pin: a mechanism beyond the rigid motions, 4 + 8 within the 12
+    ("mechanism", 9, 4, 2),    # 4 + 9 > 12 (the geometry foresaw 3): solved again, as without x0_modes
+])
+def test_a_model_solved_at_x0_counts_and_solves_in_one_eigen_solve(monkeypatch, case, n_modes, n_rigid, solves):
+    """`x0_modes`: a model with no parameter gets its zero-energy count and its modes from one
+    ARPACK run (at the count's shift), equal to the dense LAPACK reference (1e-8 relative, the
+    shapes to 1e-7 of their largest entry) and to the default two-solve path (1e-10)."""
+    m = {"grid": lambda: grid_frame(9, 50), "free": lambda: fp.load_model("hframe"),
+         "mechanism": lambda: fp.release_element_end(fp.load_model("hframe"), 5, 3, 0.0)}[case]()
+    dense = fp.AffineModel(m, solver="dense")
+    default = fp.AffineModel(m, solver="sparse")
+    calls = _counting_points(monkeypatch)
+    once = fp.AffineModel(m, solver="sparse", x0_modes=n_modes)
+    once.eigen(np.zeros((1, 0)), n_modes, vectors=True)
+    assert len(calls) == solves + (1 if case == "mechanism" else 0)  # + the mechanism's naming solve
+    assert (once.n_rigid, once.n_elastic, once.mechanism is None) == \
+        (default.n_rigid, default.n_elastic, default.mechanism is None) and once.n_rigid == n_rigid
+    lam = assert_same_modes(dense, once, np.zeros((1, 0)), n_modes, rtol=1e-8)
+    np.testing.assert_allclose(lam, default.eigen(np.zeros((1, 0)), n_modes)[0], rtol=1e-10)

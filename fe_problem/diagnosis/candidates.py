@@ -78,12 +78,38 @@ class Setting:
         return LocalMatrices(self.model)
 
     @functools.cached_property
+    def system(self) -> AffineModel:
+        """The model's own system (no parameter), built once for every step that solves the model
+        itself: the calibration, the first-order screen's baseline, the shared basis and the
+        candidates' size a = 0 (`calibrate` hands over the one it built)."""
+        return AffineModel(self.model)
+
+    @functools.cached_property
+    def _modes0(self):
+        return solve(self.system, np.zeros((1, 0)), self.coords, self.n_modes)
+
+    @property
+    def modes0(self) -> tuple[np.ndarray, np.ndarray]:
+        """`solve` of the model itself (frequencies (1, k) Hz, shapes (1, n_coord, k)), solved once
+        and copied out: the calibration's modes and every candidate's size a = 0 that is the
+        model unextended (a rigid joint, no shear deformation, no spring)."""
+        hz, shapes = self._modes0
+        return hz.copy(), shapes.copy()
+
+    @functools.cached_property
+    def baselines(self) -> dict:
+        """The first-order screen's baselines of `system` (screening.baseline), by the modes they
+        cover: the first screen and the model-form screen (both on the calibrated model's
+        pairing) share one, its eigen-solve and one bordered factorisation per mode."""
+        return {}
+
+    @functools.cached_property
     def basis(self) -> SharedBasis | None:
         """The reduced basis the candidates' searches share (reduced.py), or None where it does
         not apply: a model on the dense path, or one with zero-energy modes."""
         if solver_path(len(self.local.dofmap.free)) != "sparse":
             return None
-        system = AffineModel(self.model)
+        system = self.system
         return None if system.n_rigid else SharedBasis(system, self.coords, self.n_modes)
 
 
@@ -97,6 +123,13 @@ def solve(system: AffineModel, theta: np.ndarray, coords, n_modes: int):
     """Frequencies (b, k) in Hz and shapes at `coords` (b, n_coord, k) for theta (b, p)."""
     lam, phi = system.eigen(theta, min(n_modes, system.n_elastic), vectors=True)
     return frequencies_hz(lam), system.at_rows(phi, system.nodal_rows(coords))
+
+
+def solve_model(model: FrameModel, st: Setting):
+    """`solve` of one model at its own properties (a size of a candidate that builds a model per
+    size): frequencies (1, k) Hz, shapes (1, n_coord, k); its zero-energy count and its modes
+    from one eigen-solve on the sparse path (`AffineModel`'s `x0_modes`)."""
+    return solve(AffineModel(model, x0_modes=st.n_modes), np.zeros((1, 0)), st.coords, st.n_modes)
 
 
 @dataclass(eq=False)
@@ -117,6 +150,10 @@ class Candidate:
     #: fit's search only; built on each call), or None where the basis does not apply; None: no
     #: reduced form
     reduced: Callable[[], Callable | None] | None = None
+    #: () -> the reduced forward of a change spread over many members (`SharedBasis.spread`), for
+    #: ranking the distributed classes only (`fit.class_promises`), or None where the basis does
+    #: not apply; None: no such form
+    reduced_screen: Callable[[], Callable | None] | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.forward, _Remembered):  # a copy (dataclasses.replace) shares the kept sizes
@@ -387,7 +424,6 @@ def joint_flexibility(st: Setting) -> Iterator[Candidate]:
     that axis, terms.py). At a corner (two ends) one candidate per axis: releasing either end
     about the same axis is the same model (the first end's; the second's only about an axis
     along none of the first's, as at a gable's ridge)."""
-    baseline = lazy_system(lambda: AffineModel(st.model))
     planar = len(st.model.layout.hinges) == 1
     rotations = bending_hinges(st.model) + tuple(r for r in st.model.layout.hinges if r not in bending_hinges(st.model))
     for node in joint_nodes(st.model):
@@ -415,12 +451,12 @@ def joint_flexibility(st: Setting) -> Iterator[Candidate]:
             def forward(a, system=system, ref=ref, extend=extend, alone=alone):
                 a = np.asarray(a, dtype=float)
                 if not alone:
-                    out = [solve(AffineModel(extend(v)), np.zeros((1, 0)), st.coords, st.n_modes) for v in a]
+                    out = [solve_model(extend(v), st) for v in a]
                     return np.concatenate([o[0] for o in out]), np.concatenate([o[1] for o in out])
                 hz, shapes = solve(system(), (ref / np.maximum(a, 1e-12))[:, None], st.coords, st.n_modes)
                 rigid = a <= 0.0
                 if rigid.any():  # a = 0 is the rigid joint: the unextended model itself
-                    hz0, sh0 = solve(baseline(), np.zeros((1, 0)), st.coords, st.n_modes)
+                    hz0, sh0 = st.modes0
                     hz[rigid], shapes[rigid] = hz0[0], sh0[0]
                 return hz, shapes
 
@@ -440,17 +476,17 @@ def shear_deformation(st: Setting) -> Iterator[Candidate]:
         return
     if "timoshenko" not in formulations(st.model.layout):  # no shear-deformable element of this layout
         return
-    baseline = lazy_system(lambda: AffineModel(st.model))
+    # the Timoshenko copy once (a copy of every element: 45 ms at 3,000 DOFs), each size's sections on it
+    timoshenko = functools.lru_cache(maxsize=1)(lambda: with_formulation(st.model, "timoshenko"))
 
     def model_at(a: float) -> FrameModel:
         sections = {k: dataclasses.replace(v, shear_coefficient=v.shear_coefficient / a)
                     for k, v in st.model.sections.items()}
-        return with_formulation(st.model, "timoshenko").replace(sections=sections)
+        return timoshenko().replace(sections=sections)
 
     def forward(a):
         a = np.atleast_1d(np.asarray(a, dtype=float))
-        out = [solve(AffineModel(model_at(v)) if v > 0 else baseline(), np.zeros((1, 0)), st.coords, st.n_modes)
-               for v in a]
+        out = [solve_model(model_at(v), st) if v > 0 else st.modes0 for v in a]
         return np.concatenate([o[0] for o in out]), np.concatenate([o[1] for o in out])
 
     def estimate(a, s):
@@ -483,7 +519,8 @@ def stiffness_gain(st: Setting) -> Iterator[Candidate]:
 def _reference_stiffness(st: Setting) -> float:
     """total mass * (2 pi f_1)^2 (N/m) of the user's model: a spring this stiff moves the first mode
     by about its size."""
-    f1 = float(solve(AffineModel(st.nominal), np.zeros((1, 0)), st.coords, 1)[0][0, 0])
+    f1 = float(solve(st.system if st.reference is None else AffineModel(st.nominal), np.zeros((1, 0)),
+                     st.coords, 1)[0][0, 0])
     return st.nominal.total_mass_kg() * (2.0 * np.pi * f1) ** 2
 
 
@@ -491,7 +528,7 @@ def boundary_stiffness(st: Setting) -> Iterator[Candidate]:
     """A spring to ground at a node, in each translation (the planar frame's x and y; a space
     frame's x, y and z): soft supports, suspensions, bases."""
     k_ref = _reference_stiffness(st)
-    baseline = lazy_system(lambda: AffineModel(st.model))
+    baseline = lazy_system(lambda: st.system)
     sid = max((sp.id for sp in st.model.springs), default=0) + 1
     fixed = {(sup.node, d) for sup in st.model.supports for d in sup.directions}
     for node in st.model.node_ids:
@@ -514,7 +551,7 @@ def boundary_stiffness(st: Setting) -> Iterator[Candidate]:
                 new = system.n_elastic - baseline().n_elastic
                 hz, shapes = np.roll(hz, -new, axis=1), np.roll(shapes, -new, axis=2)
                 if (a <= 0.0).any():  # no spring: the unextended model itself
-                    hz0, sh0 = solve(baseline(), np.zeros((1, 0)), st.coords, st.n_modes)
+                    hz0, sh0 = st.modes0
                     hz[a <= 0.0], shapes[a <= 0.0] = hz0[0], sh0[0]
                 return hz, shapes
 

@@ -54,7 +54,7 @@ from .evidence import FACTOR_10, Evidence, ScoredClass, occam_log_factor, ranked
 from .groups import distributed_candidates
 from .modelform import model_form_candidates, screen_forms
 from .plausibility import few_dof_note
-from .fit import Fit, brings, chi2_batch, fit, look_along, profiled, screen
+from .fit import Fit, brings, chi2_batch, class_promises, fit, look_along, profiled, promise, screen
 from . import answer, group_free, sparse_class
 from .nested import require_dynesty, rescored
 from .record import Cause, CandidateFit, Diagnosis, Gain, Noise, PinnedParameter, Residuals, Selection
@@ -109,7 +109,9 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
         v = verdict(cal.obs, cal.base, 1, alpha, what="the calibrated model (no candidate significant)")
         checks = checks + spurious_modes(cal.unpaired, cal.unpaired, cal.obs_all.frequencies_hz, _explained(checks))
         # the calibrated model misfits: the model-form classes are scored too (as when a cause is found)
-        scored = score_classes(cal, found, None, evidence, None if v.adequate else model_form_fits(cal))
+        forms = None if v.adequate else model_form_fits(cal)
+        cal.setting.baselines.clear()  # (`model_form_fits` clears it too): no later screen of this model
+        scored = score_classes(cal, found, None, evidence, forms)
         ev = scored.evidence
         other = _beyond_the_test(cal, scored, v, sel, alpha, model)
         row, runner, decisive = answer.choose(ev, answer.search_key(None), other is not None)
@@ -223,6 +225,7 @@ def model_form_fits(cal: "Calibration") -> list[tuple[Candidate, Fit]]:
     obs, base = cal.obs, cal.base
     forms = model_form_candidates(cal.setting)
     drops = [d for d, _ in screen_forms(obs, base, cal.setting, forms)]
+    cal.setting.baselines.clear()  # the last screen of this model: its adjoint blocks (87 MB at 3,024 DOFs) go
     return [(forms[i], coarse_fit(obs, forms[i])) for i in sorted(range(len(forms)), key=lambda i: -drops[i])[:N_FORM_FIT]]
 
 
@@ -252,7 +255,7 @@ def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str 
     local search's model keeps its Laplace value)."""
     obs, base = cal.obs, cal.base
     distributed = distributed_candidates(cal.setting)
-    promise = [max(screen(obs, c, base), look_along(obs, c, base), key=lambda x: x[0]) for c in distributed]
+    promise = class_promises(obs, distributed, base, N_DISTRIBUTED_FIT)
     top = sorted(range(len(distributed)), key=lambda i: -promise[i][0])[:N_DISTRIBUTED_FIT]
     fits = [(found.candidates[i], f, "local") for i, f in found.fitted.items()]
     fits += [(distributed[i], fit(obs, distributed[i], promise[i][1]), "distributed") for i in top]
@@ -510,9 +513,11 @@ def calibrate(model: FrameModel, data: ModalData, freq_noise: float, shape_noise
               reference: FrameModel | None = None) -> Calibration:
     """Fit the global stiffness-to-mass scale; measured modes that pair with no model mode are
     shown, never fitted. reference: the user's model when `model` is it extended (Setting)."""
-    st = Setting(model, data.dofs, min(data.n_modes + 6, AffineModel(model).n_elastic), reference)
+    system = AffineModel(model)
+    st = Setting(model, data.dofs, min(data.n_modes + 6, system.n_elastic), reference)
+    st.__dict__["system"] = system  # `Setting.system`'s cache: the model's one system
     obs_all = Observations.of(data, freq_noise=freq_noise, shape_noise=shape_noise)
-    hz, sh = solve(AffineModel(model), np.zeros((1, 0)), st.coords, st.n_modes)
+    hz, sh = st.modes0
     hz0, sh0 = hz[0], sh[0]
     base_all = profiled(obs_all, hz0, sh0)
     unpaired = np.flatnonzero(base_all.pairing < 0)
@@ -618,7 +623,7 @@ def screen_candidates(cal: Calibration, cands: list[Candidate]) -> list[tuple[fl
     st = cal.setting
     if solver_path(len(st.local.dofmap.free)) == "dense" or not cands:
         return [_screen_solved(cal, c) for c in cands]
-    first = screen_all(cal.obs, cal.base, st.model, st.coords, st.n_modes, cands)
+    first = screen_all(cal.obs, cal.base, st.model, st.coords, st.n_modes, cands, st)
     return [_screen_solved(cal, c) if c.term is None else f for c, f in zip(cands, first)]
 
 
@@ -657,7 +662,7 @@ def look_at_clipped(cal: Calibration, cands: list[Candidate], screened: list[tup
 def _screen_solved(cal: Calibration, cand: Candidate) -> tuple[float, float]:
     """The larger promise of the first-order step (`fit.screen`) and of a look at a few sizes
     along the candidate's grid (`fit.look_along`)."""
-    return max(screen(cal.obs, cand, cal.base), look_along(cal.obs, cand, cal.base), key=lambda x: x[0])
+    return promise(cal.obs, cand, cal.base)
 
 
 # == 3. select ==================================================================================

@@ -80,7 +80,11 @@ def screen(obs: Observations, cand: Candidate, base: Fit) -> tuple[float, float]
 
     The sensitivity of the (profiled) residuals to a is taken from one small step, with the
     baseline pairing held fixed; the effect is one-sided (a >= 0)."""
-    step = chi2_batch(obs, cand, np.array([cand.step]), pairing=base.pairing)[0]
+    return _linear_drop(cand, base, chi2_batch(obs, cand, np.array([cand.step]), pairing=base.pairing)[0])
+
+
+def _linear_drop(cand: Candidate, base: Fit, step: Fit) -> tuple[float, float]:
+    """`screen`'s drop and a from the fit at the candidate's step."""
     j = (step.residuals - base.residuals) / cand.step
     jj = float(j @ j)
     if jj <= 0.0:
@@ -120,6 +124,53 @@ def brings(obs: Observations, cand: Candidate, modes: np.ndarray) -> bool:
     costs there more than the candidate's fit, whose search runs on that basis too."""
     fits = chi2_batch(obs, cand, cand.grid, forward=reduced_forward(cand))
     return any(bool((f.pairing[modes] >= 0).any()) for f in fits)
+
+
+def promise(obs: Observations, cand: Candidate, base: Fit) -> tuple[float, float]:
+    """The larger of `screen` and `look_along` (chi^2 drop, a): how much a class promises."""
+    return max(screen(obs, cand, base), look_along(obs, cand, base), key=lambda x: x[0])
+
+
+#: The distributed classes solved in full to confirm their ranking (`class_promises`): this many
+#: times the classes kept.
+CHECK_FACTOR = 2
+
+
+def class_promises(obs: Observations, cands: list[Candidate], base: Fit, n_keep: int) -> list[tuple[float, float]]:
+    """Each candidate's `promise`, for choosing the `n_keep` most promising: where every candidate
+    has a reduced screen (`Candidate.reduced_screen`, the diagnosis's shared basis), all are
+    ranked on it (the step and the look along's sizes in one batched Rayleigh-Ritz solve each)
+    and the `CHECK_FACTOR * n_keep` best are solved in full. The ranking is confirmed when the
+    `n_keep`-th best full promise exceeds every unchecked reduced one by `GRID_MARGIN` times the
+    largest difference between reduced and full seen plus `GRID_SLACK` (as `_confirmed_grid`);
+    then the checked entries are the full promises and the others the reduced ones (below the
+    kept ones: they only rank). Else, and without a reduced screen, every promise is solved in
+    full. The `n_keep` best are so the same classes, in the same order and with the same values,
+    as from full solves of all (unless the rule's margin misjudges; a rule checked at the
+    points solved, not a bound). A reduced promise that is not finite also sends every class to
+    full solves."""
+    if len(cands) <= CHECK_FACTOR * n_keep or any(c.reduced_screen is None for c in cands):
+        return [promise(obs, c, base) for c in cands]
+    approx = []
+    for c in cands:
+        forward = c.reduced_screen()  # one at a time: each holds its basis (n_free x 70-odd)
+        if forward is None:
+            return [promise(obs, c, base) for c in cands]
+        sizes = np.concatenate([[c.step], c.grid[1::3]])
+        fits = chi2_batch(obs, c, sizes, pairing=base.pairing, forward=forward)
+        best = min(fits[1:], key=lambda f: f.chi2)
+        approx.append(max(_linear_drop(c, base, fits[0]), (max(base.chi2 - best.chi2, 0.0), best.a),
+                          key=lambda x: x[0]))
+    if not np.all(np.isfinite(approx)):
+        return [promise(obs, c, base) for c in cands]
+    order = sorted(range(len(cands)), key=lambda i: -approx[i][0])
+    checked, rest = order[:CHECK_FACTOR * n_keep], order[CHECK_FACTOR * n_keep:]
+    full = {i: promise(obs, cands[i], base) for i in checked}
+    error = max(abs(full[i][0] - approx[i][0]) for i in checked)
+    kept = sorted((p[0] for p in full.values()), reverse=True)[n_keep - 1]
+    if max(approx[i][0] for i in rest) + GRID_MARGIN * error + GRID_SLACK >= kept:
+        return [full[i] if i in full else promise(obs, c, base) for i, c in enumerate(cands)]
+    return [full.get(i, approx[i]) for i in range(len(cands))]
 
 
 def reduced_forward(cand: Candidate):

@@ -18,7 +18,9 @@ The candidates are built on one affine system with every element's modulus a par
 class's sizes are solved in one batched eigen-solve (`Candidate.forward`), always in full: on the
 shared reduced basis (reduced.py) a group's or a trend's frequencies were off by up to 9.6e-2
 relative and its chi^2 by up to 3.6e4 (tests/test_reduced_basis.py's frame), so none has a
-reduced forward. They are scored beside
+reduced forward. Only their ranking (which `core.N_DISTRIBUTED_FIT` classes are fitted) runs on a
+basis of each class's own change (`Candidate.reduced_screen`, `SharedBasis.spread`), and the best
+of that ranking are solved in full to confirm it (`fit.class_promises`). They are scored beside
 the local classes by their evidence (evidence.py); they do not enter the likelihood-ratio search
 for local causes.
 """
@@ -138,6 +140,13 @@ def _candidate(st, system, ids, e0, kind, where, w) -> Candidate:
             out["modulus_ratio"] = float(1.0 + a * (1.0 if kind.endswith("gain") else -1.0))
         return out
 
+    def reduced_screen():
+        basis = st.basis
+        if basis is None:
+            return None
+        s = system()._solver
+        return basis.spread(s.matrix(s.gk @ (e0 * w)))
+
     grid = upper * np.concatenate([[0.0], np.geomspace(2e-3, 1.0, 15)])
     return Candidate(kind, where, upper, grid, forward, estimate, lambda a: st.model.with_element_moduli(moduli(a)),
-                     step=0.01 * upper)
+                     step=0.01 * upper, reduced_screen=reduced_screen)

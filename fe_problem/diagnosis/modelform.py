@@ -27,9 +27,8 @@ import dataclasses
 
 import numpy as np
 
-from ..assembly import AffineModel
 from ..model import FrameModel
-from .candidates import Candidate, Setting, solve
+from .candidates import Candidate, Setting, solve_model
 from .fit import look_along
 from .screening import screen_steps
 from .supports import support_candidates
@@ -42,7 +41,7 @@ GRID = np.concatenate([[0.0], np.geomspace(0.005, 1.0, 9)])
 def _forward(st: Setting, build):
     def forward(a):
         a = np.atleast_1d(np.asarray(a, dtype=float))
-        out = [solve(AffineModel(build(float(v))), np.zeros((1, 0)), st.coords, st.n_modes) for v in a]
+        out = [solve_model(build(float(v)), st) for v in a]
         return np.concatenate([o[0] for o in out]), np.concatenate([o[1] for o in out])
     return forward
 

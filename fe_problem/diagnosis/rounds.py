@@ -208,6 +208,7 @@ def _next_cause(cal, st: Setting, picks, sizes, kinds, n_fit, alpha: float, skip
     ids = (frozenset(st.model.element_ids), frozenset(st.model.node_ids))  # once, not per candidate
     found_k = screen_and_fit(cal_k, kinds, n_fit, keep=lambda c: _new_place(c, st.model, places, ids),
                              bring=unpaired)
+    cal_k.setting.baselines.clear()  # a round screens its model once: its adjoint blocks go
     if not found_k.candidates:
         return None
     sel_k = select(cal_k, found_k, alpha)

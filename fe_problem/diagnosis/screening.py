@@ -178,13 +178,21 @@ def screen_linear_batch(obs: Observations, base: Fit, lam: np.ndarray, phi_c: np
     return np.column_stack([np.where(live & (a > 0.0), np.maximum(drop, 0.0), 0.0), a])
 
 
-def screen_all(obs: Observations, base: Fit, model, coords, n_modes: int, cands) -> list[tuple[float, float]]:
+def screen_all(obs: Observations, base: Fit, model, coords, n_modes: int, cands,
+               setting=None) -> list[tuple[float, float]]:
     """(chi^2 drop, a) of every candidate with a first-order term, from one set of modes of
     `model`; candidates without one (global effects) get (nan, nan): the caller screens them
-    by a step or fits them outright."""
+    by a step or fits them outright. setting: the candidates' `Setting` of `model` (its
+    system and its baselines kept, `Setting.baselines`), else the system is built here."""
     with_term = [i for i, c in enumerate(cands) if c.term is not None]
     modes = np.unique(base.pairing[base.pairing >= 0])
-    first = baseline(AffineModel(model), coords, n_modes, modes)
+    if setting is None:
+        first = baseline(AffineModel(model), coords, n_modes, modes)
+    else:
+        key = (tuple(coords), n_modes, tuple(modes.tolist()))
+        if key not in setting.baselines:
+            setting.baselines[key] = baseline(setting.system, coords, n_modes, modes)
+        first = setting.baselines[key]
     out = [(float("nan"), float("nan"))] * len(cands)
     for sl in chunks(first, len(with_term)):  # the changes of a chunk of candidates at a time
         part = with_term[sl]
@@ -211,7 +219,7 @@ def screen_steps(obs: Observations, base: Fit, setting, cands) -> list[tuple[flo
     frame's 6,000 model-form candidates took most of its diagnosis)."""
     if not cands or solver_path(len(setting.local.dofmap.free)) == "dense":
         return [screen(obs, c, base) for c in cands]
-    first = screen_all(obs, base, setting.model, setting.coords, setting.n_modes, cands)
+    first = screen_all(obs, base, setting.model, setting.coords, setting.n_modes, cands, setting)
     return [screen(obs, c, base) if c.term is None else f for c, f in zip(cands, first)]
 
 
