@@ -371,3 +371,53 @@ def test_a_re_paired_refit_keeps_its_best_pass_never_a_pairing_that_drops_a_mode
     first = sparse_class.refit(am, obs, support, sf.theta, pairing)
     assert got.chi2 <= first.chi2 + 1e-9, (got.chi2, first.chi2)
     assert got.chi2 < 100.0, got.chi2
+
+
+def _setback_frame() -> fp.FrameModel:
+    """A two-bay four-storey steel frame (6 m bays, 3 m storeys) whose top storey is set back to
+    one bay (x 0..6 m): the roof has one beam (element 18). 1 t at each node above the base, x
+    measured there; written as a model file's dict."""
+    nodes, at = [], {}
+    for y in (0.0, 3.0, 6.0, 9.0, 12.0):
+        for x in (0.0, 6.0, 12.0):
+            if not (y == 12.0 and x == 12.0):
+                at[x, y] = len(nodes) + 1
+                nodes.append({"id": at[x, y], "x": x, "y": y})
+    elements = []
+    for (x, y), n in at.items():
+        for other in ((x, y + 3.0), (x + 6.0, y) if y > 0 else None):
+            if other in at:
+                elements.append({"id": len(elements) + 1, "nodes": [n, at[other]], "section": "c", "material": "steel"})
+    return model_from_dict({
+        "format": "femu.model/1", "name": "setback",
+        "materials": {"steel": {"youngs_modulus_pa": 2.1e11, "density_kg_m3": 7850.0, "poisson_ratio": 0.3}},
+        "sections": {"c": {"area_m2": 0.01, "inertia_m4": 1e-4}},
+        "nodes": nodes, "elements": elements,
+        "masses": [{"node": n["id"], "mass_kg": 1000.0} for n in nodes if n["y"] > 0],
+        "supports": [{"node": n["id"], "directions": ["x", "y", "rz"]} for n in nodes if n["y"] == 0],
+        "measured_dofs": [[n["id"], "x"] for n in nodes if n["y"] > 0]})
+
+
+def test_a_set_back_roof_beam_is_the_top_floor_group_and_held_members_are_named():
+    """On the set-back frame the roof's one beam is a floor group of its own, the top floor, the
+    reference of "every floor free" (it was in no group, silently held at the global scale, with
+    the floor at 9 m the reference); every beam is in a floor group, every column in a storey and
+    a column line; the fitted floor class names the members it holds at the scale (the columns)."""
+    from fe_problem.diagnosis.group_free import partition
+
+    model = _setback_frame()
+    cal = calibrate(model, fp.synthetic_measurement(model, 6, dofs=model.measured_dofs, freq_noise=FREQ_NOISE,
+                                                    shape_noise=SHAPE_NOISE, seed=0, model_name="setback"),
+                    FREQ_NOISE, SHAPE_NOISE)
+    floors = partition(cal.setting, "every_floor_free")
+    assert floors == {"floor_y3": (5, 7), "floor_y6": (10, 12), "floor_y9": (15, 17), "floor_y12": (18,)}
+    columns = [e.id for e in model.elements if model.node(e.node_i).x == model.node(e.node_j).x]
+    beams = sorted(set(model.element_ids) - set(columns))
+    assert sorted(e for g in floors.values() for e in g) == beams
+    for kind in ("every_storey_free", "every_column_line_free"):
+        assert sorted(e for g in partition(cal.setting, kind).values() for e in g) == sorted(columns), kind
+    assert list(partition(cal.setting, "every_storey_free"))[-1] == "storey4"
+    fit = fit_storeys(cal.setting, cal.obs, cal.base.pairing, "every_floor_free")
+    est = fit.estimate()
+    assert est["groups"][-1] == "floor_y12" and est["members"] == beams
+    assert est["held_members"] == sorted(columns) and len(est["floor_ratio"]) == 4

@@ -7,19 +7,25 @@ expresses that: a group class moves one group, a trend cannot make the top store
 the lower ones stiffen with height. Each class here frees a set of groups, the members of group k
 with the modulus E0 (1 + theta_k):
 
-- ``every_storey_free``: every storey (the storey groups of `groups.member_groups`);
+- ``every_storey_free``: every storey (the storey groups of `groups.classified`);
 - ``every_column_line_free``: every column line (the vertical members at one x);
 - ``every_floor_free``: every floor's beams (the horizontal members at one y);
 - ``adjacent_members_free``: two adjacent members of one chain (collinear members sharing a
   node: a column's consecutive elements), each its own group.
 
-For the first three the groups cover the members of that kind; a common change of all of them is
+For the first three the groups cover every member of that kind (`groups.classified`: a group of
+one member kept, as a set-back top storey's one roof beam); a common change of all of them is
 (up to the other members') the global stiffness-to-mass scale s, profiled out in every class, so
 the last group (the top storey, the right-most column line, the top floor) is the reference with
-no parameter of its own: n - 1 parameters, each a ratio to that group. They apply with at least
+no parameter of its own: n - 1 parameters, each a ratio to that group. The members in no group
+(the other kind's: the beams of the storey and column-line classes, the columns of the floor
+class; a member neither vertical nor horizontal) are held at s with the reference group, and the
+estimate names them (``held_members``). They apply with at least
 `MIN_GROUPS` groups: with two, the class is one group's change and the scale, which groups.py's
 group classes already are. The pair's two members are both free (the rest of the structure is the
-reference, at s). Every theta_k lies in [LOW, HIGH] (sparse_class's range, a ratio 0.1 to 4). The
+reference, at s). A partition's theta_k has the prior [LOW, HIGH] (sparse_class's range, a ratio
+0.1 to 4); the pair's each the one-sided range of the local family for the side its fit lies on
+(`sparse_class.sided`: a loss in [LOW, 0], a gain in [0, HIGH]), as the sparse class's members. The
 estimate gives each group's stiffness relative to the nominal model, s (1 + theta_k) (a
 reference group s), with the mass as modelled.
 
@@ -43,7 +49,7 @@ import numpy as np
 from . import sparse_class
 from .candidates import Setting
 from .evidence import ScoredClass
-from .groups import _direction, member_groups
+from .groups import _direction, classified
 from .residuals import Observations
 
 #: The every-storey class's label's kind, and the family of every class here in the evidence table.
@@ -91,7 +97,7 @@ class GroupFit:
     def estimate(self, dispersion: float = 1.0) -> dict:
         """Each group's stiffness relative to nominal, s (1 + theta_k) (a reference group s), with
         its std at the dispersion D (theta's std times s; the scale's own spread is not included),
-        the members and the global scale; for the pair, as the sparse class's, each member's
+        the members, the global scale and the members held at it (in no group); for the pair, as the sparse class's, each member's
         modulus ratio 1 + theta_k to the rest of the structure (at the global scale) and its std."""
         s = self.fit.s
         if self.kind == PAIR_KIND:  # as the sparse class's: each member's modulus against the rest's
@@ -102,7 +108,12 @@ class GroupFit:
         std = [float(s * x * np.sqrt(dispersion)) for x in self.fit.theta_std] + ([0.0] if self.reference else [])
         unit = PARTITIONS[self.kind][1]
         return {"groups": list(self.groups), "members": list(self.members), f"{unit}_ratio": ratios,
-                f"{unit}_ratio_std": std, "global_scale": float(s)}
+                f"{unit}_ratio_std": std, "global_scale": float(s), "held_members": list(self.held)}
+
+    @property
+    def held(self) -> tuple[int, ...]:
+        """The members in no group, held at the global scale s (for the pair, every other member)."""
+        return tuple(e for e in self.params.ids if e not in self.members)
 
     def prior(self) -> tuple:
         """The uniform prior's range of each parameter: [LOW, HIGH] (sparse_class's), or for the
@@ -126,9 +137,11 @@ StoreyFit = GroupFit
 
 def partition(st: Setting, kind: str = KIND) -> dict[str, tuple[int, ...]]:
     """The groups of a partition class (`PARTITIONS`) of the model, ordered by height or x (the
-    reference last): name -> element ids."""
+    reference last): name -> element ids. From the raw classification (`groups.classified`):
+    every member of the kind is in one group, a group of one member (a set-back storey's one roof
+    beam) and a group with the same members as a group of another kind included."""
     prefix = PARTITIONS[kind][0]
-    found = {k: v for k, v in member_groups(st.model).items() if k.startswith(prefix)}
+    found = {k: v for k, v in classified(st.model).items() if k.startswith(prefix)}
     return dict(sorted(found.items(), key=lambda kv: float(kv[0][len(prefix):])))
 
 

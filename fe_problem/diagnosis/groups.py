@@ -50,8 +50,13 @@ def _direction(model: FrameModel, element_id: int) -> tuple[np.ndarray, np.ndarr
     return pa, pb, d / np.linalg.norm(d)
 
 
-def member_groups(model: FrameModel) -> dict[str, tuple[int, ...]]:
-    """The member groups the topology offers: name -> element ids (see the module docstring)."""
+def classified(model: FrameModel) -> dict[str, tuple[int, ...]]:
+    """Every member by the raw classification of the topology: name -> element ids, for
+    ``storey<k>`` and ``column_line_x<x>`` (the vertical members), ``floor_y<y>`` (the horizontal
+    members) and ``section_<name>`` (every member), each group kept however small and whatever
+    other group has its members (`member_groups` leaves those out; group_free.partition does not:
+    a set-back top storey's one roof beam is that floor's group). A member neither vertical nor
+    horizontal is in a section's group only."""
     vertical, horizontal = [], []
     info = {}
     for e in model.elements:
@@ -73,10 +78,16 @@ def member_groups(model: FrameModel) -> dict[str, tuple[int, ...]]:
         groups[f"floor_y{round(float(info[e][0][1]), 4):g}"].append(e)
     for e in model.elements:
         groups[f"section_{e.section}"].append(e.id)
+    return {name: tuple(sorted(ids)) for name, ids in groups.items()}
+
+
+def member_groups(model: FrameModel) -> dict[str, tuple[int, ...]]:
+    """The member groups the topology offers as one-parameter classes: `classified`'s groups less
+    those of one element (a local candidate) or of every element (the global scale) and less a
+    group whose members an earlier group has (see the module docstring)."""
     n = len(model.elements)
     out, seen = {}, set()
-    for name, ids in groups.items():
-        key = tuple(sorted(ids))
+    for name, key in classified(model).items():
         if 2 <= len(key) < n and key not in seen:  # one element: a local candidate; all: the global scale
             seen.add(key)
             out[name] = key
