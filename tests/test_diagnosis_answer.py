@@ -152,3 +152,40 @@ def test_three_separated_weaker_members_are_answered_by_the_sparse_class():
         best.held_out_error_pct, rel=1e-9)
     assert diag.gain.after.mean_abs_error_pct < diag.gain.before.mean_abs_error_pct
     assert _chi2(ext, data).chi2 == pytest.approx(best.chi2, rel=1e-6)
+
+
+def _row(label, family, members=None, ratios=None):
+    from fe_problem.diagnosis.evidence import ScoredClass
+
+    est = None if members is None else {"members": members, "modulus_ratio": ratios}
+    return ScoredClass(label, family, 1 if members is None else len(members), 10.0, 1.0, est)
+
+
+def test_one_answer_keeps_a_loss_apart_from_a_gain_and_other_members_apart():
+    """`same_answer` (answer.py): classes are one answer when they change the same members'
+    stiffness the same way. A loss is never a gain, other members are other members, and a
+    member's modulus ratio of exactly 1 is no change (it counted as a gain: a sparse fit with
+    member 9 at 1.0 was another answer than element 2's loss, and the same as element 9's gain)."""
+    from fe_problem.diagnosis.answer import members_changed, same_answer
+
+    loss2 = _row("stiffness_loss@element=2", "local")
+    gain2 = _row("stiffness_gain@element=2", "local")
+    zone2 = _row("stiffness_loss@element=2(weak_zone at 0.3 of its length)", "local")
+    both = _row("stiffness_loss@element=2 + stiffness_loss@element=9", "several")
+    assert members_changed(loss2) == {(2, -1)} and members_changed(gain2) == {(2, 1)}
+    assert same_answer(loss2, zone2) and not same_answer(loss2, gain2)
+    assert same_answer(loss2, _row("every_member_sparse@members=2", "sparse", [2], [0.8]))
+    assert not same_answer(loss2, _row("every_member_sparse@members=2", "sparse", [2], [1.2]))
+    assert same_answer(gain2, _row("every_member_sparse@members=2", "sparse", [2], [1.2]))
+    assert not same_answer(loss2, _row("every_member_sparse@members=3", "sparse", [3], [0.8]))
+    pair = _row("adjacent_members_free@members=2+9", "distributed", [2, 9], [0.85, 0.75])
+    assert same_answer(both, pair) and not same_answer(loss2, pair)
+    assert not same_answer(both, _row("adjacent_members_free@members=2+9", "distributed", [2, 9], [0.85, 1.1]))
+    assert not same_answer(both, _row("adjacent_members_free@members=2+3", "distributed", [2, 3], [0.85, 0.75]))
+    # a ratio of exactly 1: no change
+    unchanged9 = _row("every_member_sparse@members=2+9", "sparse", [2, 9], [0.8, 1.0])
+    assert members_changed(unchanged9) == {(2, -1)} and same_answer(loss2, unchanged9)
+    assert not same_answer(_row("stiffness_gain@element=9", "local"),
+                           _row("every_member_sparse@members=9", "sparse", [9], [1.0]))
+    assert members_changed(_row("every_member_sparse@members=9", "sparse", [9], [1.0])) is None
+    assert members_changed(_row("member_depth@element=2", "model_form")) is None

@@ -54,7 +54,8 @@ def members_changed(c: ScoredClass) -> frozenset | None:
     """The members whose stiffness a class changes, each with the sign of its change ((element,
     -1) softer, (element, +1) stiffer), when the class is nothing but such changes: a local
     stiffness loss or gain (uniform or a weak zone: profiles of one element's loss), several of
-    them, the sparse class, two adjacent members free. Else None."""
+    them, the sparse class, two adjacent members free. A modulus ratio of exactly 1 is no change
+    (the member left out). Else None, also when no member is changed."""
     if c.family in ("local", "several"):
         out = set()
         for part in c.label.split(" + "):
@@ -67,7 +68,9 @@ def members_changed(c: ScoredClass) -> frozenset | None:
         return frozenset(out)
     est = c.estimate or {}
     if c.family in ("sparse", "distributed") and "modulus_ratio" in est and isinstance(est["modulus_ratio"], list):
-        return frozenset((int(e), -1 if r < 1.0 else 1) for e, r in zip(est["members"], est["modulus_ratio"]))
+        out = frozenset((int(e), -1 if r < 1.0 else 1) for e, r in zip(est["members"], est["modulus_ratio"])
+                        if r != 1.0)
+        return out or None
     return None
 
 
