@@ -97,8 +97,9 @@ class GroupFit:
     def estimate(self, dispersion: float = 1.0) -> dict:
         """Each group's stiffness relative to nominal, s (1 + theta_k) (a reference group s), with
         its std at the dispersion D (theta's std times s; the scale's own spread is not included),
-        the members, the global scale and the members held at it (in no group); for the pair, as the sparse class's, each member's
-        modulus ratio 1 + theta_k to the rest of the structure (at the global scale) and its std."""
+        the members, the global scale and the members held at it (in no group); for the pair, as
+        the sparse class's, each member's modulus ratio 1 + theta_k to the rest of the structure (at
+        the global scale) and its std."""
         s = self.fit.s
         if self.kind == PAIR_KIND:  # as the sparse class's: each member's modulus against the rest's
             return {"members": list(self.members), "modulus_ratio": [float(1.0 + t) for t in self.fit.theta],
