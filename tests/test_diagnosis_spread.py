@@ -310,14 +310,22 @@ def _line_frame() -> fp.FrameModel:
     return fp.regular_frame(2, 3, 6.0, 3.0, floor_mass_kg=2000.0, name="frame2x3")
 
 
-def _columns_at(model: fp.FrameModel, ratios: dict) -> fp.FrameModel:
-    """The columns at x (m) with their moduli times ratios[x], in the model file."""
-    moduli = {}
+def _members_at(model: fp.FrameModel, axis: str, places) -> dict[int, float]:
+    """The members whose two ends share their `axis` coordinate ("x": columns, "y": beams) at one
+    of `places` (m): element id -> that coordinate."""
+    out = {}
     for e in model.elements:
-        a, b = model.node(e.node_i), model.node(e.node_j)
-        if a.x == b.x and a.x in ratios:
-            moduli[e.id] = model.element_modulus_pa(e.id) * ratios[a.x]
-    return _through_file(model.with_element_moduli(moduli))
+        a, b = getattr(model.node(e.node_i), axis), getattr(model.node(e.node_j), axis)
+        if a == b and a in places:
+            out[e.id] = a
+    return out
+
+
+def _scaled_at(model: fp.FrameModel, axis: str, ratios: dict) -> fp.FrameModel:
+    """The members `_members_at(model, axis, ratios)` with their moduli times ratios[coordinate],
+    in the model file."""
+    return _through_file(model.with_element_moduli(
+        {e: model.element_modulus_pa(e) * ratios[c] for e, c in _members_at(model, axis, ratios).items()}))
 
 
 @pytest.mark.parametrize("seed", [0, 1])
@@ -330,7 +338,7 @@ def test_a_column_line_pattern_is_every_column_line_free(seed):
     from fe_problem.diagnosis.group_free import FAMILY
 
     model = _line_frame()
-    data = fp.synthetic_measurement(_columns_at(model, {0.0: 0.85, 6.0: 1.15}), 6, dofs=model.measured_dofs,
+    data = fp.synthetic_measurement(_scaled_at(model, "x", {0.0: 0.85, 6.0: 1.15}), 6, dofs=model.measured_dofs,
                                     freq_noise=FREQ_NOISE, shape_noise=SHAPE_NOISE, seed=seed, model_name="frame2x3")
     diag = fp.diagnose(model, data)
     a = diag.answer
@@ -341,16 +349,6 @@ def test_a_column_line_pattern_is_every_column_line_free(seed):
     ext = diag.extended_model
     ratio = {x: ext.element_modulus_pa(e) / model.element_modulus_pa(e) for x, e in ((0.0, 1), (6.0, 2), (12.0, 3))}
     assert [ratio[x] for x in (0.0, 6.0, 12.0)] == pytest.approx(a.estimate["column_line_ratio"], rel=1e-9)
-
-
-def _beams_at(model: fp.FrameModel, ratios: dict) -> fp.FrameModel:
-    """The beams at height y (m) with their moduli times ratios[y], in the model file."""
-    moduli = {}
-    for e in model.elements:
-        a, b = model.node(e.node_i), model.node(e.node_j)
-        if a.y == b.y and a.y in ratios:
-            moduli[e.id] = model.element_modulus_pa(e.id) * ratios[a.y]
-    return _through_file(model.with_element_moduli(moduli))
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
@@ -364,7 +362,7 @@ def test_a_floor_pattern_is_every_floor_free(seed):
     from fe_problem.diagnosis.group_free import FAMILY
 
     model = _line_frame()
-    data = fp.synthetic_measurement(_beams_at(model, {3.0: 0.8, 6.0: 1.2}), 6, dofs=model.measured_dofs,
+    data = fp.synthetic_measurement(_scaled_at(model, "y", {3.0: 0.8, 6.0: 1.2}), 6, dofs=model.measured_dofs,
                                     freq_noise=FREQ_NOISE, shape_noise=SHAPE_NOISE, seed=seed, model_name="frame2x3")
     diag = fp.diagnose(model, data)
     a = diag.answer
@@ -372,8 +370,7 @@ def test_a_floor_pattern_is_every_floor_free(seed):
     assert a.location == {"groups": ["floor_y3", "floor_y6", "floor_y9"]}
     assert np.allclose(a.estimate["floor_ratio"], [0.8, 1.2, 1.0], atol=0.05), a.estimate
     assert diag.adequate and diag.evidence.classes[0].label == a.label
-    changed = {e.id for e in model.elements
-               if model.node(e.node_i).y == model.node(e.node_j).y and model.node(e.node_i).y in (3.0, 6.0)}
+    changed = set(_members_at(model, "y", (3.0, 6.0)))
     if not a.decisive:
         from fe_problem.diagnosis.answer import members_changed
 
@@ -392,7 +389,7 @@ def test_a_re_paired_refit_keeps_its_best_pass_never_a_pairing_that_drops_a_mode
     from fe_problem.diagnosis.residuals import Observations
 
     model = _line_frame()
-    data = fp.synthetic_measurement(_columns_at(model, {0.0: 0.85, 6.0: 1.15}), 6, dofs=model.measured_dofs,
+    data = fp.synthetic_measurement(_scaled_at(model, "x", {0.0: 0.85, 6.0: 1.15}), 6, dofs=model.measured_dofs,
                                     freq_noise=FREQ_NOISE, shape_noise=SHAPE_NOISE, seed=0, model_name="frame2x3")
     cal = calibrate(model, data, FREQ_NOISE, SHAPE_NOISE)
     sf = sparse_class.fit_sparse(cal.setting, cal.obs, cal.base.pairing)
