@@ -21,6 +21,7 @@ import scipy.linalg
 import scipy.sparse as sp
 
 from .limits import MAX_SPARSE_DOFS  # noqa: F401  (fe_problem.assembly.MAX_SPARSE_DOFS, as before)
+from .elements import formulation
 from .model import FrameModel, ModelFileError
 from .parameters import Parameter
 from .paths import SOLVERS
@@ -122,6 +123,7 @@ class AffineModel:
         # the rigid-body motions the supports allow are zero modes however ill-conditioned the
         # model (an eigenvalue test alone can miss them, or take a real mode for one, on a fine mesh)
         n_body = self._n_rigid_motions(k_trip, self.x0)
+        self._n_body = n_body  # the rigid-body motions the supports allow (`edited` reuses it)
         if self.path == "dense":
             k0, dk = dense_terms(k_trip, n, p)
             m0, dm = dense_terms(m_trip, n, p)
@@ -134,6 +136,87 @@ class AffineModel:
                                              x0_modes=x0_modes)
         #: None, or what moves in the zero-energy motions that are not rigid-body motions
         self.mechanism: str | None = self._find_mechanism() if self.n_rigid > n_body else None
+
+    @blas_pinned
+    def edited(self, model: FrameModel, element_ids, x0_modes: int = 0) -> "AffineModel":
+        """`AffineModel(model, x0_modes=x0_modes)` of a `model` that differs from this one only in
+        the matrices of the elements `element_ids` (a member's section, the elements at a moved
+        node), built from this system: on the sparse path, for a system with no parameter, K and M
+        are this system's values with those elements' blocks replaced (new minus old, on the same
+        pattern; an entry the new blocks fill that was zero joins it), and the rigid-body count
+        is this one's when no supported or sprung node moved. The eigen-solve is `AffineModel`'s
+        own (the zero-energy count and the modes from one solve), so the modes are a full
+        rebuild's to rounding (tests/test_edited_system.py: K, M exact to 1e-13 relative, the
+        frequencies to 1e-12). Anything else (the dense path, parameters, another topology, a
+        support, spring or mass changed, a skew release at a changed element): a full build."""
+        rows = self._edit_rows(model, element_ids)
+        if rows is None:
+            return AffineModel(model, x0_modes=x0_modes)
+        dofmap, n = self.dofmap, self.n_free
+        pos = np.full(dofmap.n_total, -1)
+        pos[dofmap.free] = np.arange(n)
+        solver = self._solver
+        parts_r, parts_c, parts_k, parts_m = [solver.rows], [solver.cols], [solver.k_data0], [solver.m_data0]
+        for sign, mod in ((-1.0, self.model), (1.0, model)):
+            k_el, m_el = _element_blocks(mod, rows)
+            k_el *= sign * np.array([mod.element_modulus_pa(mod.elements[r].id) for r in rows])[:, None, None]
+            rho = [mod.materials[mod.elements[r].material].density_kg_m3 for r in rows]
+            m_el *= sign * np.array(rho)[:, None, None]
+            d = pos[dofmap.element_dofs[rows]]                             # (e, k) free positions, -1 held
+            r, c = np.broadcast_arrays(d[:, :, None], d[:, None, :])
+            keep = (r >= 0) & (c >= 0)
+            parts_r.append(r[keep]), parts_c.append(c[keep]), parts_k.append(k_el[keep]), parts_m.append(m_el[keep])
+        r, c = np.concatenate(parts_r), np.concatenate(parts_c)
+        term = np.full(len(r), -1)
+        k_trip = (r, c, np.concatenate(parts_k), term)
+        m_trip = (r, c, np.concatenate(parts_m), term)
+        new = object.__new__(AffineModel)
+        new.model, new.parameters, new.dofmap, new.path = model, (), dofmap, "sparse"
+        new._check_mass(m_trip)
+        new._n_body = self._n_body
+        new._solver = SparseModalSolver(k_trip, m_trip, n, new.x0, model.name, solver.workers, min_zero=new._n_body,
+                                        x0_modes=x0_modes)
+        new.mechanism = new._find_mechanism() if new.n_rigid > new._n_body else None
+        return new
+
+    def _edit_rows(self, model: FrameModel, element_ids) -> list[int] | None:
+        """The positions in model.elements of `element_ids`, when `edited` may build `model` from
+        this system: the sparse path, no parameter, the same layout, nodes (ids, order), supports,
+        springs and masses, the same element connectivity and releases (none at a changed space
+        element), every element not in `element_ids` the same and with the same section and
+        material (by name), and every node that moved one whose elements are all in
+        `element_ids` and that no support or spring holds; else None."""
+        base = self.model
+        if (self.path != "sparse" or self.parameters or model.layout != base.layout
+                or len(model.elements) != len(base.elements) or len(model.nodes) != len(base.nodes)
+                or model.supports != base.supports or model.springs != base.springs or model.masses != base.masses):
+            return None
+        ids = set(element_ids)
+        rows = [k for k, e in enumerate(base.elements) if e.id in ids]
+        if len(rows) != len(ids) or any(k in self.dofmap.extended for k in rows):
+            return None
+        if base.layout.dimension == 3 and any(any(base.end_releases(base.elements[k])) for k in rows):
+            return None  # a space release's node rotation follows the member's axes (terms.release_rotation)
+        changed = set(rows)
+        sections = {k for k, v in base.sections.items() if model.sections.get(k) != v}
+        materials = {k for k, v in base.materials.items() if model.materials.get(k) != v}
+        if (sections or materials) and any(e.section in sections or e.material in materials
+                                           for k, e in enumerate(base.elements) if k not in changed):
+            return None
+        for k in [k for k, (a, b) in enumerate(zip(base.elements, model.elements)) if a is not b and a != b]:
+            a, b = base.elements[k], model.elements[k]
+            if k not in changed or (a.id, a.node_i, a.node_j) != (b.id, b.node_i, b.node_j) \
+                    or base.end_releases(a) != model.end_releases(b):
+                return None
+        moved = [(a, b) for a, b in zip(base.nodes, model.nodes) if a is not b and a != b]
+        if moved:
+            held = {s.node for s in base.supports} | {sp.dof_a[0] for sp in base.springs} \
+                | {sp.dof_b[0] for sp in base.springs if sp.dof_b}
+            for a, b in moved:
+                if a.id != b.id or a.id in held or any(
+                        k not in changed for k, e in enumerate(base.elements) if a.id in (e.node_i, e.node_j)):
+                    return None
+        return rows
 
     # -- the solver's interface (either path) ---------------------------------------------
     @property
@@ -306,6 +389,19 @@ class AffineModel:
         """Shapes (b, n_free, k) at the rows `nodal_rows` gave: (b, len(rows), k), zero where
         a DOF is supported (row -1)."""
         return take_rows(phi_free, rows)
+
+
+def _element_blocks(model: FrameModel, rows: list[int]) -> tuple[np.ndarray, np.ndarray]:
+    """Stiffness per unit modulus and mass per unit density (e, k, k) of the elements at `rows`
+    of model.elements (`element_matrices` of those elements alone)."""
+    k_dof = 2 * model.layout.per_node
+    k, m = np.zeros((len(rows), k_dof, k_dof)), np.zeros((len(rows), k_dof, k_dof))
+    for name in dict.fromkeys(model.elements[r].formulation for r in rows):
+        at = [j for j, r in enumerate(rows) if model.elements[r].formulation == name]
+        els = [model.elements[rows[j]] for j in at]
+        form = formulation(name, model.layout)
+        k[at], m[at] = form.stiffness(model, els), form.mass(model, els)
+    return k, m
 
 
 __all__ = ["AUTO_DENSE_BYTES", "AffineModel", "DofMap", "SPARSE_MIN_DOFS", "SOLVERS", "check_dense_size",

@@ -33,8 +33,10 @@ element ends meet, or two that are not in line (a corner), so any frame has its 
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import functools
+import gc
 from dataclasses import dataclass, field
 from typing import Callable, Iterator
 
@@ -53,6 +55,24 @@ from .reduced import SharedBasis
 
 KINDS = ("stiffness_loss", "added_mass", "joint_flexibility", "shear_deformation", "stiffness_gain",
          "boundary_stiffness", "distributed_mass")
+
+
+def _shared(grid) -> np.ndarray:
+    """A grid every candidate of a kind holds (one array, not one per candidate: 15,566 candidates
+    at 3,024 DOFs), read-only so that none can change another's."""
+    grid = np.array(grid, dtype=float)
+    grid.setflags(write=False)
+    return grid
+
+
+#: The effect sizes each kind tries (`Candidate.grid`); added mass and distributed mass scale
+#: theirs by the model's mass and the element's `upper`.
+LOSS_GRID = _shared([0.0, 0.005, 0.01, 0.02, 0.04, 0.07, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9])
+JOINT_GRID = _shared(np.concatenate([[0.0], np.geomspace(1e-3, 50.0, 18)]))
+GAIN_GRID = _shared([0.0, 0.01, 0.02, 0.05, 0.1, 0.2, 0.35, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0])
+BOUNDARY_GRID = _shared(np.concatenate([[0.0], np.geomspace(1e-4, 100.0, 16)]))
+_MASS_STEPS = np.geomspace(1e-3, 0.5, 15)          # added mass / the model's mass
+_DISTRIBUTED_STEPS = np.geomspace(1e-3, 1.0, 14)   # distributed mass / the element's upper
 
 
 @dataclass(frozen=True)
@@ -113,10 +133,25 @@ class Setting:
         return None if system.n_rigid else SharedBasis(system, self.coords, self.n_modes)
 
 
+class _Once:
+    """`build()` on the first call, the same object after (a plain closure: an `lru_cache` per
+    candidate was a third of building 15,566 candidates)."""
+
+    __slots__ = ("build", "made")
+
+    def __init__(self, build: Callable[[], object]):
+        self.build, self.made = build, None
+
+    def __call__(self):
+        if self.build is not None:
+            self.made, self.build = self.build(), None
+        return self.made
+
+
 def lazy_system(build: Callable[[], AffineModel]) -> Callable[[], AffineModel]:
     """`build()` on the first call, the same system after: a candidate's own system is
     assembled only if it is solved (on a large model most candidates are only screened)."""
-    return functools.lru_cache(maxsize=1)(build)
+    return _Once(build)
 
 
 def solve(system: AffineModel, theta: np.ndarray, coords, n_modes: int):
@@ -125,11 +160,18 @@ def solve(system: AffineModel, theta: np.ndarray, coords, n_modes: int):
     return frequencies_hz(lam), system.at_rows(phi, system.nodal_rows(coords))
 
 
-def solve_model(model: FrameModel, st: Setting):
+def solve_model(model: FrameModel, st: Setting, elements=None):
     """`solve` of one model at its own properties (a size of a candidate that builds a model per
     size): frequencies (1, k) Hz, shapes (1, n_coord, k); its zero-energy count and its modes
-    from one eigen-solve on the sparse path (`AffineModel`'s `x0_modes`)."""
-    return solve(AffineModel(model, x0_modes=st.n_modes), np.zeros((1, 0)), st.coords, st.n_modes)
+    from one eigen-solve on the sparse path (`AffineModel`'s `x0_modes`). `elements`: the ids of
+    the only elements whose matrices differ from `st.model`'s (a member's depth, the elements at
+    a moved node): on the sparse path the model is then built from `st.system` with only those
+    replaced (`AffineModel.edited`; the same modes to rounding); None: built afresh."""
+    if elements is not None and st.system.path == "sparse":
+        system = st.system.edited(model, elements, x0_modes=st.n_modes)
+    else:
+        system = AffineModel(model, x0_modes=st.n_modes)
+    return solve(system, np.zeros((1, 0)), st.coords, st.n_modes)
 
 
 @dataclass(eq=False)
@@ -240,6 +282,7 @@ def stiffness_loss(st: Setting) -> Iterator[Candidate]:
     zone about a section depth wide at one of seven positions along it (a crack; zones.py);
     the place is the element either way."""
     shared: dict = {}
+    abouts = zones.bending_rotations(st.model)
     for e in st.model.elements:
         e0 = st.model.element_modulus_pa(e.id)
         system = lazy_system(lambda e=e, e0=e0: AffineModel(
@@ -252,10 +295,8 @@ def stiffness_loss(st: Setting) -> Iterator[Candidate]:
             return {"stiffness_loss_pct": 100.0 * a, "modulus_ratio": 1.0 - a, "profile": "uniform",
                     "modulus_pa": s * e0 * (1.0 - a)}
 
-        yield Candidate("stiffness_loss", {"element": e.id}, 0.9,
-                        np.array([0.0, 0.005, 0.01, 0.02, 0.04, 0.07, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7,
-                                  0.8, 0.9]),
-                        forward, estimate, lambda a, e=e, e0=e0: st.model.with_element_moduli({e.id: e0 * (1.0 - a)}),
+        yield Candidate("stiffness_loss", {"element": e.id}, 0.9, LOSS_GRID, forward, estimate,
+                        lambda a, e=e, e0=e0: st.model.with_element_moduli({e.id: e0 * (1.0 - a)}),
                         step=0.01, meta={"profile": "uniform"},
                         term=lambda e=e, e0=e0: st.local.stiffness(e.id, -e0, "uniform"),
                         reduced=reduced_linear(st, lambda e=e, e0=e0: st.local.stiffness(e.id, -e0, "uniform")))
@@ -263,7 +304,7 @@ def stiffness_loss(st: Setting) -> Iterator[Candidate]:
         if (not formulation(e.formulation, st.model.layout).supports_weak_zone
                 or e.crack_position is not None or e.weak_zone is not None):
             continue
-        for about in zones.bending_rotations(st.model):
+        for about in abouts:
             yield from _zone_candidates(st, e, e0, shared, about=about)
 
 
@@ -288,10 +329,19 @@ def zone_profile(centre: float, about: str | None = None) -> str:
 
 def _zone_candidates(st: Setting, e, e0: float, shared: dict, places=None, about: str = "rz") -> Iterator[Candidate]:
     """The weak-zone losses of element e (see zones.py) bending about `about`, at the grid's
-    places or at `places`; a: the zone's loss of bending stiffness."""
+    places or at `places`; a: the zone's loss of bending stiffness. Each forward is
+    `zones.zone_forwards`' for its place, made when it is first called (most zones are only
+    screened: making every zone's forward, each with the element's nominal stiffness, was a
+    sixth of building the candidates)."""
     space = st.model.layout.dimension == 3
-    for start, end, forward in zones.zone_forwards(st.model, e.id, st.coords, st.n_modes, shared, places, about):
+    for start, end in zones.zone_places(st.model, e.id, about) if places is None else places:
         centre = round(0.5 * (start + end), 6)
+
+        made = _Once(lambda start=start, end=end: next(zones.zone_forwards(
+            st.model, e.id, st.coords, st.n_modes, shared, [(start, end)], about))[2])
+
+        def forward(a, made=made):
+            return made()(a)
 
         def estimate(a, s, start=start, end=end, centre=centre):
             ei = s * e0 * st.model.sections[e.section].inertia_about(about)
@@ -327,6 +377,7 @@ def added_mass(st: Setting) -> Iterator[Candidate]:
     a mass found before): a `mass` parameter is the node's whole lumped mass, so it is set to
     m0 + a."""
     total = st.model.total_mass_kg()
+    grid = _shared(np.concatenate([[0.0], total * _MASS_STEPS]))
     for node in st.model.node_ids:
         m0 = sum(lm.mass_kg for lm in st.model.masses if lm.node == node)
         system = lazy_system(lambda node=node, m0=m0: AffineModel(
@@ -342,8 +393,8 @@ def added_mass(st: Setting) -> Iterator[Candidate]:
             return add_mass(st.model, node, a)
 
         yield Candidate("added_mass", {"node": node}, 0.5 * total,
-                        np.concatenate([[0.0], total * np.geomspace(1e-3, 0.5, 15)]),
-                        forward, estimate, extend, step=0.005 * total, term=lambda node=node: st.local.node_mass(node),
+                        grid, forward, estimate, extend, step=0.005 * total,
+                        term=lambda node=node: st.local.node_mass(node),
                         reduced=reduced_linear(st, lambda node=node: st.local.node_mass(node)))
 
 
@@ -388,16 +439,18 @@ def _released(model: FrameModel, e, node: int, axis) -> bool:
     return _frees([_rotation_axis(model, e, r) for r in releases], axis)
 
 
-def _last_rigid_end(model: FrameModel, node: int, axis, element=None) -> bool:
+def _last_rigid_end(model: FrameModel, node: int, axis, element=None, ends=None) -> bool:
     """Whether releasing the end of `element` at `node` about `axis` (`_rotation_axis`'s form)
     would leave a rotation of the node that no element end, support or rotary inertia holds
     (the others released by joints already found): a rotation with no mass, an invalid model;
     at a corner, releasing either end is one and the same joint. Planar: one element end at most
     is still rigidly tied to the node's rotation. Space: the rotations every end leaves free
-    (each the span of its released axes, `element`'s with `axis`) meet in more than zero."""
+    (each the span of its released axes, `element`'s with `axis`) meet in more than zero.
+    `ends`: the elements at `node`, when the caller has them."""
     if any(m.node == node and m.inertia_kg_m2 > 0 for m in model.masses):
         return False
-    ends = [e for e in model.elements if node in (e.node_i, e.node_j)]
+    if ends is None:
+        ends = [e for e in model.elements if node in (e.node_i, e.node_j)]
     if isinstance(axis, str):
         rigid = sum(1 for e in ends if not _released(model, e, node, axis))
         return rigid <= 1 and not any(s.node == node and axis in s.directions for s in model.supports)
@@ -425,15 +478,21 @@ def joint_flexibility(st: Setting) -> Iterator[Candidate]:
     about the same axis is the same model (the first end's; the second's only about an axis
     along none of the first's, as at a gable's ridge)."""
     planar = len(st.model.layout.hinges) == 1
-    rotations = bending_hinges(st.model) + tuple(r for r in st.model.layout.hinges if r not in bending_hinges(st.model))
+    bending = bending_hinges(st.model)
+    rotations = bending + tuple(r for r in st.model.layout.hinges if r not in bending)
+    at: dict[int, list] = {}  # node -> the elements at it, in the model's order
+    for e in st.model.elements:
+        at.setdefault(e.node_i, []).append(e)
+        if e.node_j != e.node_i:
+            at.setdefault(e.node_j, []).append(e)
     for node in joint_nodes(st.model):
-        ends = [e for e in st.model.elements if node in (e.node_i, e.node_j)]
+        ends = at[node]
         first = [_rotation_axis(st.model, ends[0], r) for r in rotations]
         for e, local in ((e, r) for e in ends for r in rotations):
             axis = _rotation_axis(st.model, e, local)  # a skew member's: a relative rotation (terms.py)
             if len(ends) == 2 and e is not ends[0] and any(_frees([a], axis) for a in first):
                 continue  # at a corner, the first end's joint about the same axis
-            if _released(st.model, e, node, axis) or _last_rigid_end(st.model, node, axis, e):
+            if _released(st.model, e, node, axis) or _last_rigid_end(st.model, node, axis, e, ends):
                 continue
             ref = _bending_compliance_ref(st.model, e.id, local)
             system = lazy_system(lambda e=e, node=node, ref=ref, local=local: AffineModel(
@@ -466,8 +525,7 @@ def joint_flexibility(st: Setting) -> Iterator[Candidate]:
 
             place = {"node": node, "element": e.id} if planar else {"node": node, "element": e.id, "rotation": local}
             yield Candidate("joint_flexibility", place, 50.0,
-                            np.concatenate([[0.0], np.geomspace(1e-3, 50.0, 18)]),
-                            forward, estimate, extend, step=0.01,
+                            JOINT_GRID, forward, estimate, extend, step=0.01,
                             term=lambda e=e, node=node, ref=ref, axis=axis: st.local.joint(e.id, node, ref, axis))
 
 
@@ -510,8 +568,8 @@ def stiffness_gain(st: Setting) -> Iterator[Candidate]:
             return {"stiffness_gain_pct": 100.0 * a, "modulus_ratio": 1.0 + a, "modulus_pa": s * e0 * (1.0 + a)}
 
         yield Candidate("stiffness_gain", {"element": e.id}, 3.0,
-                        np.array([0.0, 0.01, 0.02, 0.05, 0.1, 0.2, 0.35, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0]),
-                        forward, estimate, lambda a, e=e, e0=e0: st.model.with_element_moduli({e.id: e0 * (1 + a)}),
+                        GAIN_GRID, forward, estimate,
+                        lambda a, e=e, e0=e0: st.model.with_element_moduli({e.id: e0 * (1 + a)}),
                         step=0.01, term=lambda e=e, e0=e0: st.local.stiffness(e.id, e0),
                         reduced=reduced_linear(st, lambda e=e, e0=e0: st.local.stiffness(e.id, e0)))
 
@@ -562,7 +620,7 @@ def boundary_stiffness(st: Setting) -> Iterator[Candidate]:
                 return st.model.replace(springs=st.model.springs + (Spring(sid, (node, direction), None, k_ref * a),))
 
             yield Candidate("boundary_stiffness", {"node": node, "direction": direction}, 100.0,
-                            np.concatenate([[0.0], np.geomspace(1e-4, 100.0, 16)]), forward, estimate, extend,
+                            BOUNDARY_GRID, forward, estimate, extend,
                             step=1e-3, term=lambda node=node, direction=direction:
                             st.local.ground_spring(node, direction, k_ref),
                             reduced=reduced_linear(st, lambda node=node, direction=direction:
@@ -594,7 +652,7 @@ def distributed_mass(st: Setting) -> Iterator[Candidate]:
                                                    for x in st.model.elements))
 
         yield Candidate("distributed_mass", {"element": e.id}, upper,
-                        np.concatenate([[0.0], upper * np.geomspace(1e-3, 1.0, 14)]), forward, estimate, extend,
+                        np.concatenate([[0.0], upper * _DISTRIBUTED_STEPS]), forward, estimate, extend,
                         step=0.01 * upper, term=lambda e=e, rho0=rho0: st.local.density_change(e.id, rho0),
                         reduced=reduced_linear(st, lambda e=e, rho0=rho0: st.local.density_change(e.id, rho0)))
 
@@ -612,8 +670,25 @@ CANDIDATE_KINDS: dict[str, Callable[[Setting], Iterator[Candidate]]] = {
 
 
 def all_candidates(st: Setting, kinds=None) -> list[Candidate]:
-    """Every candidate of the given kinds (default: all registered) for this setting."""
-    return list(iter_candidates(st, kinds))
+    """Every candidate of the given kinds (default: all registered) for this setting. Built with
+    the cyclic garbage collector paused (`_collector_paused`): the candidates are a few closures
+    each, all kept, and at 3,024 DOFs the collections their 15,566 sets of objects set off, each
+    a pass over the whole heap, were two thirds of building them."""
+    with _collector_paused():
+        return list(iter_candidates(st, kinds))
+
+
+@contextlib.contextmanager
+def _collector_paused():
+    """The cyclic garbage collector off inside, as it was after (nothing is freed any later than
+    the next collection: reference counting frees what is not in a cycle as before)."""
+    was = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if was:
+            gc.enable()
 
 
 def iter_candidates(st: Setting, kinds=None) -> Iterator[Candidate]:

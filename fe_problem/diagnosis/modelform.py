@@ -38,10 +38,12 @@ MAX_MOVE = 0.2
 GRID = np.concatenate([[0.0], np.geomspace(0.005, 1.0, 9)])
 
 
-def _forward(st: Setting, build):
+def _forward(st: Setting, build, elements):
+    """The forward of a candidate whose sizes `build` models that differ from `st.model` only in
+    the matrices of `elements` (ids; `solve_model` builds them from the Setting's system)."""
     def forward(a):
         a = np.atleast_1d(np.asarray(a, dtype=float))
-        out = [solve_model(build(float(v)), st) for v in a]
+        out = [solve_model(build(float(v)), st, elements) for v in a]
         return np.concatenate([o[0] for o in out]), np.concatenate([o[1] for o in out])
     return forward
 
@@ -91,12 +93,14 @@ def model_form_candidates(st: Setting, places: list[dict] | None = None) -> list
             build = (lambda v, element=element, sign=sign: member_depth(model, element, 1.0 + sign * v))
             term = ((lambda element=element, sign=sign: st.local.depth(element, sign))
                     if st.local.plain_beam(element) else None)  # the first-order screen's (local.py)
-            out.append(Candidate("member_depth", {"element": element}, 0.5, 0.5 * GRID, _forward(st, build), estimate,
+            out.append(Candidate("member_depth", {"element": element}, 0.5, 0.5 * GRID,
+                                 _forward(st, build, (element,)), estimate,
                                  build, step=0.005, meta={"profile": what}, term=term))
     for node in dict.fromkeys(nodes):
         if node in fixed:
             continue
-        lengths = [model.element_length_m(e.id) for e in model.elements if node in (e.node_i, e.node_j)]
+        at = tuple(e.id for e in model.elements if node in (e.node_i, e.node_j))
+        lengths = [model.element_length_m(e) for e in at]
         if not lengths:
             continue
         upper = MAX_MOVE * min(lengths)
@@ -108,7 +112,8 @@ def model_form_candidates(st: Setting, places: list[dict] | None = None) -> list
             build = (lambda v, node=node, d=d, sign=sign:
                      moved_node(model, node, sign * v if d == "x" else 0.0, sign * v if d == "y" else 0.0))
             term = (lambda node=node, d=d, sign=sign: st.local.node_move(node, d, sign)) if plain else None
-            out.append(Candidate("node_position", {"node": node}, upper, upper * GRID, _forward(st, build), estimate,
+            out.append(Candidate("node_position", {"node": node}, upper, upper * GRID, _forward(st, build, at),
+                                 estimate,
                                  build, step=0.005 * upper, meta={"profile": f"{'+' if sign > 0 else '-'}{d}"},
                                  term=term))
     return out + support_candidates(st, None if places is None else set(nodes))
