@@ -174,8 +174,7 @@ class AffineModel:
         new.model, new.parameters, new.dofmap, new.path = model, (), dofmap, "sparse"
         new._check_mass(m_trip)
         new._n_body = self._n_body
-        new._solver = SparseModalSolver(k_trip, m_trip, n, new.x0, model.name, solver.workers, min_zero=new._n_body,
-                                        x0_modes=x0_modes)
+        new._solver = SparseModalSolver(k_trip, m_trip, n, new.x0, model.name, min_zero=new._n_body, x0_modes=x0_modes)
         new.mechanism = new._find_mechanism() if new.n_rigid > new._n_body else None
         return new
 
