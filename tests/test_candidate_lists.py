@@ -6,8 +6,9 @@ fcf98d6 built, written by this file's own code with that tree first on the path:
     PYTHONPATH=<fcf98d6's tree> python tests/test_candidate_lists.py tests/candidate_lists_fcf98d6.json.gz
 
 for three models: the shipped H-frame (planar, dense path), the shipped space frame, and a split
-3-bay 4-storey frame (sparse path) with an element end released (a joint found before). Each
-candidate is its label and a digest of its upper bound, step, grid, profile and place."""
+3-bay 4-storey frame (sparse path) with an element end released (a joint found before), and
+their model-form candidates (`model_form_candidates`). Each candidate is its label and a digest
+of its upper bound, step, grid, profile and place."""
 
 import gzip
 import hashlib
@@ -21,6 +22,7 @@ import pytest
 
 import fe_problem as fp
 from fe_problem.diagnosis.candidates import Setting, all_candidates, iter_candidates
+from fe_problem.diagnosis.modelform import model_form_candidates
 from fe_problem.model import release_element_end
 
 REFERENCE = pathlib.Path(__file__).with_name("candidate_lists_fcf98d6.json.gz")
@@ -65,6 +67,17 @@ def test_the_same_candidates_in_the_same_order(reference, name):
     assert listed(iter_candidates(setting(model))) == want
 
 
+@pytest.mark.parametrize("name", ["hframe", "frame3d", "split_frame_with_a_joint"])
+def test_the_same_model_form_candidates_in_the_same_order(reference, name):
+    """The model-form classes at every element and node (modelform.py, supports.py)."""
+    got = listed(model_form_candidates(setting(models()[name])))
+    want = reference[name + "/model_form"]
+    assert len(want) > 5
+    for k, (g, w) in enumerate(zip(got, want)):
+        assert g == w, f"candidate {k}: {g} against fcf98d6's {w}"
+    assert len(got) == len(want)
+
+
 def test_a_zone_forward_made_on_first_use_is_the_zones_own():
     """A weak zone's forward, made when first called, against `zones.zone_forwards`' for that place."""
     from fe_problem.diagnosis import zones
@@ -88,4 +101,5 @@ def test_the_shared_grids_cannot_be_changed_through_a_candidate():
 
 if __name__ == "__main__":
     out = {name: listed(all_candidates(setting(m))) for name, m in models().items()}
+    out.update({name + "/model_form": listed(model_form_candidates(setting(m))) for name, m in models().items()})
     pathlib.Path(sys.argv[1]).write_bytes(gzip.compress(json.dumps(out, separators=(",", ":")).encode(), 9, mtime=0))
