@@ -146,9 +146,10 @@ class AffineModel:
         pattern; an entry the new blocks fill that was zero joins it), and the rigid-body count
         is this one's when no supported or sprung node moved. The eigen-solve is `AffineModel`'s
         own (the zero-energy count and the modes from one solve), so the modes are a full
-        rebuild's to rounding (tests/test_edited_system.py: K, M exact to 1e-13 relative, the
-        frequencies to 1e-12). Anything else (the dense path, parameters, another topology, a
-        support, spring or mass changed, a skew release at a changed element): a full build."""
+        rebuild's to rounding (tests/test_edited_system.py: K, M to 1e-13 of their largest entry,
+        the frequencies to 1e-12). Anything else (the dense path, parameters, another topology, a
+        support, spring or mass changed, a section or material changed under its name for an
+        element not in `element_ids`, a skew release at a changed element): a full build."""
         rows = self._edit_rows(model, element_ids)
         if rows is None:
             return AffineModel(model, x0_modes=x0_modes)
