@@ -83,22 +83,35 @@ def baseline(system: AffineModel, coords, n_modes: int, modes=None) -> Baseline:
 
 def changes(base: Baseline, terms: list[Term]) -> tuple[np.ndarray, np.ndarray]:
     """First-order changes of the baseline's modes `modes` for each term: d lam (c, m) and
-    d shapes at the measured coordinates (c, n_coord, m); callers pass terms in chunks."""
-    n_coord = base.phi_c.shape[0]
-    dlam = np.zeros((len(terms), len(base.modes)))
-    dshape = np.zeros((len(terms), n_coord, len(base.modes)))
+    d shapes at the measured coordinates (c, n_coord, m); callers pass terms in chunks.
+
+    The shape change's G_i^T (D_i phi_i) is a sparse product (one row of the term's k entries
+    per candidate) with G_i: no (c, k, n_coord) gather. The sparse product sums each row's
+    entries in the term's DOF order from zero, as the einsum over k it replaced did, so the
+    changes are the same to the bit (tests/test_screening_changes.py): mirror-image candidates
+    still tie exactly, and their order stays the index order."""
+    n_coord, m = base.phi_c.shape[0], len(base.modes)
+    dlam = np.zeros((len(terms), m))
+    dshape = np.zeros((len(terms), n_coord, m))
     for idx in _groups(terms).values():
         free = _to_free(base.system, np.array([terms[i].dofs for i in idx]))
+        c, k = free.shape
         dk = np.array([terms[i].dk for i in idx])
         dm = np.array([terms[i].dm for i in idx])
         dm2 = np.array([terms[i].dm2 if terms[i].dm2 is not None else np.zeros_like(terms[i].dk) for i in idx])
+        indptr = np.arange(0, c * k + 1, k)
+        moved = np.empty((m, c, n_coord))  # mode-major while built: each mode's block contiguous
         for j, (i, g) in enumerate(zip(base.modes, base.g)):
             lam = base.lam[i]
             u = base.phi_z[free, i]                                       # (c, k)
             r = np.einsum("ckl,cl->ck", dk - lam * dm + lam ** 2 * dm2, u)
             dlam[idx, j] = np.einsum("ck,ck->c", u, r)
             c_i = 0.5 * np.einsum("ck,ckl,cl->c", u, -dm + 2.0 * lam * dm2, u)
-            dshape[idx, :, j] = -np.einsum("ckq,ck->cq", g[free], r) + c_i[:, None] * base.phi_c[None, :, i]
+            # rows of D_i phi_i at the term's free rows (a supported DOF: the zero row n_free)
+            g_r = sp.csr_matrix((r.ravel(), free.ravel(), indptr), shape=(c, g.shape[0])) @ g   # (c, n_coord)
+            np.multiply(c_i[:, None], base.phi_c[None, :, i], out=moved[j])
+            moved[j] -= g_r
+        dshape[idx] = moved.transpose(1, 2, 0)
     return dlam, dshape
 
 
