@@ -77,6 +77,7 @@ def baseline(system: AffineModel, coords, n_modes: int, modes=None) -> Baseline:
     c_t = sp.csc_matrix((np.ones(ok.sum()), (rows[ok], np.flatnonzero(ok))), shape=(system.n_free, len(rows)))
     phi_c = np.where(ok[:, None], phi[np.clip(rows, 0, None)], 0.0)
     modes = np.arange(n_modes) if modes is None else np.asarray(modes, dtype=int)
+    c_t = c_t.toarray()  # dense once: every mode's right-hand sides are built from it
     g = tuple(_adjoint(k0, m0, lam[i], phi[:, i], c_t) for i in modes)
     return Baseline(system, lam, np.vstack([phi, np.zeros((1, n_modes))]), phi_c, modes, g)
 
@@ -129,12 +130,13 @@ def first_order_modes(system: AffineModel, coords, n_modes: int, terms: list[Ter
     return (base.lam, base.phi_c) + changes(base, terms)
 
 
-def _adjoint(k0, m0, lam: float, phi: np.ndarray, c_t) -> np.ndarray:
-    """G = Z C^T (n + 1 rows, the last zero) for one mode, through the bordered matrix."""
+def _adjoint(k0, m0, lam: float, phi: np.ndarray, c_t: np.ndarray) -> np.ndarray:
+    """G = Z C^T (n + 1 rows, the last zero) for one mode, through the bordered matrix (c_t:
+    C^T dense, n x n_coord)."""
     n = k0.shape[0]
     b = m0 @ phi
     bordered = sp.bmat([[k0 - lam * m0, sp.csc_matrix(b[:, None])], [sp.csc_matrix(b[None, :]), None]], format="csc")
-    rhs = c_t.toarray() - np.outer(b, phi @ c_t.toarray())   # P C^T: the part M-orthogonal to phi
+    rhs = c_t - np.outer(b, phi @ c_t)   # P C^T: the part M-orthogonal to phi
     sol = splu(bordered).solve(np.vstack([rhs, np.zeros((1, rhs.shape[1]))]))
     out = sol.copy()
     out[n] = 0.0
@@ -175,12 +177,8 @@ def screen_linear_batch(obs: Observations, base: Fit, lam: np.ndarray, phi_c: np
     or not: without them the residuals at a = 0 were not the baseline's (up to 15 sigma on
     frame3d with measured rotations, where the sway pairs are close), and the Jacobian was
     that offset over the step (a real stiffness loss screened at 0)."""
-    c = len(step)
-    lam_m = np.repeat(lam[None, :], c, axis=0)
-    lam_m[:, modes] += step[:, None] * dlam
-    phi_m = np.repeat(phi_c[None], c, axis=0)
-    phi_m[:, :, modes] += step[:, None, None] * dshape
-    j = (profiled_paired(obs, frequencies_hz(lam_m), phi_m, base.pairing) - base.residuals) / step[:, None]
+    j = (profiled_paired(obs, *_moved_batch(lam, phi_c, modes, dlam, dshape, step), base.pairing)
+         - base.residuals) / step[:, None]
     jj = np.einsum("ci,ci->c", j, j)
     live = jj > 0.0
     a = np.zeros(len(j))
@@ -257,9 +255,26 @@ def linear_bounded_moduli(obs: Observations, base: Fit, local, coords, n_modes: 
     columns = []
     for sl in chunks(first, len(terms)):
         dlam, dshape = changes(first, terms[sl])
-        columns += [(obs.residuals(*_moved(lam, phi_c, modes, dlam[k], dshape[k], h), base.pairing)[0] - r0) / h
-                    for k in range(len(dlam))]
-    return bounded_linear_fit(r0, np.column_stack(columns))
+        for b in range(0, len(dlam), SCREEN_BATCH):  # the models at a step, a batch at a time
+            part = slice(b, min(b + SCREEN_BATCH, len(dlam)))
+            columns.append((obs.residuals_paired(*_moved_batch(lam, phi_c, modes, dlam[part], dshape[part], h),
+                                                 base.pairing) - r0).T / h)
+    return bounded_linear_fit(r0, np.hstack(columns))
+
+
+def _moved_batch(lam, phi_c, modes, dlam, dshape, step):
+    """`_moved` of a batch of changes (dlam (c, m), dshape (c, n_coord, m)) at steps `step` (c,)
+    or one step: frequencies (c, n_modes) Hz and shapes (c, n_coord, n_modes). Each model's the
+    same to the bit as `_moved`'s, and so are its residuals through
+    `Observations.residuals_paired` (tests/test_pinned_fit.py: the Jacobian of
+    `linear_bounded_moduli` against one model at a time; the bounded fit turns a difference of
+    1e-15 into another set of pinned moduli)."""
+    step = np.broadcast_to(np.asarray(step, dtype=float), (len(dlam),))
+    lam_m = np.repeat(lam[None, :], len(dlam), axis=0)
+    lam_m[:, modes] += step[:, None] * dlam
+    phi_m = np.repeat(phi_c[None], len(dlam), axis=0)
+    phi_m[:, :, modes] += step[:, None, None] * dshape
+    return frequencies_hz(lam_m), phi_m
 
 
 def bounded_linear_fit(r0: np.ndarray, jac: np.ndarray, max_nfev: int = 60) -> np.ndarray:
