@@ -74,3 +74,21 @@ def test_the_screen_and_its_order_of_ties_are_unchanged(monkeypatch):
     key = np.where(np.isfinite(now[:, 0]), -now[:, 0], np.inf)
     order = sorted(range(len(cands)), key=lambda i: key[i])
     assert order == list(np.argsort(np.where(np.isfinite(before[:, 0]), -before[:, 0], np.inf), kind="stable"))
+
+
+def test_a_batch_of_moved_modes_is_each_moved_alone_to_the_bit():
+    # screening._moved_batch (the screen's and the pinned moduli's batches) against _moved, one
+    # candidate at a time, for paired modes in one run (moved in place) and with gaps
+    cal = hframe_calibration()
+    st = cal.setting
+    terms = [c.term() for c in all_candidates(st) if c.term is not None][:40]
+    for modes in (np.arange(8), np.array([0, 2, 3, 6])):
+        base = screening.baseline(fp.AffineModel(st.model), st.coords, st.n_modes, modes)
+        dlam, dshape = screening.changes(base, terms)
+        steps = np.linspace(1e-4, 1e-2, len(terms))
+        hz, shapes = screening._moved_batch(base.lam, base.phi_c, modes, dlam, dshape, steps)
+        for k in range(len(terms)):
+            one_hz, one_shapes = screening._moved(base.lam, base.phi_c, modes, dlam[k], dshape[k], steps[k])
+            np.testing.assert_array_equal(hz[k], one_hz)
+            np.testing.assert_array_equal(shapes[k], one_shapes)
+        assert not np.array_equal(shapes[0], base.phi_c)

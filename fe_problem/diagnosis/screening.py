@@ -273,7 +273,10 @@ def _moved_batch(lam, phi_c, modes, dlam, dshape, step):
     lam_m = np.repeat(lam[None, :], len(dlam), axis=0)
     lam_m[:, modes] += step[:, None] * dlam
     phi_m = np.repeat(phi_c[None], len(dlam), axis=0)
-    phi_m[:, :, modes] += step[:, None, None] * dshape
+    if len(modes) and np.array_equal(modes, np.arange(modes[0], modes[-1] + 1)):  # in place: no gather, scatter
+        phi_m[:, :, modes[0]:modes[-1] + 1] += step[:, None, None] * dshape
+    else:
+        phi_m[:, :, modes] += step[:, None, None] * dshape
     return frequencies_hz(lam_m), phi_m
 
 
