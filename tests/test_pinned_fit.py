@@ -54,8 +54,8 @@ def test_the_jacobian_is_one_model_at_a_time_to_the_bit(monkeypatch):
     from fe_problem.modal import frequencies_hz
 
     h = fp.load_model("hframe")
-    data = fp.synthetic_measurement(h.with_element_moduli({7: 0.7 * h.element_modulus_pa(7)}), 8, freq_noise=0.002, shape_noise=0.02,
-                                    seed=3, model_name=h.name)
+    truth = h.with_element_moduli({7: 0.7 * h.element_modulus_pa(7)})  # the model file's element 7 softened
+    data = fp.synthetic_measurement(truth, 8, freq_noise=0.002, shape_noise=0.02, seed=3, model_name=h.name)
     cal = calibrate(h, data, 0.002, 0.02)
     st, obs, base = cal.setting, cal.obs, cal.base
     seen = {}
