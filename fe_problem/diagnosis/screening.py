@@ -77,28 +77,42 @@ def baseline(system: AffineModel, coords, n_modes: int, modes=None) -> Baseline:
     c_t = sp.csc_matrix((np.ones(ok.sum()), (rows[ok], np.flatnonzero(ok))), shape=(system.n_free, len(rows)))
     phi_c = np.where(ok[:, None], phi[np.clip(rows, 0, None)], 0.0)
     modes = np.arange(n_modes) if modes is None else np.asarray(modes, dtype=int)
+    c_t = c_t.toarray()  # dense once: every mode's right-hand sides are built from it
     g = tuple(_adjoint(k0, m0, lam[i], phi[:, i], c_t) for i in modes)
     return Baseline(system, lam, np.vstack([phi, np.zeros((1, n_modes))]), phi_c, modes, g)
 
 
 def changes(base: Baseline, terms: list[Term]) -> tuple[np.ndarray, np.ndarray]:
     """First-order changes of the baseline's modes `modes` for each term: d lam (c, m) and
-    d shapes at the measured coordinates (c, n_coord, m); callers pass terms in chunks."""
-    n_coord = base.phi_c.shape[0]
-    dlam = np.zeros((len(terms), len(base.modes)))
-    dshape = np.zeros((len(terms), n_coord, len(base.modes)))
+    d shapes at the measured coordinates (c, n_coord, m); callers pass terms in chunks.
+
+    The shape change's G_i^T (D_i phi_i) is a sparse product (one row of the term's k entries
+    per candidate) with G_i: no (c, k, n_coord) gather. The sparse product sums each row's
+    entries in the term's DOF order from zero, as the einsum over k it replaced did, so the
+    changes are the same to the bit (tests/test_screening_changes.py): mirror-image candidates
+    still tie exactly, and their order stays the index order."""
+    n_coord, m = base.phi_c.shape[0], len(base.modes)
+    dlam = np.zeros((len(terms), m))
+    dshape = np.zeros((len(terms), n_coord, m))
     for idx in _groups(terms).values():
         free = _to_free(base.system, np.array([terms[i].dofs for i in idx]))
+        c, k = free.shape
         dk = np.array([terms[i].dk for i in idx])
         dm = np.array([terms[i].dm for i in idx])
         dm2 = np.array([terms[i].dm2 if terms[i].dm2 is not None else np.zeros_like(terms[i].dk) for i in idx])
+        indptr = np.arange(0, c * k + 1, k)
+        moved = np.empty((m, c, n_coord))  # mode-major while built: each mode's block contiguous
         for j, (i, g) in enumerate(zip(base.modes, base.g)):
             lam = base.lam[i]
             u = base.phi_z[free, i]                                       # (c, k)
             r = np.einsum("ckl,cl->ck", dk - lam * dm + lam ** 2 * dm2, u)
             dlam[idx, j] = np.einsum("ck,ck->c", u, r)
             c_i = 0.5 * np.einsum("ck,ckl,cl->c", u, -dm + 2.0 * lam * dm2, u)
-            dshape[idx, :, j] = -np.einsum("ckq,ck->cq", g[free], r) + c_i[:, None] * base.phi_c[None, :, i]
+            # rows of D_i phi_i at the term's free rows (a supported DOF: the zero row n_free)
+            g_r = sp.csr_matrix((r.ravel(), free.ravel(), indptr), shape=(c, g.shape[0])) @ g   # (c, n_coord)
+            np.multiply(c_i[:, None], base.phi_c[None, :, i], out=moved[j])
+            moved[j] -= g_r
+        dshape[idx] = moved.transpose(1, 2, 0)
     return dlam, dshape
 
 
@@ -116,12 +130,13 @@ def first_order_modes(system: AffineModel, coords, n_modes: int, terms: list[Ter
     return (base.lam, base.phi_c) + changes(base, terms)
 
 
-def _adjoint(k0, m0, lam: float, phi: np.ndarray, c_t) -> np.ndarray:
-    """G = Z C^T (n + 1 rows, the last zero) for one mode, through the bordered matrix."""
+def _adjoint(k0, m0, lam: float, phi: np.ndarray, c_t: np.ndarray) -> np.ndarray:
+    """G = Z C^T (n + 1 rows, the last zero) for one mode, through the bordered matrix (c_t:
+    C^T dense, n x n_coord)."""
     n = k0.shape[0]
     b = m0 @ phi
     bordered = sp.bmat([[k0 - lam * m0, sp.csc_matrix(b[:, None])], [sp.csc_matrix(b[None, :]), None]], format="csc")
-    rhs = c_t.toarray() - np.outer(b, phi @ c_t.toarray())   # P C^T: the part M-orthogonal to phi
+    rhs = c_t - np.outer(b, phi @ c_t)   # P C^T: the part M-orthogonal to phi
     sol = splu(bordered).solve(np.vstack([rhs, np.zeros((1, rhs.shape[1]))]))
     out = sol.copy()
     out[n] = 0.0
@@ -162,12 +177,8 @@ def screen_linear_batch(obs: Observations, base: Fit, lam: np.ndarray, phi_c: np
     or not: without them the residuals at a = 0 were not the baseline's (up to 15 sigma on
     frame3d with measured rotations, where the sway pairs are close), and the Jacobian was
     that offset over the step (a real stiffness loss screened at 0)."""
-    c = len(step)
-    lam_m = np.repeat(lam[None, :], c, axis=0)
-    lam_m[:, modes] += step[:, None] * dlam
-    phi_m = np.repeat(phi_c[None], c, axis=0)
-    phi_m[:, :, modes] += step[:, None, None] * dshape
-    j = (profiled_paired(obs, frequencies_hz(lam_m), phi_m, base.pairing) - base.residuals) / step[:, None]
+    j = (profiled_paired(obs, *_moved_batch(lam, phi_c, modes, dlam, dshape, step), base.pairing)
+         - base.residuals) / step[:, None]
     jj = np.einsum("ci,ci->c", j, j)
     live = jj > 0.0
     a = np.zeros(len(j))
@@ -244,9 +255,29 @@ def linear_bounded_moduli(obs: Observations, base: Fit, local, coords, n_modes: 
     columns = []
     for sl in chunks(first, len(terms)):
         dlam, dshape = changes(first, terms[sl])
-        columns += [(obs.residuals(*_moved(lam, phi_c, modes, dlam[k], dshape[k], h), base.pairing)[0] - r0) / h
-                    for k in range(len(dlam))]
-    return bounded_linear_fit(r0, np.column_stack(columns))
+        for b in range(0, len(dlam), SCREEN_BATCH):  # the models at a step, a batch at a time
+            part = slice(b, min(b + SCREEN_BATCH, len(dlam)))
+            columns.append((obs.residuals_paired(*_moved_batch(lam, phi_c, modes, dlam[part], dshape[part], h),
+                                                 base.pairing) - r0).T / h)
+    return bounded_linear_fit(r0, np.hstack(columns))
+
+
+def _moved_batch(lam, phi_c, modes, dlam, dshape, step):
+    """`_moved` of a batch of changes (dlam (c, m), dshape (c, n_coord, m)) at steps `step` (c,)
+    or one step: frequencies (c, n_modes) Hz and shapes (c, n_coord, n_modes). Each model's the
+    same to the bit as `_moved`'s, and so are its residuals through
+    `Observations.residuals_paired` (tests/test_pinned_fit.py: the Jacobian of
+    `linear_bounded_moduli` against one model at a time; the bounded fit turns a difference of
+    1e-15 into another set of pinned moduli)."""
+    step = np.broadcast_to(np.asarray(step, dtype=float), (len(dlam),))
+    lam_m = np.repeat(lam[None, :], len(dlam), axis=0)
+    lam_m[:, modes] += step[:, None] * dlam
+    phi_m = np.repeat(phi_c[None], len(dlam), axis=0)
+    if len(modes) and np.array_equal(modes, np.arange(modes[0], modes[-1] + 1)):  # in place: no gather, scatter
+        phi_m[:, :, modes[0]:modes[-1] + 1] += step[:, None, None] * dshape
+    else:
+        phi_m[:, :, modes] += step[:, None, None] * dshape
+    return frequencies_hz(lam_m), phi_m
 
 
 def bounded_linear_fit(r0: np.ndarray, jac: np.ndarray, max_nfev: int = 60) -> np.ndarray:
