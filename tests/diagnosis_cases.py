@@ -461,6 +461,37 @@ REAL = {"storey_gradient": 4, "moved_node": 4, "thinner_member": 4, "two_springs
         "swapped_channels": 4, "separated_members": 4}
 
 
+#: A truth's member is required of the answer when its own effect on the data reaches Currie's
+#: detection limit for one parameter (a chi^2 test at alpha = 0.05 finds it in 1 - beta = 95 % of
+#: noise draws): noncentrality (z_0.975 + z_0.95)^2 = (1.960 + 1.645)^2 = 13.0.
+DETECTABLE = 13.0
+
+
+def without_change(case: Case, element: int) -> FrameModel:
+    """The case's truth with one member's section put back to the nominal model's."""
+    section = (case.nominal or HFRAME).element(element).section
+    return case.truth.replace(elements=tuple(dataclasses.replace(x, section=section) if x.id == element else x
+                                             for x in case.truth.elements))
+
+
+def own_effect(case: Case, element: int) -> float:
+    """One truth member's own effect on the data, measured with the truth model alone: chi^2 of
+    the truth's noise-free modes (the case's modes, coordinates and noise levels) against the
+    truth with that member's section put back to the nominal model's (`without_change`), the global
+    stiffness-to-mass scale fitted (`calibrate`: no candidate of the diagnosis is fitted). It is the
+    noncentrality of the chi^2 by which the data can show the member."""
+    from fe_problem.diagnosis.core import calibrate
+
+    clean = fp.synthetic_measurement(case.truth, N_MODES, dofs=case.dofs or (case.nominal or HFRAME).measured_dofs,
+                                     freq_noise=0.0, shape_noise=0.0, seed=case.seed, model_name="truth")
+    return float(calibrate(without_change(case, element), clean, FREQ_NOISE, SHAPE_NOISE).base.chi2)
+
+
+def required_members(case: Case) -> list[int]:
+    """The truth's members whose own effect reaches `DETECTABLE` (`own_effect`)."""
+    return sorted(loc["element"] for _, loc in case.truths if own_effect(case, loc["element"]) >= DETECTABLE)
+
+
 def classify_real(case: Case, record: dict) -> str:
     """'right', 'honest', 'missed' or 'wrong' for a class of `REAL`:
     - a data fault: right when `data_checks` names it with its channels; otherwise wrong when a
@@ -475,8 +506,11 @@ def classify_real(case: Case, record: dict) -> str:
       class explains the data as well ("model form: ..."); a confident local cause without that is
       wrong;
     - separated members (2-3 members softer): right when the best class by evidence is the sparse
-      class with exactly those members, or the causes named are exactly those members' stiffness
-      losses; else honest when not confident; else wrong;
+      class whose members, or the causes named (each a stiffness loss, confident), are truth
+      members and include every required one (`required_members`: those whose own effect on the
+      data reaches Currie's detection limit, `DETECTABLE`; a member below it cannot be shown by
+      these data and is not required, but a named member outside the truth is never excused);
+      else honest when not confident; else wrong;
     - two springs: as `classify`.
     A storey pattern is right too when the best class is the sparse one and its members include
     every column of the softest storey."""
@@ -502,10 +536,14 @@ def classify_real(case: Case, record: dict) -> str:
         return "honest" if not confident or spread else "wrong"
     if case.cls == "separated_members":
         best = record["evidence"]["classes"][0]
-        members = sorted(loc["element"] for _, loc in case.truths)
-        if best["family"] == "sparse" and sorted(best["estimate"]["members"]) == members:
+        members, required = {loc["element"] for _, loc in case.truths}, set(required_members(case))
+
+        def names(found) -> bool:  # the truth's members, each once, every required one among them
+            return len(set(found)) == len(found) and required <= set(found) <= members
+
+        if best["family"] == "sparse" and names(best["estimate"]["members"]):
             return "right"
-        if confident and sorted((c["location"] or {}).get("element", -1) for c in record["causes"]) == members \
+        if confident and names([(c["location"] or {}).get("element", -1) for c in record["causes"]]) \
                 and all(c["kind"] == "stiffness_loss" for c in record["causes"]):
             return "right"
         return "wrong" if confident else "honest"

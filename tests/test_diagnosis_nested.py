@@ -7,6 +7,10 @@
   member was made softer in its section, not by the candidate code): nested sampling agrees
   with numerical integration (scipy quad) within its error, and the Laplace value agrees with the
   nested one within dynesty's error plus the Laplace approximation's own error (against quad).
+- A free group class (two adjacent members free: H-frame elements 9 and 10 at 0.85 and 0.75,
+  moduli in the model file) is sampled too under `fp.diagnose(evidence="nested")`: nested
+  sampling agrees with a grid integral of the real chi^2 within its error, and the Laplace value
+  with the nested one within dynesty's error plus Laplace's own error (against the grid).
 - The CLI: --evidence nested gives the table with each sampled row's error; a missing dynesty is
   one line and exit 2; a bad --evidence is refused.
 """
@@ -76,6 +80,35 @@ def test_laplace_and_nested_agree_on_a_one_parameter_class():
     assert abs(lz - quad) < 3 * err
     assert abs(laplace - lz) < 3 * err + abs(laplace - quad)
     assert abs(laplace - quad) < 0.2  # near-Gaussian: the Laplace approximation's error is small here
+
+
+def test_a_free_group_class_is_sampled_and_agrees_with_laplace():
+    from fe_problem.diagnosis.group_free import fit_pair
+    from test_diagnosis_spread import _hframe_data
+
+    data = _hframe_data({9: 0.85, 10: 0.75}, 1)  # moduli edited in the model file
+    laplace = {c.label: c for c in fp.diagnose(HFRAME, data).evidence.classes}
+    nested = fp.diagnose(HFRAME, data, evidence="nested").evidence
+    row = next(c for c in nested.classes if c.label.startswith("adjacent_members_free@"))
+    assert row.label == "adjacent_members_free@members=9+10" and row.method == "nested", row
+    assert row.n_parameters == 2 and 0 < row.log_evidence_error < 1
+    assert 1 <= sum(c.method == "nested" for c in nested.classes) <= 6
+    # the same integral on a 61 x 61 grid over +-6 sd of each ratio (cut to its prior, [0.1, 1])
+    cal = calibrate(HFRAME, data, 0.002, 0.02)
+    g = fit_pair(cal.setting, cal.obs, cal.base.pairing, [9, 10])
+    assert g.label == row.label and g.fit.chi2 == pytest.approx(row.chi2, rel=1e-9)
+    d, (lo, hi) = nested.dispersion, g.prior()
+    sd = g.fit.theta_std * np.sqrt(d)
+    axes = [np.linspace(max(lo[k], t - 6 * sd[k]), min(hi[k], t + 6 * sd[k]), 61) for k, t in enumerate(g.fit.theta)]
+    grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 2)
+    chi2 = np.array([f.chi2 for f in g.params.residuals(cal.obs, grid)]).reshape(61, 61)
+    top = -(chi2.min() - cal.base.chi2) / (2 * d)
+    w = np.exp(-(chi2 - chi2.min()) / (2 * d))
+    integral = top + np.log(np.trapezoid(np.trapezoid(w, axes[1], axis=1), axes[0]) / np.prod(hi - lo))
+    lap = laplace[row.label].log_evidence
+    assert abs(row.log_evidence - integral) < 3 * row.log_evidence_error
+    assert abs(lap - row.log_evidence) < 3 * row.log_evidence_error + abs(lap - integral)
+    assert abs(lap - integral) < 0.5  # near-Gaussian: Laplace is accurate on this class
 
 
 def test_cli_nested_gives_the_table_with_errors(tmp_path):

@@ -36,8 +36,8 @@ and every local label), comparable with the other classes (evidence.py). The pai
 the chains through the elements the other classes point at (the best local stiffness classes,
 the sparse class's members: `pair_seeds`), the best of those pairs by chi^2 entering the table.
 Only for planar models on the dense solver path (as the sparse class). Under ``--evidence
-nested`` every class here keeps its Laplace value (its row says so): a diagnosis of the shear
-frame with the storeys sampled did not end within 15 minutes on the loaded shared machine.
+nested`` a class here among the best `nested.N_NESTED` by Laplace is sampled as the local and
+sparse rows are (`integrand`: its chi^2 paired afresh, its uniform prior's box, no support charge).
 """
 
 from __future__ import annotations
@@ -204,6 +204,15 @@ def fit_pair(st: Setting, obs: Observations, base_pairing: np.ndarray, elements)
     fits = [_fit(st, obs, base_pairing, PAIR_KIND, {str(a): (a,), str(b): (b,)}, False)
             for a, b in adjacent_pairs(st, elements)]
     return min(fits, key=lambda g: g.fit.chi2) if fits else None
+
+
+def integrand(st: Setting, obs: Observations, g: GroupFit) -> tuple:
+    """The class's integrand for nested sampling (nested.rescored): chi^2 (paired afresh) of its
+    parameters theta (k,), the rest as in its fit; its prior's box (`GroupFit.prior`, one range per
+    parameter); no log offset (one support, as its Laplace value)."""
+    k = len(g.fit.theta)
+    lower, upper = (np.broadcast_to(np.asarray(b, float), (k,)).copy() for b in g.prior())
+    return sparse_class.chi2_function(st, obs, g.fit, g.params), lower, upper, 0.0
 
 
 def held_out_error(st: Setting, data, used: np.ndarray, sf: GroupFit, freq_noise: float,
