@@ -467,29 +467,47 @@ REAL = {"storey_gradient": 4, "moved_node": 4, "thinner_member": 4, "two_springs
 DETECTABLE = 13.0
 
 
-def without_change(case: Case, element: int) -> FrameModel:
-    """The case's truth with one member's section put back to the nominal model's."""
-    section = (case.nominal or HFRAME).element(element).section
-    return case.truth.replace(elements=tuple(dataclasses.replace(x, section=section) if x.id == element else x
-                                             for x in case.truth.elements))
+def detection_limit(dof: int) -> float:
+    """Currie's detection limit for `dof` parameters: the noncentrality lambda at which a chi^2 test
+    of `dof` degrees of freedom at alpha = 0.05 finds the effect in 95 % of noise draws
+    (scipy's noncentral chi^2; 12.99 for one, `DETECTABLE`)."""
+    from scipy.optimize import brentq
+    from scipy.stats import chi2, ncx2
+
+    critical = chi2.ppf(0.95, dof)
+    return float(brentq(lambda lam: ncx2.sf(critical, dof, lam) - 0.95, 1e-6, 1e3))
 
 
-def own_effect(case: Case, element: int) -> float:
-    """One truth member's own effect on the data, measured with the truth model alone: chi^2 of
-    the truth's noise-free modes (the case's modes, coordinates and noise levels) against the
-    truth with that member's section put back to the nominal model's (`without_change`), the global
+def without_change(case: Case, *elements: int) -> FrameModel:
+    """The case's truth with these members' sections put back to the nominal model's."""
+    nominal = case.nominal or HFRAME
+    return case.truth.replace(elements=tuple(
+        dataclasses.replace(x, section=nominal.element(x.id).section) if x.id in elements else x
+        for x in case.truth.elements))
+
+
+def own_effect(case: Case, *elements: int) -> float:
+    """Truth members' own effect on the data, measured with the truth model alone: chi^2 of the
+    truth's noise-free modes (the case's modes, coordinates and noise levels) against the truth
+    with those members' sections put back to the nominal model's (`without_change`), the global
     stiffness-to-mass scale fitted (`calibrate`: no candidate of the diagnosis is fitted). It is the
-    noncentrality of the chi^2 by which the data can show the member."""
+    noncentrality of the chi^2 by which the data can show the members."""
     from fe_problem.diagnosis.core import calibrate
 
     clean = fp.synthetic_measurement(case.truth, N_MODES, dofs=case.dofs or (case.nominal or HFRAME).measured_dofs,
                                      freq_noise=0.0, shape_noise=0.0, seed=case.seed, model_name="truth")
-    return float(calibrate(without_change(case, element), clean, FREQ_NOISE, SHAPE_NOISE).base.chi2)
+    return float(calibrate(without_change(case, *elements), clean, FREQ_NOISE, SHAPE_NOISE).base.chi2)
 
 
 def required_members(case: Case) -> list[int]:
-    """The truth's members whose own effect reaches `DETECTABLE` (`own_effect`)."""
-    return sorted(loc["element"] for _, loc in case.truths if own_effect(case, loc["element"]) >= DETECTABLE)
+    """The truth's members whose own effect reaches `DETECTABLE` (`own_effect`). Members below it
+    are excused only together: when their joint effect (all of them undone at once) reaches the
+    detection limit for as many parameters (`detection_limit`), every one of them is required."""
+    members = sorted(loc["element"] for _, loc in case.truths)
+    below = [e for e in members if own_effect(case, e) < DETECTABLE]
+    if len(below) > 1 and own_effect(case, *below) >= detection_limit(len(below)):
+        below = []
+    return [e for e in members if e not in below]
 
 
 def classify_real(case: Case, record: dict) -> str:

@@ -107,7 +107,6 @@ def test_a_free_group_class_is_sampled_and_agrees_with_laplace():
     integral = top + np.log(np.trapezoid(np.trapezoid(w, axes[1], axis=1), axes[0]) / np.prod(hi - lo))
     lap = laplace[row.label].log_evidence
     assert abs(row.log_evidence - integral) < 3 * row.log_evidence_error
-    assert abs(lap - row.log_evidence) < 3 * row.log_evidence_error + abs(lap - integral)
     assert abs(lap - integral) < 0.5  # near-Gaussian: Laplace is accurate on this class
 
 

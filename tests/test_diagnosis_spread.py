@@ -472,12 +472,20 @@ def test_a_member_below_the_detection_limit_is_not_required_of_a_separated_membe
     own effect on the data reaches Currie's detection limit (noncentrality 13.0, `DETECTABLE`),
     measured with the truth model alone (`own_effect`). The case of seed 5 with members 2, 4 and 9
     (inertia 0.76, 0.78, 0.83): member 9, the right column's free lower end, gives 6.15 (a 5 %
-    test would find it in about 1 of 2 noise draws), 2 and 4 give 1,196 and 334. The
-    noncentrality is checked against the mean chi^2 drop over 40 noise draws of the truth against
-    the truth without member 9's change (its expectation for a linear model; sd 2 sqrt(lambda / n)).
-    Naming 2 and 4 is right, so is naming all three; naming 2 alone, or 2, 4 and another member,
-    confidently, is wrong."""
-    from diagnosis_cases import DETECTABLE, REAL, cases, classify_real, own_effect, required_members, without_change
+    test would find it in 70 % of noise draws, the diagnosis's 1 % test in 46 %), 2 and 4 give
+    1,196 and 334. The noncentrality is checked against the chi^2 drop over 40 noise draws of the
+    truth against the truth without member 9's change: its mean (the expectation for a linear
+    model; sd 2 sqrt(lambda / n)) and its variance (4 lambda, which holds only at the right noise
+    level; bounds the sample variance's chi^2 quantiles at 3 sd). The limit itself is checked
+    against the closed form (z_0.975 + z_0.95)^2 of normal quantiles. Naming 2 and 4 is right, so
+    is naming all three; naming 2 alone, or 2, 4 and another member, confidently, is wrong."""
+    from scipy.stats import chi2, norm
+
+    from diagnosis_cases import (DETECTABLE, REAL, cases, classify_real, detection_limit, own_effect, required_members,
+                                 without_change)
+
+    currie = (norm.ppf(0.975) + norm.ppf(0.95)) ** 2
+    assert detection_limit(1) == pytest.approx(currie, rel=1e-6) and DETECTABLE == pytest.approx(currie, abs=0.01)
 
     case = next(c for c in cases(5, REAL) if c.cls == "separated_members")
     assert sorted(loc["element"] for _, loc in case.truths) == [2, 4, 9]
@@ -491,6 +499,9 @@ def test_a_member_below_the_detection_limit_is_not_required_of_a_separated_membe
         drops.append(calibrate(without, data, FREQ_NOISE, SHAPE_NOISE).base.chi2
                      - calibrate(case.truth, data, FREQ_NOISE, SHAPE_NOISE).base.chi2)
     assert np.mean(drops) == pytest.approx(effect[9], abs=3 * 2 * np.sqrt(effect[9] / len(drops)))
+    n = len(drops)
+    ratio = np.var(drops, ddof=1) / (4 * effect[9])
+    assert chi2.ppf(0.00135, n - 1) / (n - 1) < ratio < chi2.ppf(0.99865, n - 1) / (n - 1), ratio
 
     def record(elements):
         causes = [{"kind": "stiffness_loss", "location": {"element": e}, "identifiable": True} for e in elements]
@@ -502,3 +513,20 @@ def test_a_member_below_the_detection_limit_is_not_required_of_a_separated_membe
     assert classify_real(case, record([2])) == "wrong"
     assert classify_real(case, record([2, 4, 7])) == "wrong"
     assert classify_real(case, record([2, 4, 4])) == "wrong"
+
+
+def test_members_below_the_limit_are_excused_only_if_undetectable_together(monkeypatch):
+    """`required_members` excuses members below the one-parameter limit only when their joint
+    effect (all undone at once) stays below the limit for as many parameters: two members at 10
+    each, 20 together (above the two-parameter limit, 15.4), are both required; at 12 together
+    both are excused. The two-parameter limit is checked against scipy's noncentral chi^2 power."""
+    import diagnosis_cases
+    from scipy.stats import chi2, ncx2
+
+    assert ncx2.sf(chi2.ppf(0.95, 2), 2, diagnosis_cases.detection_limit(2)) == pytest.approx(0.95, abs=1e-9)
+    assert 15.3 < diagnosis_cases.detection_limit(2) < 15.5
+    case = next(c for c in diagnosis_cases.cases(5, diagnosis_cases.REAL) if c.cls == "separated_members")
+    for together, required in ((20.0, [2, 4, 9]), (12.0, [2])):
+        effects = {(2,): 500.0, (4,): 10.0, (9,): 10.0, (4, 9): together}
+        monkeypatch.setattr(diagnosis_cases, "own_effect", lambda c, *e, fx=effects: fx[tuple(sorted(e))])
+        assert diagnosis_cases.required_members(case) == required

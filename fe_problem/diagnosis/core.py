@@ -252,7 +252,7 @@ def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str 
     search's result: with several causes the model with all of them, with one its cause when no
     first-round fit is at its place; the best few with their held-out prediction error. evidence
     ``nested``: the best classes by Laplace scored again by nested sampling (nested.py; the
-    local search's several-cause model keeps its Laplace value)."""
+    local search's own row keeps its Laplace value)."""
     obs, base = cal.obs, cal.base
     distributed = distributed_candidates(cal.setting)
     promise = class_promises(obs, distributed, base, N_DISTRIBUTED_FIT)
