@@ -285,18 +285,18 @@ def bounded_linear_fit(r0: np.ndarray, jac: np.ndarray) -> np.ndarray:
     residuals at z = 1/2 (chi^2 = ||r0||^2) and jac (m, n) their derivatives by z; each
     modulus' box is taken as a Gaussian prior of the same width (centred at the calibrated
     value, z = 1/2, sd half the box, 1/2 in z: the rows 2 (z - 1/2)), and the bounds are kept.
-    The objective is strictly convex (its Hessian is at least 4 I), so the answer is unique and
-    continuous in r0 and jac: a direction the data leave undetermined stays at the prior's
-    centre instead of where rounding leaves an iterative fit (the unregularised fit this
-    replaced moved z by up to 0.3 and changed most of its pinned list under a 1e-15 change of
+    The objective is strictly convex (its Hessian, 2 (jac^T jac + 4 I), is at least 8 I), so
+    the answer is unique and continuous in r0 and jac: a direction the data leave undetermined
+    stays at the prior's centre instead of where rounding leaves an iterative fit (the fit this
+    replaced moved z by 0.2-0.5 and changed most of its pinned list under a 1e-15 change of
     its Jacobian at 1,080 and 3,024 DOFs; benchmarks/pinned_rounding.py).
 
     With more residuals than moduli (m > n) the data rows are first compressed to n + 1
     (`compressed`: the same norm at every z). Solved exactly (to rounding) by `lsq_linear`'s
     bvls, an active-set method whose answer has z exactly at the bounds it pins: trf, an
     interior method, leaves a pinned modulus 1e-8 to 1e-4 inside its bound and was slower
-    wherever bounds are active (a 3,024-DOF frame's 1,176 moduli, 16 at a bound: bvls 0.96 s,
-    trf 4.1 s CPU; none at a bound: 0.53 s and 0.13 s)."""
+    wherever bounds are active (a 3,024-DOF frame's 1,176 moduli, its misfit tripled so that 16
+    are at a bound: bvls 0.96 s, trf 4.1 s CPU; as measured, none at a bound: 0.53 s and 0.13 s)."""
     from scipy.optimize import lsq_linear
 
     n = jac.shape[1]
