@@ -193,7 +193,11 @@ def test_changes_in_the_last_digits_of_the_data_change_no_diagnosis():
     (Its truth made after a modal analysis of the H-frame once answered "undetermined": its
     frequencies differed by 1e-13, and 7 of its 12 modes had the other sign, so their noise was
     another draw, test_frame3d.test_measured_data_do_not_depend_on_the_solvers_signs; the
-    last digits alone change nothing.)"""
+    last digits alone change nothing.) The pinned moduli are compared but may be none: the
+    sparse path's pinned fit is the MAP with each modulus' box as a prior (issue 19), which pins
+    none here (its most moved moduli: beam 17 at z = 0.13, the cracked column 1 at 0.21); the
+    unregularised fit it replaced pinned 15, 17, 18 and 58. Its own stability under changes of
+    its Jacobian: tests/test_pinned_fit.py."""
     import dataclasses
 
     from fe_problem.diagnosis import diagnose
@@ -206,7 +210,7 @@ def test_changes_in_the_last_digits_of_the_data_change_no_diagnosis():
                 r.answer.decisive, [(p.parameter, p.bound) for p in r.residuals.pinned_parameters])
 
     first = key(data)
-    assert first[0] == "stiffness_loss" and first[-1], first
+    assert first[0] == "stiffness_loss", first
     for seed in (1, 2):
         rng = np.random.default_rng(seed)
         f = data.frequencies_hz * (1.0 + 1e-13 * rng.choice([-1.0, 1.0], data.frequencies_hz.shape))

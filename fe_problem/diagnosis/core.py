@@ -552,7 +552,9 @@ def _pinned_moduli(cal: Calibration) -> tuple[PinnedParameter, ...]:
 
     Where a solve is cheap (the dense path) the update is a nonlinear least-squares fit; on a
     larger model (hundreds of moduli, a finite-difference Jacobian of as many solves) it is
-    linearised at the calibrated model from one set of first-order modes (screening.py)."""
+    linearised at the calibrated model from one set of first-order modes and fitted as the MAP
+    with each box a Gaussian prior of its width (screening.bounded_linear_fit: unique and
+    continuous in the data, so the list is set by the data, not by rounding)."""
     st, obs = cal.setting, cal.obs
     e_nom = np.array([st.model.element_modulus_pa(e) for e in st.model.element_ids])
     params = tuple(Parameter("modulus", (e,), 1e-3 * v, 1e3 * v, v, name=f"E{e}")
