@@ -49,7 +49,7 @@ from ..elements import formulation, formulations
 from ..parameters import Parameter
 from . import zones
 from .local import LocalMatrices, Term
-from .reduced import SharedBasis
+from .reduced import SharedBasis, reduced_joint
 
 KINDS = ("stiffness_loss", "added_mass", "joint_flexibility", "shear_deformation", "stiffness_gain",
          "boundary_stiffness", "distributed_mass")
@@ -468,7 +468,8 @@ def joint_flexibility(st: Setting) -> Iterator[Candidate]:
             yield Candidate("joint_flexibility", place, 50.0,
                             np.concatenate([[0.0], np.geomspace(1e-3, 50.0, 18)]),
                             forward, estimate, extend, step=0.01,
-                            term=lambda e=e, node=node, ref=ref, axis=axis: st.local.joint(e.id, node, ref, axis))
+                            term=lambda e=e, node=node, ref=ref, axis=axis: st.local.joint(e.id, node, ref, axis),
+                            reduced=reduced_joint(st, e.id, node, ref, axis) if alone else None)
 
 
 def shear_deformation(st: Setting) -> Iterator[Candidate]:

@@ -1,0 +1,138 @@
+"""The reduced form of a joint's flexibility (`reduced.SharedBasis.joint`: the element's local
+basis and the released end's relative rotation) against full sparse solves of the candidate's
+own system (`Candidate.forward`: the element end released by `release_element_end`, tied by a
+rotational spring, the model assembled and solved by ARPACK), and the fit that uses it against
+the fit without it.
+
+The planar data hide a crack built differently from every candidate: the element split in two
+and joined by a rotational spring (`split_element`); the space frame's, a column end made
+flexible in the model file (a release with a spring)."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+import fe_problem as fp
+from fe_problem.assembly import solver_path
+from fe_problem.diagnosis.candidates import all_candidates
+from fe_problem.diagnosis.core import calibrate
+from fe_problem.diagnosis.fit import chi2_batch, fit
+
+#: Frequencies of the reduced solve against the full one, relative, over a joint's whole grid
+#: (compliance 0 to 50 times the element's E I / L: a rigid joint to a nearly free hinge): the
+#: bound `tests/test_reduced_basis.py` holds every local change's grid to (FREQ_RTOL_GRID);
+#: measured at most 5e-8 on the planar frame. The rigid joint (a = 0) is the calibrated model
+#: itself, whose modes the basis holds: the two sides differ by the two ARPACK solves (the basis'
+#: n_modes + 40 modes and the model's own n_modes, each to ARPACK's tol=1e-10; measured 1.9e-11).
+FREQ_RTOL_GRID, FREQ_RTOL_RIGID = 1e-6, 1e-10
+#: Shapes at the measured coordinates, absolute, as a fraction of the largest entry (first order
+#: in the basis' error, frequencies second; measured at most 4.2e-5).
+SHAPE_ATOL = 1e-4
+
+
+@pytest.fixture(scope="module")
+def planar():
+    """A 2-bay 8-storey frame, each member in three elements (sparse path), measured with a
+    crack at the middle of element 20: the calibration and its joint candidates."""
+    model = fp.split_elements(fp.regular_frame(2, 8, floor_mass_kg=2000.0), 3).replace(name="frame2x8")
+    e = model.element(20)
+    ei_l = model.element_modulus_pa(20) * model.sections[e.section].inertia_m4 / model.element_length_m(20)
+    truth = fp.split_element(model, 20, 0.5, 0.5 * ei_l)
+    data = fp.synthetic_measurement(truth, 8, freq_noise=0.002, shape_noise=0.02, model_name=model.name, seed=1)
+    cal = calibrate(model, data, 0.002, 0.02)
+    assert solver_path(len(cal.setting.local.dofmap.free)) == "sparse"
+    return cal, [c for c in all_candidates(cal.setting, ("joint_flexibility",))]
+
+
+@pytest.fixture(scope="module")
+def space():
+    """A 1 x 1 x 3 space frame, each member in two elements (216 DOFs: the sparse path), measured
+    with the first column's top end released about its local z and tied by a spring of half its
+    E I / L (the model edited, not a candidate): the calibration and its joint candidates."""
+    model = fp.split_elements(fp.regular_frame_3d(1, 1, 3, floor_mass_kg=3000.0), 2).replace(name="tower")
+    top = {n.id for n in model.nodes if abs(n.z - 3.0) < 1e-9}  # the first floor's nodes
+    e = next(el for el in model.elements if el.node_j in top and abs(model.local_axes(el.id)[0][2]) > 0.99)
+    ei_l = model.element_modulus_pa(e.id) * model.sections[e.section].inertia_about("rz") / model.element_length_m(e.id)
+    truth = model.replace(elements=tuple(dataclasses.replace(el, releases_j=(("rz", 0.5 * ei_l),)) if el is e else el
+                                         for el in model.elements))
+    data = fp.synthetic_measurement(truth, 8, freq_noise=0.002, shape_noise=0.02, model_name=model.name, seed=2)
+    cal = calibrate(model, data, 0.002, 0.02)
+    assert solver_path(len(cal.setting.local.dofmap.free)) == "sparse"
+    return cal, [c for c in all_candidates(cal.setting, ("joint_flexibility",))]
+
+
+def _check(c):
+    reduced = c.reduced()
+    assert reduced is not None
+    a = np.asarray(c.grid, dtype=float)
+    hz_full, sh_full = c.forward(a)
+    hz, sh = reduced(a)
+    assert hz.shape == hz_full.shape and sh.shape == sh_full.shape
+    rigid = a == 0.0
+    assert rigid.any() and a.max() == c.upper
+    np.testing.assert_allclose(hz[rigid], hz_full[rigid], rtol=FREQ_RTOL_RIGID, atol=0.0)
+    np.testing.assert_allclose(hz, hz_full, rtol=FREQ_RTOL_GRID, atol=0.0)
+    # each shape up to its sign: the released model's own vector has the end's rotation as a DOF
+    # of its own, which the solvers' sign rule may pick (a space frame's torsion-like modes); the
+    # residuals align every shape with the measured one (`Observations.residuals_paired`)
+    sh = sh * np.where(np.sum(sh * sh_full, axis=1, keepdims=True) < 0, -1.0, 1.0)
+    np.testing.assert_allclose(sh, sh_full, atol=SHAPE_ATOL * np.abs(sh_full).max())
+
+
+@pytest.mark.parametrize("where", [
+    {"node": 14, "element": 20},   # the cracked beam's end
+    {"node": 4, "element": 42},    # a beam's end at a column
+    {"node": 10, "element": 14},   # a column's end
+])
+def test_planar_joint_reduced_frequencies_agree_with_full_sparse_solves(planar, where):
+    _, cands = planar
+    c = next(c for c in cands if c.location == where)
+    _check(c)
+
+
+def test_every_planar_joint_has_a_reduced_form(planar):
+    """Every joint of a frame with no released end (each end alone in its joint) has one."""
+    _, cands = planar
+    assert len(cands) > 50 and all(c.reduced is not None for c in cands)
+
+
+def test_space_joint_reduced_frequencies_agree_with_full_sparse_solves(space):
+    """A space frame's joints about each local axis (two bending planes and the torsion: the
+    axis a global unit vector), a column's end and a beam's."""
+    _, cands = space
+    rotations = {c.location["rotation"] for c in cands}
+    assert rotations == {"rx", "ry", "rz"}
+    for rotation in sorted(rotations):
+        for c in [c for c in cands if c.location["rotation"] == rotation][:2]:
+            _check(c)
+
+
+def _counted(c):
+    """The candidate with its own (full) forward counting the sizes it solves."""
+    n = [0]
+
+    def forward(a):
+        n[0] += len(np.atleast_1d(a))
+        return c.forward(a)
+    return dataclasses.replace(c, forward=forward), n
+
+
+@pytest.mark.parametrize("where", [{"node": 14, "element": 20}, {"node": 10, "element": 14}])
+def test_a_joint_fit_with_the_basis_is_the_full_fit(planar, where):
+    """The joint's fit searches on the basis (three full solves where the grid has 19 sizes and
+    the search a dozen), its answer is solved with the candidate's own system: chi^2 and scale are
+    the full model's at its a, and a moves from the fit without the basis by less than the
+    search's own tolerance (xatol = 1e-4 of the bracket's upper end)."""
+    cal, cands = planar
+    c, n_full = _counted(next(c for c in cands if c.location == where))
+    with_basis = fit(cal.obs, c)
+    assert 0 < n_full[0] <= 3  # the reduced path was taken and confirmed
+    without = fit(cal.obs, dataclasses.replace(c, reduced=None))
+    assert with_basis.a > 0.0 and with_basis.chi2 < cal.base.chi2
+    full_at_a = chi2_batch(cal.obs, c, np.array([with_basis.a]))[0]
+    assert with_basis.chi2 == full_at_a.chi2 and with_basis.s == full_at_a.s
+    grid = np.asarray(c.grid)
+    bracket_top = grid[grid > max(with_basis.a, without.a)].min()
+    assert abs(with_basis.a - without.a) < 1e-4 * bracket_top  # the search's xatol
+    assert abs(with_basis.chi2 - without.chi2) <= 1e-6 * without.chi2
