@@ -136,3 +136,19 @@ def test_a_joint_fit_with_the_basis_is_the_full_fit(planar, where):
     bracket_top = grid[grid > max(with_basis.a, without.a)].min()
     assert abs(with_basis.a - without.a) < 1e-4 * bracket_top  # the search's xatol
     assert abs(with_basis.chi2 - without.chi2) <= 1e-6 * without.chi2
+
+
+def test_a_joint_given_another_joints_basis_gets_the_full_fit(planar):
+    """A reduced forward that answers for another joint (a column's end far from the crack) is
+    refused by the full solves of `fit._reduced_fit`: the fit is the one without a basis, bit
+    for bit."""
+    cal, cands = planar
+    c = next(c for c in cands if c.location == {"node": 14, "element": 20})
+    other = next(c for c in cands if c.location == {"node": 4, "element": 42}).reduced
+    grid = np.asarray(c.grid, dtype=float)
+    approx = [f.chi2 for f in chi2_batch(cal.obs, c, grid, forward=other())]
+    exact = [f.chi2 for f in chi2_batch(cal.obs, c, grid)]
+    assert np.argmin(approx) != np.argmin(exact)  # the reduced grid misleads
+    full = fit(cal.obs, dataclasses.replace(c, reduced=None))
+    got = fit(cal.obs, dataclasses.replace(c, reduced=other))
+    assert (got.a, got.s, got.chi2) == (full.a, full.s, full.chi2)
