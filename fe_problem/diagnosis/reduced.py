@@ -25,13 +25,14 @@ trend, and chi^2 by up to 3.6e4 away from the grid's best point, so those candid
 solved in full (groups.py); a basis of the change's own series (`SharedBasis.spread`: powers of
 A0^-1 dK applied to the modes) holds them well enough to rank them (the best ranked are solved
 in full, `fit.class_promises`), not to fit them. Even for a local change the basis serves the search only:
-`fit._reduced_fit` solves the search's answer and the best points outside the grid's bracket in
-full and falls back to the full grid unless they confirm it (`fit._confirmed_grid`, for
+`fit._reduced_fit` solves the search's answer, the grid's best point, the answer -+ twice the
+search's tolerance and the best points outside the grid's bracket in full and falls back to the full grid unless they confirm it (`fit._confirmed_grid`, for
 `fit.look_along`: the grid's best point and its neighbours too; a rule of thumb checked at those
 points, not a bound), so a fit's answer is always solved in full. A joint's flexibility adds a
 DOF, the released end's rotation relative to its node: its basis is the element's local one and
-that DOF (`SharedBasis.joint`; frequencies within 5e-8 of full solves over its whole grid,
-tests/test_reduced_joint.py). Only a model on the sparse path with no zero-energy mode has a
+that DOF (`SharedBasis.joint`, solved in flexibility form; frequencies within 1.1e-7 of full
+solves over the whole grid of every joint of the planar test frame, 7.3e-8 on a gable's skew
+axes down to a = 1e-8, tests/test_reduced_joint.py). Only a model on the sparse path with no zero-energy mode has a
 basis; a candidate that is not a local change (shear deformation, a model-form change, a
 support, a group), or a joint at an end already released in another rotation or with a skew
 release's relative-rotation DOF, has no reduced form.
@@ -143,7 +144,9 @@ class SharedBasis:
             shapes = np.empty((len(a), len(self.rows), self.n_modes))
             rigid = a <= 0.0
             if rigid.any():
-                hz[rigid], shapes[rigid] = self._solve(v, np.broadcast_to(kr0, (int(rigid.sum()), n, n)), None)
+                r = int(rigid.sum())
+                hz[rigid], shapes[rigid] = self._solve_flexibility(v, np.broadcast_to(kr0, (r, n, n)),
+                                                                   np.broadcast_to(np.eye(n), (r, n, n)))
             if (~rigid).any():
                 m = int((~rigid).sum())
                 kk = np.zeros((m, n + 1, n + 1))
@@ -151,7 +154,7 @@ class SharedBasis:
                 kk[:, n, n] = c * c * (krr + ref / a[~rigid])
                 mm = np.broadcast_to(np.eye(n + 1), (m, n + 1, n + 1)).copy()
                 mm[:, :n, n], mm[:, n, :n] = bm, bm
-                hz[~rigid], shapes[~rigid] = self._solve(v, kk, mm)
+                hz[~rigid], shapes[~rigid] = self._solve_flexibility(v, kk, mm)
             return hz, shapes
         return forward
 
@@ -196,7 +199,29 @@ class SharedBasis:
             lam, w = np.linalg.eigh(li @ kr @ np.swapaxes(li, -1, -2))
             y = np.swapaxes(li, -1, -2) @ w
         k = self.n_modes
-        lam, y = lam[:, :k], y[:, :v.shape[1], :k]  # a joint's released rotation (`joint`) is no model DOF
+        return self._pairs(v, lam[:, :k], y[:, :, :k])
+
+    def _solve_flexibility(self, v: np.ndarray, kr: np.ndarray, mr: np.ndarray):
+        """As `_solve`, in flexibility form: with kr = L L^T (Cholesky), the largest eigenvalues
+        mu of L^-1 mr L^-T, lambda = 1 / mu, y = L^-T w / sqrt(mu) (mr-orthonormal). eigh's
+        absolute error is about eps times the largest eigenvalue of the matrix it is given: in
+        stiffness form that is the joint's stiff spring (`joint`: its entry grows as 1 / a), so
+        the low eigenvalues lost precision as a joint stiffened (on the 2 x 8 test frame, a beam's
+        end, relative to full solves: 4.3e-6 at a = 1e-6, 7.7e-4 at 1e-8); in flexibility form it
+        is the lowest mode's 1 / lambda, so the modes kept are held to relative precision."""
+        kr = 0.5 * (kr + np.swapaxes(kr, -1, -2))
+        mr = 0.5 * (mr + np.swapaxes(mr, -1, -2))
+        li = np.linalg.inv(np.linalg.cholesky(kr))
+        mu, w = np.linalg.eigh(li @ mr @ np.swapaxes(li, -1, -2))
+        k = self.n_modes
+        mu, w = mu[:, ::-1][:, :k], w[:, :, ::-1][:, :, :k]  # the largest mu: the lowest modes
+        y = (np.swapaxes(li, -1, -2) @ w) / np.sqrt(mu)[:, None, :]
+        return self._pairs(v, 1.0 / mu, y)
+
+    def _pairs(self, v: np.ndarray, lam: np.ndarray, y: np.ndarray):
+        """Frequencies (b, n_modes) Hz and shapes at the coordinates, signed by the solvers' rule,
+        of the Ritz pairs (lam (b, n_modes) rad^2/s^2, y (b, >= n_v, n_modes) mr-orthonormal)."""
+        y = y[:, :v.shape[1], :]  # a joint's released rotation (`joint`) is no model DOF
         phi = signed(v @ y)
         return frequencies_hz(lam), take_rows(phi, self.rows)
 
