@@ -26,9 +26,10 @@ from test_space_zones import gable
 #: bound `tests/test_reduced_basis.py` holds every local change's grid to (FREQ_RTOL_GRID);
 #: measured at most 1.1e-7 over every joint of the planar frame (75, at a = 50: the basis' error
 #: at a nearly free joint), 7.3e-8 over the gable's 15 (split in 10, with `STIFF`), 1.4e-13 over
-#: the space frame's 132 (/tmp/fix7b2/grid.py). The rigid joint (a = 0) is the calibrated model
-#: itself, whose modes the basis holds: the two sides differ by the two ARPACK solves (the basis'
-#: n_modes + 40 modes and the model's own n_modes, each to ARPACK's tol=1e-10; measured 1.9e-11).
+#: the space frame's 132 (each joint's grid solved both ways). The rigid joint (a = 0) is the
+#: calibrated model itself, whose modes the basis holds: the two sides differ by the two ARPACK
+#: solves (the basis' n_modes + 40 modes and the model's own n_modes, each to ARPACK's
+#: tol=1e-10; measured 1.9e-11).
 FREQ_RTOL_GRID, FREQ_RTOL_RIGID = 1e-6, 1e-10
 #: Stiffer joints than the grid's, checked to FREQ_RTOL_GRID too: the spring's entry grows as
 #: 1 / a, which eigh of the stiffness form lost the low modes to (a beam's end on the planar frame
