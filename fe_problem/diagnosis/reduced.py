@@ -24,18 +24,19 @@ were off by up to 4.5e-2 relative for a column line losing 0.9 of its modulus, 9
 trend, and chi^2 by up to 3.6e4 away from the grid's best point, so those candidates are
 solved in full (groups.py); a basis of the change's own series (`SharedBasis.spread`: powers of
 A0^-1 dK applied to the modes) holds them well enough to rank them (the best ranked are solved
-in full, `fit.class_promises`), not to fit them. Even for a local change the basis serves the search only:
-`fit._reduced_fit` solves the search's answer, the grid's best point, the answer -+ twice the
-search's tolerance and the best points outside the grid's bracket in full and falls back to the full grid unless they confirm it (`fit._confirmed_grid`, for
-`fit.look_along`: the grid's best point and its neighbours too; a rule of thumb checked at those
-points, not a bound), so a fit's answer is always solved in full. A joint's flexibility adds a
-DOF, the released end's rotation relative to its node: its basis is the element's local one and
-that DOF (`SharedBasis.joint`, solved in flexibility form; frequencies within 1.1e-7 of full
-solves over the whole grid of every joint of the planar test frame, 7.3e-8 on a gable's skew
-axes down to a = 1e-8, tests/test_reduced_joint.py). Only a model on the sparse path with no zero-energy mode has a
-basis; a candidate that is not a local change (shear deformation, a model-form change, a
-support, a group), or a joint at an end already released in another rotation or with a skew
-release's relative-rotation DOF, has no reduced form.
+in full, `fit.class_promises`), not to fit them. Even for a local change the basis serves the
+search only: `fit._reduced_fit` solves the search's answer, the grid's best point, the answer
+-+ twice the search's tolerance and the best points outside the grid's bracket in full and
+falls back to the full grid unless they confirm it (`fit._confirmed_grid`, for
+`fit.look_along`: the grid's best point and its neighbours too; a rule of thumb checked at
+those points, not a bound), so a fit's answer is always solved in full. A joint's flexibility
+adds a DOF, the released end's rotation relative to its node: its basis is the element's local
+one and that DOF (`SharedBasis.joint`, solved in flexibility form; frequencies within 1.1e-7 of
+full solves over the whole grid of every joint of the planar test frame, 7.3e-8 on a gable's
+skew axes down to a = 1e-8, tests/test_reduced_joint.py). Only a model on the sparse path with
+no zero-energy mode has a basis; a candidate that is not a local change (shear deformation, a
+model-form change, a support, a group), or a joint at an end already released in another
+rotation or with a skew release's relative-rotation DOF, has no reduced form.
 """
 
 from __future__ import annotations
