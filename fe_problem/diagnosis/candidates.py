@@ -51,7 +51,7 @@ from ..elements import formulation, formulations
 from ..parameters import Parameter
 from . import zones
 from .local import LocalMatrices, Term
-from .reduced import SharedBasis
+from .reduced import SharedBasis, reduced_joint
 
 KINDS = ("stiffness_loss", "added_mass", "joint_flexibility", "shear_deformation", "stiffness_gain",
          "boundary_stiffness", "distributed_mass")
@@ -526,7 +526,8 @@ def joint_flexibility(st: Setting) -> Iterator[Candidate]:
             place = {"node": node, "element": e.id} if planar else {"node": node, "element": e.id, "rotation": local}
             yield Candidate("joint_flexibility", place, 50.0,
                             JOINT_GRID, forward, estimate, extend, step=0.01,
-                            term=lambda e=e, node=node, ref=ref, axis=axis: st.local.joint(e.id, node, ref, axis))
+                            term=lambda e=e, node=node, ref=ref, axis=axis: st.local.joint(e.id, node, ref, axis),
+                            reduced=reduced_joint(st, e.id, node, ref, axis) if alone else None)
 
 
 def shear_deformation(st: Setting) -> Iterator[Candidate]:

@@ -221,39 +221,92 @@ def _confirmed_grid(obs: Observations, cand: Candidate, grid: np.ndarray, pairin
     return None
 
 
-def _grid_fits(obs: Observations, cand: Candidate, grid: np.ndarray):
-    """The best grid point, the full fits the bracket around it needs (index -> Fit), and the
-    reduced forward when the search may use it (else None): the grid on the shared basis where
-    `_confirmed_grid` confirms it, else the whole grid solved in full."""
-    confirmed = _confirmed_grid(obs, cand, grid)
-    if confirmed is not None:
-        return confirmed
-    fits = chi2_batch(obs, cand, grid)
-    return int(np.argmin([f.chi2 for f in fits])), dict(enumerate(fits)), None
+def _bracket(grid: np.ndarray, k: int) -> tuple[float, float, float]:
+    """The bracket around grid point `k` (its neighbours, lo and hi) and the scalar search's
+    xatol in it (1e-4 of hi, in the units of a)."""
+    lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)]
+    return float(lo), float(hi), 1e-4 * max(float(hi), 1e-9)
+
+
+def _refined(obs: Observations, cand: Candidate, grid: np.ndarray, k: int, forward=None) -> tuple[float, Fit | None]:
+    """The bounded scalar search in the bracket around grid point `k` (`forward`: the reduced
+    forward, or None: the candidate's own system) and its fit (None where the bracket is one
+    point): its answer is one of the search's fits, not solved again."""
+    lo, hi, xatol = _bracket(grid, k)
+    if hi <= lo:
+        return float(grid[k]), None
+    tried: dict[float, Fit] = {}
+
+    def chi2_at(v: float) -> float:
+        v = float(v)
+        if v not in tried:
+            tried[v] = chi2_batch(obs, cand, np.array([v]), forward=forward)[0]
+        return tried[v].chi2
+
+    res = minimize_scalar(chi2_at, bounds=(lo, hi), method="bounded", options={"xatol": xatol})
+    chi2_at(res.x)
+    return float(res.x), tried[float(res.x)]
+
+
+def _reduced_fit(obs: Observations, cand: Candidate, grid: np.ndarray, reduced) -> Fit | None:
+    """`fit` on the shared basis, confirmed by one batch of full solves, or None where they do
+    not confirm it (then `fit` solves the grid in full). The grid and the scalar search run on
+    the reduced forward; the answer x is the search's, or the grid's best point grid[k] where
+    that is lower on the basis. None at once where x lies within xatol of a bracket end that is
+    not the grid's end (the minimum may lie beyond it). Else solved in full, in one batch: x,
+    grid[k], x -+ 2 xatol (inside the grid), the best grid point outside the bracket and the best
+    local minimum outside it (where a minimum the reduced grid misjudged would show).
+    Confirmed when, in full, x is at most grid[k] and x -+ 2 xatol (by `GRID_SLACK`: x is a
+    local minimum of the full chi^2 at the search's resolution, which a reduced form biased in a
+    would fail) and at most the points outside the bracket, and every grid point outside the
+    bracket lies above it, on the basis, by `GRID_MARGIN` times the largest reduced-to-full
+    difference seen at the points solved plus `GRID_SLACK` (the rule of `_confirmed_grid`).
+    Returns the answer's fit, the full model's."""
+    approx = np.array([f.chi2 for f in chi2_batch(obs, cand, grid, forward=reduced)])
+    k = int(np.argmin(approx))
+    x, at_x = _refined(obs, cand, grid, k, reduced)
+    lo, hi, xatol = _bracket(grid, k)
+    if at_x is None or at_x.chi2 > approx[k]:
+        x, seen_x = float(grid[k]), approx[k]
+    else:
+        seen_x = at_x.chi2
+        if (lo > grid[0] and x - lo <= xatol) or (hi < grid[-1] and hi - x <= xatol):
+            return None
+    near = list(range(max(k - 1, 0), min(k + 2, len(grid))))
+    outside = np.setdiff1d(np.arange(len(grid)), near)
+    local = [v for v in (grid[k], x - 2 * xatol, x + 2 * xatol) if v != x and grid[0] <= v <= grid[-1]]
+    points = [x] + local
+    if outside.size:
+        padded = np.concatenate([[np.inf], approx, [np.inf]])
+        minima = outside[(approx[outside] <= padded[outside]) & (approx[outside] <= padded[outside + 2])]
+        far = sorted({int(g[np.argmin(approx[g])]) for g in (outside, minima) if g.size})
+    else:
+        far = []
+    full = chi2_batch(obs, cand, np.array(points + [grid[i] for i in far], dtype=float))
+    best, nearby, others = full[0], full[1:1 + len(local)], full[1 + len(local):]
+    seen = [(best, seen_x)] + [(f, approx[i]) for f, i in zip(others, far)]
+    if grid[k] != x:
+        seen.append((nearby[0], approx[k]))
+    error = max(abs(f.chi2 - v) for f, v in seen)
+    if all(f.chi2 >= best.chi2 - GRID_SLACK for f in nearby) and all(f.chi2 >= best.chi2 for f in others) and \
+            (outside.size == 0 or approx[outside].min() > best.chi2 + GRID_MARGIN * error + GRID_SLACK):
+        return best
+    return None
 
 
 def fit(obs: Observations, cand: Candidate, a_hint: float | None = None) -> Fit:
     """The best a in [0, upper]: a batched grid (plus the screening hint), then a bounded scalar
     refinement in the bracket around the best grid point. Where the candidate has a reduced
-    forward that the grid's full solves confirm (`_grid_fits`), the grid and the refinement
-    run on the shared basis and the refinement's answer is solved again with the candidate's
-    own system: the Fit returned (a, s, chi^2, residuals) is always the full model's."""
+    forward, grid and refinement run on the shared basis and one batch of full solves confirms
+    them (`_reduced_fit`), else (or where they do not confirm it) both are solved with the
+    candidate's own system: the Fit returned (a, s, chi^2, residuals) is always the full model's."""
     grid = np.unique(np.concatenate([cand.grid, [] if a_hint is None else [a_hint]]))
-    k, fits, reduced = _grid_fits(obs, cand, grid)
-    lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)]
-    best = fits[k]
-    if hi > lo:
-        tried: dict[float, Fit] = {}  # the search's fits: its answer is one of them, not solved again
-
-        def chi2_at(v: float) -> float:
-            v = float(v)
-            if v not in tried:
-                tried[v] = chi2_batch(obs, cand, np.array([v]), forward=reduced)[0]
-            return tried[v].chi2
-
-        res = minimize_scalar(chi2_at, bounds=(lo, hi), method="bounded", options={"xatol": 1e-4 * max(hi, 1e-9)})
-        chi2_at(res.x)
-        cand_fit = tried[float(res.x)] if reduced is None else chi2_batch(obs, cand, np.array([float(res.x)]))[0]
-        if cand_fit.chi2 < best.chi2:
-            best = cand_fit
-    return best
+    reduced = reduced_forward(cand)
+    if reduced is not None:
+        confirmed = _reduced_fit(obs, cand, grid, reduced)
+        if confirmed is not None:
+            return confirmed
+    fits = chi2_batch(obs, cand, grid)
+    k = int(np.argmin([f.chi2 for f in fits]))
+    _, refined = _refined(obs, cand, grid, k)
+    return refined if refined is not None and refined.chi2 < fits[k].chi2 else fits[k]

@@ -192,21 +192,28 @@ class LocalMatrices:
         skew or not). Through `DofMap.element_block`: an element with a skew release already
         acts on its relative rotations too."""
         k = self.row[element_id]
-        e = self.model.elements[k]
-        lay = self.model.layout
-        o = 0 if node == e.node_i else lay.per_node
-        if rotation is None or isinstance(rotation, str):
-            r = o + lay.position(lay.rotation if rotation is None else rotation)
-            kr = self.modulus[k] * self.k_el[k][:, r]
-            mr = self.density[k] * self.m_el[k][:, r]
-        else:  # the end's rotation about the axis: its rotation rows times the axis' components
-            turn = np.zeros(2 * lay.per_node)
-            turn[[o + lay.position(d) for d in ("rx", "ry", "rz")]] = rotation
-            kr = self.modulus[k] * (self.k_el[k] @ turn)
-            mr = self.density[k] * (self.m_el[k] @ turn)
+        kr, mr, _ = self.joint_columns(element_id, node, rotation)
         dofs, dk = self.dofmap.element_block(k, -np.outer(kr, kr) / ref)
         return Term(dofs, dk, self.dofmap.element_block(k, -(np.outer(mr, kr) + np.outer(kr, mr)) / ref)[1],
                     self.dofmap.element_block(k, -np.outer(mr, mr) / ref)[1])
+
+    def joint_columns(self, element_id: int, node: int, rotation=None):
+        """The element's stiffness kr (N m/rad per DOF unit) and mass mr columns (its element DOFs,
+        global components) for a unit rotation of its end at `node` about `rotation` (as
+        `joint`), and that unit rotation `turn` (the element DOFs' weights): the released end's
+        coupling to the element (`joint`, `reduced.SharedBasis.joint`)."""
+        k = self.row[element_id]
+        e = self.model.elements[k]
+        lay = self.model.layout
+        o = 0 if node == e.node_i else lay.per_node
+        turn = np.zeros(2 * lay.per_node)
+        if rotation is None or isinstance(rotation, str):
+            r = o + lay.position(lay.rotation if rotation is None else rotation)
+            turn[r] = 1.0
+            return self.modulus[k] * self.k_el[k][:, r], self.density[k] * self.m_el[k][:, r], turn
+        # the end's rotation about the axis: its rotation rows times the axis' components
+        turn[[o + lay.position(d) for d in ("rx", "ry", "rz")]] = rotation
+        return self.modulus[k] * (self.k_el[k] @ turn), self.density[k] * (self.m_el[k] @ turn), turn
 
     # -- model-form terms (modelform.py) ------------------------------------------------------
     def plain_beam(self, element_id: int) -> bool:

@@ -24,13 +24,19 @@ were off by up to 4.5e-2 relative for a column line losing 0.9 of its modulus, 9
 trend, and chi^2 by up to 3.6e4 away from the grid's best point, so those candidates are
 solved in full (groups.py); a basis of the change's own series (`SharedBasis.spread`: powers of
 A0^-1 dK applied to the modes) holds them well enough to rank them (the best ranked are solved
-in full, `fit.class_promises`), not to fit them. Even for a local change the basis serves the search only:
-`fit._confirmed_grid` solves the grid's best point, its neighbours and the best points outside
-that bracket in full and falls back to the full grid unless they confirm it (a rule of thumb
-checked at those points, not a bound), and `fit.fit` solves its answer in full. Only a model
-on the sparse path with no zero-energy mode has a basis; a candidate whose change adds DOFs (a
-joint's released end) or is not a local change (shear deformation, a model-form change, a
-support, a group) has no reduced form.
+in full, `fit.class_promises`), not to fit them. Even for a local change the basis serves the
+search only: `fit._reduced_fit` solves the search's answer, the grid's best point, the answer
+-+ twice the search's tolerance and the best points outside the grid's bracket in full and
+falls back to the full grid unless they confirm it (`fit._confirmed_grid`, for
+`fit.look_along`: the grid's best point and its neighbours too; a rule of thumb checked at
+those points, not a bound), so a fit's answer is always solved in full. A joint's flexibility
+adds a DOF, the released end's rotation relative to its node: its basis is the element's local
+one and that DOF (`SharedBasis.joint`, solved in flexibility form; frequencies within 1.1e-7 of
+full solves over the whole grid of every joint of the planar test frame, 7.3e-8 on a gable's
+skew axes down to a = 1e-8, tests/test_reduced_joint.py). Only a model on the sparse path with
+no zero-energy mode has a basis; a candidate that is not a local change (shear deformation, a
+model-form change, a support, a group), or a joint at an end already released in another
+rotation or with a skew release's relative-rotation DOF, has no reduced form.
 """
 
 from __future__ import annotations
@@ -106,6 +112,53 @@ class SharedBasis:
             return self._solve(v, kr, mr)
         return forward
 
+    def joint(self, dofs: np.ndarray, kr: np.ndarray, mr: np.ndarray, turn: np.ndarray, ref: float):
+        """The reduced forward of an element end released at its node and tied back by a rotational
+        spring of stiffness ref / a (N m/rad; a joint's flexibility), on the element's DOFs `dofs`
+        (DofMap numbering; an element with no relative-rotation DOF of a skew release): kr, mr the
+        element's stiffness and mass columns for a unit rotation `turn` of that end
+        (`LocalMatrices.joint_columns`). The released model has one DOF more, the end's rotation
+        relative to the node, delta: with (u, delta) its matrices are [[K0, kr], [kr^T, krr +
+        ref / a]] and [[M0, mr], [mr^T, mrr]] (krr = turn . kr, mrr = turn . mr; u the model's
+        DOFs), exactly. Basis: the element's `local` basis for u and the unit delta (its static
+        correction A0^-1 kr is in the local basis' first block already). a = 0 is the rigid joint:
+        the local basis alone. Returns forward(a) -> (frequencies (b, n_modes) Hz, shapes at the
+        coordinates (b, n_coord, n_modes)), or None where the end's rotation carries no mass
+        (mrr <= 0: no Ritz solve)."""
+        free = self._pos[np.asarray(dofs)]
+        keep = free >= 0
+        rows = free[keep]
+        krr, mrr = float(turn @ kr), float(turn @ mr)
+        if mrr <= 0.0:
+            return None
+        e = np.zeros((self.n_free, len(rows)))
+        e[rows, np.arange(len(rows))] = 1.0
+        v = self._basis(e)
+        n = v.shape[1]
+        kr0 = v.T @ (self.k0 @ v)
+        c = 1.0 / np.sqrt(mrr)  # delta scaled to unit mass
+        b, bm = c * (v[rows].T @ kr[keep]), c * (v[rows].T @ mr[keep])
+
+        def forward(a):
+            a = np.atleast_1d(np.asarray(a, dtype=float))
+            hz = np.empty((len(a), self.n_modes))
+            shapes = np.empty((len(a), len(self.rows), self.n_modes))
+            rigid = a <= 0.0
+            if rigid.any():
+                r = int(rigid.sum())
+                hz[rigid], shapes[rigid] = self._solve_flexibility(v, np.broadcast_to(kr0, (r, n, n)),
+                                                                   np.broadcast_to(np.eye(n), (r, n, n)))
+            if (~rigid).any():
+                m = int((~rigid).sum())
+                kk = np.zeros((m, n + 1, n + 1))
+                kk[:, :n, :n], kk[:, :n, n], kk[:, n, :n] = kr0, b, b
+                kk[:, n, n] = c * c * (krr + ref / a[~rigid])
+                mm = np.broadcast_to(np.eye(n + 1), (m, n + 1, n + 1)).copy()
+                mm[:, :n, n], mm[:, n, :n] = bm, bm
+                hz[~rigid], shapes[~rigid] = self._solve_flexibility(v, kk, mm)
+            return hz, shapes
+        return forward
+
     def spread(self, dk: sp.spmatrix):
         """The reduced forward of a change spread over many members, K0 + a dk with M unchanged
         (dk: n_free x n_free on the model's free DOFs; a group's or a trend's moduli), for the
@@ -147,9 +200,46 @@ class SharedBasis:
             lam, w = np.linalg.eigh(li @ kr @ np.swapaxes(li, -1, -2))
             y = np.swapaxes(li, -1, -2) @ w
         k = self.n_modes
-        lam, y = lam[:, :k], y[:, :, :k]
+        return self._pairs(v, lam[:, :k], y[:, :, :k])
+
+    def _solve_flexibility(self, v: np.ndarray, kr: np.ndarray, mr: np.ndarray):
+        """As `_solve`, in flexibility form: with kr = L L^T (Cholesky), the largest eigenvalues
+        mu of L^-1 mr L^-T, lambda = 1 / mu, y = L^-T w / sqrt(mu) (mr-orthonormal). eigh's
+        absolute error is about eps times the largest eigenvalue of the matrix it is given: in
+        stiffness form that is the joint's stiff spring (`joint`: its entry grows as 1 / a), so
+        the low eigenvalues lost precision as a joint stiffened (on the 2 x 8 test frame, a beam's
+        end, relative to full solves: 4.3e-6 at a = 1e-6, 7.7e-4 at 1e-8); in flexibility form it
+        is the lowest mode's 1 / lambda, so the modes kept are held to relative precision."""
+        kr = 0.5 * (kr + np.swapaxes(kr, -1, -2))
+        mr = 0.5 * (mr + np.swapaxes(mr, -1, -2))
+        li = np.linalg.inv(np.linalg.cholesky(kr))
+        mu, w = np.linalg.eigh(li @ mr @ np.swapaxes(li, -1, -2))
+        k = self.n_modes
+        mu, w = mu[:, ::-1][:, :k], w[:, :, ::-1][:, :, :k]  # the largest mu: the lowest modes
+        y = (np.swapaxes(li, -1, -2) @ w) / np.sqrt(mu)[:, None, :]
+        return self._pairs(v, 1.0 / mu, y)
+
+    def _pairs(self, v: np.ndarray, lam: np.ndarray, y: np.ndarray):
+        """Frequencies (b, n_modes) Hz and shapes at the coordinates, signed by the solvers' rule,
+        of the Ritz pairs (lam (b, n_modes) rad^2/s^2, y (b, >= n_v, n_modes) mr-orthonormal)."""
+        y = y[:, :v.shape[1], :]  # a joint's released rotation (`joint`) is no model DOF
         phi = signed(v @ y)
         return frequencies_hz(lam), take_rows(phi, self.rows)
+
+
+def reduced_joint(st, element_id: int, node: int, ref: float, rotation):
+    """The reduced-forward factory (`Candidate.reduced`) of a joint's flexibility at the end of
+    `element_id` at `node` (`SharedBasis.joint`; `rotation` as `LocalMatrices.joint`): None
+    (no reduced form) for an element with a skew release's relative-rotation DOF, or where the
+    diagnosis has no shared basis. Built afresh at each call, as `candidates.reduced_linear`."""
+    def make():
+        local = st.local
+        row = local.row[element_id]
+        if st.basis is None or row in local.dofmap.extended:
+            return None
+        kr, mr, turn = local.joint_columns(element_id, node, rotation)
+        return st.basis.joint(local.dofmap.element_dofs[row], kr, mr, turn, ref)
+    return make
 
 
 def _m_orthonormal(phi: np.ndarray, blocks: list[np.ndarray], m: sp.spmatrix) -> np.ndarray:
@@ -179,4 +269,4 @@ def _m_orthonormal(phi: np.ndarray, blocks: list[np.ndarray], m: sp.spmatrix) ->
     return q
 
 
-__all__ = ["EXTRA_MODES", "POWERS", "SharedBasis"]
+__all__ = ["EXTRA_MODES", "POWERS", "SharedBasis", "reduced_joint"]
