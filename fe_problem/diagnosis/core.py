@@ -50,7 +50,7 @@ from ..parameters import Parameter
 from .candidates import Candidate, Setting, all_candidates, scale_stiffness, solve
 from . import plausibility
 from .datachecks import DataCheck, check_data, spurious_modes
-from .evidence import FACTOR_10, Evidence, ScoredClass, occam_log_factor, ranked
+from .evidence import FACTOR_10, Evidence, ScoredClass, label_log_prior, occam_log_factor, ranked, sides_log_prior
 from .groups import distributed_candidates
 from .modelform import model_form_candidates, screen_forms
 from .plausibility import few_dof_note
@@ -280,14 +280,15 @@ def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str 
     classes = [ScoredClass("calibrated model (no effect)", "none", 0, base.chi2, 0.0)]
     for cand, f, family in fits:
         occam = occam_log_factor(lambda a, c=cand: [x.chi2 for x in chi2_batch(obs, c, np.asarray(a))], f.a,
-                                 cand.upper, d)
+                                 cand.upper, d) + label_log_prior(cal.setting, cand)
         classes.append(ScoredClass(cand.label, family, 1, f.chi2, -(f.chi2 - base.chi2) / (2 * d) + occam,
                                    cand.estimate(f.a, f.s)))
     search = []
     if several:
         # on the modes every other row is judged on (`searched`), against the calibrated model's chi^2 there
         occam = sum(occam_log_factor(lambda a, c=c: [x.chi2 for x in chi2_batch(obs, c, np.asarray(a))], f.a,
-                                     c.upper, d) for (c, _), f in zip(rounds.sized, searched))
+                                     c.upper, d) + label_log_prior(cal.setting, c)
+                    for (c, _), f in zip(rounds.sized, searched))
         one = len(rounds.sized) == 1
         search.append(ScoredClass(" + ".join(c.label for c, _ in rounds.sized), "local" if one else "several",
                                   len(rounds.sized), chi2_s, -(chi2_s - base.chi2) / (2 * d) + occam,
@@ -309,11 +310,12 @@ def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str 
         out.append(c)
     ev = dataclasses.replace(ev, classes=tuple(out))
     if evidence == "nested":
-        integrands = {c.label: (lambda a, c=c: chi2_batch(obs, c, np.asarray(a[:1]))[0].chi2, 0.0, c.upper, 0.0)
-                      for c, _, _ in fits}
+        integrands = {c.label: (lambda a, c=c: chi2_batch(obs, c, np.asarray(a[:1]))[0].chi2, 0.0, c.upper,
+                                label_log_prior(cal.setting, c)) for c, _, _ in fits}
         if sparse is not None:
             integrands[sparse.label] = (sparse_class.chi2_function(cal.setting, obs, sparse),
-                                        *sparse_class.sided(sparse.theta), -sparse.support_log_penalty)
+                                        *sparse_class.sided(sparse.theta),
+                                        -sparse.support_log_penalty + sides_log_prior(len(sparse.theta)))
         integrands.update({label: group_free.integrand(cal.setting, obs, g) for label, g in groups.items()})
         ev = rescored(ev, integrands, base.chi2, d)
     return Scored(ev, answer.fitted_candidates(fits), sparse, groups)

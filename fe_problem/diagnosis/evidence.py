@@ -101,3 +101,55 @@ def ranked(classes: list[ScoredClass], method: str, dispersion: float) -> Eviden
                 f"(log evidence {order[1].log_evidence:.3g} against {order[0].log_evidence:.3g}, difference "
                 f"< {FACTOR_10:.1f}): the data do not prefer the best strongly")
     return Evidence(method, dispersion, tuple(order), note)
+
+
+#: The kinds whose two sides at one place are the two variants of one class (a loss or a gain).
+_SIDES = {"stiffness_loss": "stiffness", "stiffness_gain": "stiffness",
+          "group_stiffness_loss": "group_stiffness", "group_stiffness_gain": "group_stiffness"}
+
+
+def label_variants(st, cand) -> int:
+    """How many labelled variants the class of `cand` is built with at its place: the class is its
+    kind (a loss and a gain of the same place one class, `_SIDES`) at its place (the element,
+    node, joint end, group or trend shape that names it); every other label it fits is a
+    variant: a weak zone's centre (the centres `zones.zone_places` builds, in every bending plane),
+    a uniform stiffness change's side (2), a member depth's (thinner or deeper: 2), a trend's or a
+    group change's sign (2), a node move's direction and sign (4: +x, -x, +y, -y), a spring to
+    ground's direction (the node's translations not held), a support condition's (the candidates
+    `supports.support_candidates` builds at its node), a space frame joint's rotation (its
+    hinges: 3). st: the `Setting` the candidates were made for."""
+    model, kind = st.model, cand.kind
+    profile = (cand.meta or {}).get("profile", "")
+    loc = cand.location or {}
+    if kind == "stiffness_loss" and profile.startswith("zone"):
+        from . import zones
+
+        return sum(len(zones.zone_places(model, loc["element"], about)) for about in zones.bending_rotations(model))
+    if kind in _SIDES or kind in ("member_depth", "stiffness_trend"):
+        return 2
+    if kind == "node_position":
+        return 2 * model.layout.dimension
+    if kind == "boundary_stiffness":
+        held = {d for s in model.supports if s.node == loc["node"] for d in s.directions}
+        return max(1, sum(d not in held for d in model.layout.translations))
+    if kind == "support_condition":
+        from .supports import support_candidates
+
+        return max(1, sum(c.location["node"] == loc["node"] for c in support_candidates(st, {loc["node"]})))
+    if kind == "joint_flexibility" and "rotation" in loc:
+        return len(model.layout.hinges)
+    return 1
+
+
+def label_log_prior(st, cand) -> float:
+    """log of the prior weight of one labelled row of its class: -log `label_variants`, the class's
+    prior (the weight of no effect) spread evenly over the variants it is built with. A row's
+    evidence is its own term times that weight, a lower bound of its class's (the sum over its
+    variants)."""
+    return -float(np.log(label_variants(st, cand)))
+
+
+def sides_log_prior(k: int) -> float:
+    """log of the prior weight of the sides a class of k members' changes picks from its fit (each
+    a loss or a gain, `sparse_class.sided`): -k log 2, as a local stiffness change's side."""
+    return -k * float(np.log(2.0))

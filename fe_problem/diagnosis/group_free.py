@@ -48,7 +48,7 @@ import numpy as np
 
 from . import sparse_class
 from .candidates import Setting
-from .evidence import ScoredClass
+from .evidence import ScoredClass, sides_log_prior
 from .groups import _direction, classified
 from .residuals import Observations
 
@@ -116,6 +116,11 @@ class GroupFit:
         """The members in no group, held at the global scale s (for the pair, every other member)."""
         return tuple(e for e in self.params.ids if e not in self.members)
 
+    def sides(self) -> float:
+        """log of the prior weight of the sides the pair's fit picks (`evidence.sides_log_prior`, one
+        per member); 0 for the partitions, each group on the whole range [LOW, HIGH]."""
+        return sides_log_prior(len(self.fit.theta)) if self.kind == PAIR_KIND else 0.0
+
     def prior(self) -> tuple:
         """The uniform prior's range of each parameter: [LOW, HIGH] (sparse_class's), or for the
         pair each member's as the local family's and the sparse class's, by the side its fit lies
@@ -127,7 +132,7 @@ class GroupFit:
     def scored(self, chi2_base: float, dispersion: float, held_out_error_pct: float | None = None) -> ScoredClass:
         """The class's row of the evidence table (log evidence against the calibrated model)."""
         f = self.fit
-        occam = sparse_class.log_occam(f.theta, f.jacobian, len(f.theta), dispersion, *self.prior())
+        occam = sparse_class.log_occam(f.theta, f.jacobian, len(f.theta), dispersion, *self.prior()) + self.sides()
         return ScoredClass(self.label, FAMILY, len(f.theta), f.chi2, -(f.chi2 - chi2_base) / (2 * dispersion) + occam,
                            self.estimate(dispersion), held_out_error_pct)
 
@@ -212,7 +217,7 @@ def integrand(st: Setting, obs: Observations, g: GroupFit) -> tuple:
     parameter); no log offset (one support, as its Laplace value)."""
     k = len(g.fit.theta)
     lower, upper = (np.broadcast_to(np.asarray(b, float), (k,)).copy() for b in g.prior())
-    return sparse_class.chi2_function(st, obs, g.fit, g.params), lower, upper, 0.0
+    return sparse_class.chi2_function(st, obs, g.fit, g.params), lower, upper, g.sides()
 
 
 def held_out_error(st: Setting, data, used: np.ndarray, sf: GroupFit, freq_noise: float,

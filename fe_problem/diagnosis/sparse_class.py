@@ -53,7 +53,7 @@ from ..assembly import AffineModel, solver_path
 from ..correlation import correlate
 from ..parameters import Parameter
 from .candidates import Setting, solve
-from .evidence import ScoredClass
+from .evidence import ScoredClass, sides_log_prior
 from .fit import profiled
 from .residuals import Observations
 
@@ -94,8 +94,10 @@ class SparseFit:
 
     def log_occam(self, dispersion: float) -> float:
         """log of the Laplace integral of exp(-(chi^2 - chi^2^) / (2 D)) over the prior (`sided`),
-        less the support's charge, log C(n, k) (see the module docstring)."""
-        return log_occam(self.theta, self.jacobian, self.n_members, dispersion, *sided(self.theta))
+        less the support's charge, log C(n, k) (see the module docstring), and the sides' (each
+        member's, a loss or a gain: `evidence.sides_log_prior`)."""
+        return (log_occam(self.theta, self.jacobian, self.n_members, dispersion, *sided(self.theta))
+                + sides_log_prior(len(self.theta)))
 
     def scored(self, chi2_base: float, dispersion: float, held_out_error_pct: float | None = None) -> ScoredClass:
         """The class's row of the evidence table (log evidence against the calibrated model)."""
