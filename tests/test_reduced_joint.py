@@ -19,6 +19,7 @@ from fe_problem.diagnosis.candidates import Setting, all_candidates, joint_flexi
 from fe_problem.diagnosis.core import calibrate
 from fe_problem.diagnosis.fit import chi2_batch, fit
 from fe_problem.terms import release_axis
+from test_reduced_basis import assert_fit_is_the_full_fit, cracked_calibration
 from test_space_zones import gable
 
 #: Frequencies of the reduced solve against the full one, relative, over a joint's whole grid
@@ -43,16 +44,10 @@ SHAPE_ATOL = 1e-4
 
 @pytest.fixture(scope="module")
 def planar():
-    """A 2-bay 8-storey frame, each member in three elements (sparse path), measured with a
-    crack at the middle of element 20: the calibration and its joint candidates."""
-    model = fp.split_elements(fp.regular_frame(2, 8, floor_mass_kg=2000.0), 3).replace(name="frame2x8")
-    e = model.element(20)
-    ei_l = model.element_modulus_pa(20) * model.sections[e.section].inertia_m4 / model.element_length_m(20)
-    truth = fp.split_element(model, 20, 0.5, 0.5 * ei_l)
-    data = fp.synthetic_measurement(truth, 8, freq_noise=0.002, shape_noise=0.02, model_name=model.name, seed=1)
-    cal = calibrate(model, data, 0.002, 0.02)
-    assert solver_path(len(cal.setting.local.dofmap.free)) == "sparse"
-    return cal, [c for c in all_candidates(cal.setting, ("joint_flexibility",))]
+    """The cracked 2 x 8 frame's calibration (test_reduced_basis.cracked_calibration) and its joint
+    candidates."""
+    cal = cracked_calibration()
+    return cal, all_candidates(cal.setting, ("joint_flexibility",))
 
 
 @pytest.fixture(scope="module")
@@ -161,16 +156,6 @@ def test_space_joint_reduced_frequencies_agree_with_full_sparse_solves(space):
             _check(c)
 
 
-def _counted(c):
-    """The candidate with its own (full) forward counting the sizes it solves."""
-    n = [0]
-
-    def forward(a):
-        n[0] += len(np.atleast_1d(a))
-        return c.forward(a)
-    return dataclasses.replace(c, forward=forward), n
-
-
 @pytest.mark.parametrize("where", [{"node": 14, "element": 20}, {"node": 10, "element": 14}])
 def test_a_joint_fit_with_the_basis_is_the_full_fit(planar, where):
     """The joint's fit searches on the basis (at most six full solves, `fit._reduced_fit`, where
@@ -179,17 +164,7 @@ def test_a_joint_fit_with_the_basis_is_the_full_fit(planar, where):
     beam's and a column's; not a bound for every joint) a moves from the fit without the basis
     by less than the search's own tolerance (xatol = 1e-4 of the bracket's upper end)."""
     cal, cands = planar
-    c, n_full = _counted(next(c for c in cands if c.location == where))
-    with_basis = fit(cal.obs, c)
-    assert 0 < n_full[0] <= 6  # the reduced path was taken and confirmed
-    without = fit(cal.obs, dataclasses.replace(c, reduced=None))
-    assert with_basis.a > 0.0 and with_basis.chi2 < cal.base.chi2
-    full_at_a = chi2_batch(cal.obs, c, np.array([with_basis.a]))[0]
-    assert with_basis.chi2 == full_at_a.chi2 and with_basis.s == full_at_a.s
-    grid = np.asarray(c.grid)
-    bracket_top = grid[grid > max(with_basis.a, without.a)].min()
-    assert abs(with_basis.a - without.a) < 1e-4 * bracket_top  # the search's xatol
-    assert abs(with_basis.chi2 - without.chi2) <= 1e-6 * without.chi2
+    assert_fit_is_the_full_fit(cal, next(c for c in cands if c.location == where), 6)
 
 
 def test_a_joint_given_another_joints_basis_gets_the_full_fit(planar):
