@@ -175,3 +175,51 @@ def test_a_model_form_error_is_the_answer_or_its_close_runner_up(what):
         assert 0 < a.log_evidence - a.runner_up["log_evidence"] < FACTOR_10
         assert any(w.startswith(f"answer not decisive: cannot tell apart {a.label} from {form.label} (log evidence")
                    for w in diag.warnings)
+
+
+def _released_frame3d():
+    """frame3d with its first element's j end released about ry (a joint found before): the joint
+    candidates at that end are built about rz and rx only."""
+    from fe_problem.diagnosis.candidates import _bending_compliance_ref, release_element_end
+
+    model = fp.load_model("frame3d")
+    e = model.elements[0]
+    return release_element_end(model, e.id, e.node_j, _bending_compliance_ref(model, e.id, "ry") / 2.0, ("ry",))
+
+
+@pytest.mark.parametrize("name", ["hframe", "frame3d released"])
+def test_each_row_is_charged_for_the_variants_really_built_at_its_place(name):
+    """`evidence.label_variants` of every candidate the diagnosis builds (local, model-form,
+    distributed) equals the number of candidates of its class built at its place, counted from
+    the lists themselves: a loss and a gain one class, a weak zone's centres one class, a node
+    move's directions, a spring's, a joint's rotations, a trend's sign. On the space frame with
+    an end released about ry, the joints at that end are two (rz, rx), not the frame's 3 hinges."""
+    from collections import defaultdict
+
+    from fe_problem.diagnosis.candidates import all_candidates
+    from fe_problem.diagnosis.evidence import label_variants
+    from fe_problem.diagnosis.modelform import model_form_candidates
+
+    model = fp.load_model("hframe") if name == "hframe" else _released_frame3d()
+    cal = calibrate(model, fp.synthetic_measurement(model, 6, dofs=model.measured_dofs), 0.002, 0.02)
+    st = cal.setting
+    one_class = {"stiffness_gain": "stiffness_loss", "group_stiffness_gain": "group_stiffness_loss"}
+
+    def place(c):
+        loc = {k: v for k, v in (c.location or {}).items() if k not in ("direction", "rotation")}
+        if c.kind == "stiffness_trend":
+            loc["trend"] = loc["trend"].rstrip("+-")
+        zone = c.kind == "stiffness_loss" and (c.meta or {}).get("profile", "").startswith("zone")
+        return ("zone" if zone else one_class.get(c.kind, c.kind), tuple(sorted(loc.items())))
+
+    built = defaultdict(list)
+    for c in all_candidates(st) + model_form_candidates(st) + distributed_candidates(st):
+        built[place(c)].append(c)
+    wrong = [(c.label, len(cs), label_variants(st, c)) for cs in built.values() for c in cs
+             if label_variants(st, c) != len(cs)]
+    assert not wrong, wrong[:5]
+    if name != "hframe":
+        end = model.elements[0]
+        joints = built[("joint_flexibility", (("element", end.id), ("node", end.node_j)))]
+        assert sorted(c.location["rotation"] for c in joints) == ["rx", "rz"]
+

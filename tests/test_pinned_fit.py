@@ -71,6 +71,19 @@ def test_the_bounded_fit_is_the_map_by_independent_solvers():
     assert f(z)[0] <= f(other)[0] * (1 + 1e-14)
 
 
+def test_a_pinned_modulus_is_exactly_on_its_bound():
+    """On this problem bvls's last step left two moduli at 1.7e-16 and 1.1e-16, pushed into their
+    bound by gradients of 784 and 16,577: counted as free, they broke the optimality conditions.
+    The fit sets the moduli of bvls's active set exactly on their bounds."""
+    rng = np.random.default_rng(1)
+    jac, r0 = rng.standard_normal((600, 150)), 300.0 * rng.standard_normal(600)
+    z = bounded_linear_fit(r0, jac)
+    f = objective(r0, jac)
+    g0 = np.abs(f(np.full(150, 0.5))[1]).max()
+    assert ((z <= 0) | (z >= 1)).sum() >= 2
+    assert np.linalg.norm(projected_gradient(f, z)) / 4 < 1e-11 * g0
+
+
 @pytest.fixture(scope="module")
 def cracked():
     """The 1,080-DOF benchmark frame (3 bays, 20 storeys, members in three elements) with a

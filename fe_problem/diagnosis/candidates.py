@@ -33,6 +33,7 @@ element ends meet, or two that are not in line (a corner), so any frame has its 
 
 from __future__ import annotations
 
+import collections
 import contextlib
 import dataclasses
 import functools
@@ -122,6 +123,14 @@ class Setting:
         cover: the first screen and the model-form screen (both on the calibrated model's
         pairing) share one, its eigen-solve and one bordered factorisation per mode."""
         return {}
+
+    @functools.cached_property
+    def joint_rotations(self) -> dict:
+        """How many joint-flexibility candidates `joint_flexibility` builds at each (node, element):
+        on a space frame up to its 3 hinges, fewer at an end already released about one, at a
+        corner's second end or at the last rigid end (the variants a joint row is charged for,
+        `evidence.label_variants`)."""
+        return dict(collections.Counter((c.location["node"], c.location["element"]) for c in joint_flexibility(self)))
 
     @functools.cached_property
     def basis(self) -> SharedBasis | None:

@@ -116,8 +116,9 @@ def label_variants(st, cand) -> int:
     a uniform stiffness change's side (2), a member depth's (thinner or deeper: 2), a trend's or a
     group change's sign (2), a node move's direction and sign (4: +x, -x, +y, -y), a spring to
     ground's direction (the node's translations not held), a support condition's (the candidates
-    `supports.support_candidates` builds at its node), a space frame joint's rotation (its
-    hinges: 3). st: the `Setting` the candidates were made for."""
+    `supports.support_candidates` builds at its node), a space frame joint's rotation (the
+    rotations its candidates are built about at that end: up to 3, `Setting.joint_rotations`).
+    st: the `Setting` the candidates were made for."""
     model, kind = st.model, cand.kind
     profile = (cand.meta or {}).get("profile", "")
     loc = cand.location or {}
@@ -137,7 +138,7 @@ def label_variants(st, cand) -> int:
 
         return max(1, sum(c.location["node"] == loc["node"] for c in support_candidates(st, {loc["node"]})))
     if kind == "joint_flexibility" and "rotation" in loc:
-        return len(model.layout.hinges)
+        return max(1, st.joint_rotations.get((loc["node"], loc["element"]), 0))
     return 1
 
 
