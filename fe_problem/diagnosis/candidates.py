@@ -448,18 +448,16 @@ def _released(model: FrameModel, e, node: int, axis) -> bool:
     return _frees([_rotation_axis(model, e, r) for r in releases], axis)
 
 
-def _last_rigid_end(model: FrameModel, node: int, axis, element=None, ends=None) -> bool:
+def _last_rigid_end(model: FrameModel, node: int, axis, element=None) -> bool:
     """Whether releasing the end of `element` at `node` about `axis` (`_rotation_axis`'s form)
     would leave a rotation of the node that no element end, support or rotary inertia holds
     (the others released by joints already found): a rotation with no mass, an invalid model;
     at a corner, releasing either end is one and the same joint. Planar: one element end at most
     is still rigidly tied to the node's rotation. Space: the rotations every end leaves free
-    (each the span of its released axes, `element`'s with `axis`) meet in more than zero.
-    `ends`: the elements at `node`, when the caller has them."""
+    (each the span of its released axes, `element`'s with `axis`) meet in more than zero."""
     if any(m.node == node and m.inertia_kg_m2 > 0 for m in model.masses):
         return False
-    if ends is None:
-        ends = [e for e in model.elements if node in (e.node_i, e.node_j)]
+    ends = model.elements_at(node)
     if isinstance(axis, str):
         rigid = sum(1 for e in ends if not _released(model, e, node, axis))
         return rigid <= 1 and not any(s.node == node and axis in s.directions for s in model.supports)
@@ -489,19 +487,14 @@ def joint_flexibility(st: Setting) -> Iterator[Candidate]:
     planar = len(st.model.layout.hinges) == 1
     bending = bending_hinges(st.model)
     rotations = bending + tuple(r for r in st.model.layout.hinges if r not in bending)
-    at: dict[int, list] = {}  # node -> the elements at it, in the model's order
-    for e in st.model.elements:
-        at.setdefault(e.node_i, []).append(e)
-        if e.node_j != e.node_i:
-            at.setdefault(e.node_j, []).append(e)
     for node in joint_nodes(st.model):
-        ends = at[node]
+        ends = st.model.elements_at(node)
         first = [_rotation_axis(st.model, ends[0], r) for r in rotations]
         for e, local in ((e, r) for e in ends for r in rotations):
             axis = _rotation_axis(st.model, e, local)  # a skew member's: a relative rotation (terms.py)
             if len(ends) == 2 and e is not ends[0] and any(_frees([a], axis) for a in first):
                 continue  # at a corner, the first end's joint about the same axis
-            if _released(st.model, e, node, axis) or _last_rigid_end(st.model, node, axis, e, ends):
+            if _released(st.model, e, node, axis) or _last_rigid_end(st.model, node, axis, e):
                 continue
             ref = _bending_compliance_ref(st.model, e.id, local)
             system = lazy_system(lambda e=e, node=node, ref=ref, local=local: AffineModel(

@@ -104,8 +104,7 @@ def ranked(classes: list[ScoredClass], method: str, dispersion: float) -> Eviden
 
 
 #: The kinds whose two sides at one place are the two variants of one class (a loss or a gain).
-_SIDES = {"stiffness_loss": "stiffness", "stiffness_gain": "stiffness",
-          "group_stiffness_loss": "group_stiffness", "group_stiffness_gain": "group_stiffness"}
+_SIDES = frozenset({"stiffness_loss", "stiffness_gain", "group_stiffness_loss", "group_stiffness_gain"})
 
 
 def label_variants(st, cand) -> int:

@@ -214,7 +214,8 @@ def fit_pair(st: Setting, obs: Observations, base_pairing: np.ndarray, elements)
 def integrand(st: Setting, obs: Observations, g: GroupFit) -> tuple:
     """The class's integrand for nested sampling (nested.rescored): chi^2 (paired afresh) of its
     parameters theta (k,), the rest as in its fit; its prior's box (`GroupFit.prior`, one range per
-    parameter); no log offset (one support, as its Laplace value)."""
+    parameter); the log offset of its Laplace value: no support charge, the pair's sides
+    (`GroupFit.sides`)."""
     k = len(g.fit.theta)
     lower, upper = (np.broadcast_to(np.asarray(b, float), (k,)).copy() for b in g.prior())
     return sparse_class.chi2_function(st, obs, g.fit, g.params), lower, upper, g.sides()

@@ -84,10 +84,6 @@ def model_form_candidates(st: Setting, places: list[dict] | None = None) -> list
             elements.append(e.id)
             nodes += [e.node_i, e.node_j]
     fixed = {s.node for s in model.supports if {"x", "y"} <= set(s.directions)}
-    at_node: dict[int, list[int]] = {}  # node -> its elements' ids, in the model's order
-    for e in model.elements:
-        for n in dict.fromkeys((e.node_i, e.node_j)):
-            at_node.setdefault(n, []).append(e.id)
     out = []
     for element in dict.fromkeys(elements):
         for sign, what in ((-1.0, "thinner"), (1.0, "deeper")):
@@ -103,7 +99,7 @@ def model_form_candidates(st: Setting, places: list[dict] | None = None) -> list
     for node in dict.fromkeys(nodes):
         if node in fixed:
             continue
-        at = tuple(at_node.get(node, ()))
+        at = tuple(e.id for e in model.elements_at(node))
         lengths = [model.element_length_m(e) for e in at]
         if not lengths:
             continue

@@ -205,6 +205,18 @@ class FrameModel:
     def _element_pos(self) -> dict[int, int]:
         return {e.id: k for k, e in enumerate(self.elements)}
 
+    @functools.cached_property
+    def _at_node(self) -> dict[int, tuple[Element, ...]]:
+        at: dict[int, list[Element]] = {}
+        for e in self.elements:
+            for n in dict.fromkeys((e.node_i, e.node_j)):
+                at.setdefault(n, []).append(e)
+        return {n: tuple(es) for n, es in at.items()}
+
+    def elements_at(self, node_id: int) -> tuple[Element, ...]:
+        """The elements with an end at this node, in model order (empty if none)."""
+        return self._at_node.get(node_id, ())
+
     def node(self, node_id: int) -> Node:
         """The node with this id (KeyError if none)."""
         return self.nodes[self.node_position(node_id)]
