@@ -97,6 +97,37 @@ def default_workers() -> int:
     return max(1, min(n, 8))
 
 
+class _Direct(LinearOperator):
+    """The square operator (n x n) whose `matvec` is the function `f` itself: eigsh calls
+    `aslinearoperator(op).matvec` two or three times per Lanczos step, and LinearOperator's
+    own `matvec` checks and reshapes around its function each time."""
+
+    def __init__(self, f, n: int):
+        super().__init__(np.dtype(float), (n, n))
+        self.matvec = f
+
+    def _matvec(self, x: np.ndarray) -> np.ndarray:
+        return self.matvec(x)
+
+
+def _csr_product(a: sp.csr_matrix):
+    """v -> a @ v (v: (n,) floats) for a CSR matrix of floats: the kernel `a @ v` runs
+    (scipy's `csr_matvec` into zeros, the same sums in the same order) without the sparse
+    dispatch layers around it; `a @ v` itself if that kernel is not where it was
+    (tests/test_sparse.py holds the two identical)."""
+    matvec = getattr(getattr(sp, "_sparsetools", None), "csr_matvec", None)
+    if matvec is None or a.format != "csr" or a.dtype != np.float64:
+        return a.__matmul__
+    m, n = a.shape
+    indptr, indices, data = a.indptr, a.indices, a.data
+
+    def product(v: np.ndarray) -> np.ndarray:
+        out = np.zeros(m)
+        matvec(m, n, indptr, indices, data, v, out)
+        return out
+    return product
+
+
 class SparseModalSolver:
     """Eigen-solves of K0 + sum theta_k dK_k, M0 + sum theta_k dM_k (free DOFs) from triplets.
 
@@ -270,11 +301,11 @@ class SparseModalSolver:
         if k >= self.n_free - 1:  # ARPACK needs k < n - 1: a tiny model, solved densely
             lam, phi = scipy.linalg.eigh(kmat.toarray(), mmat.toarray(), subset_by_index=(0, k - 1))
             return lam, phi
-        op = LinearOperator(kmat.shape, matvec=self._factor(kd - self.sigma * md), dtype=float)
-        # M as a plain operator: eigsh calls it two or three times per Lanczos step, and a sparse
-        # matrix goes there through five layers of scipy's operator and dispatch code (11 % of a
-        # 1,080-DOF diagnosis); the product itself is the same CSR one
-        m_op = LinearOperator(mmat.shape, matvec=lambda v: mmat @ v, dtype=float)
+        # eigsh calls both operators through `aslinearoperator(op).matvec` two or three times per
+        # Lanczos step: `_Direct` hands it the function itself, without LinearOperator's checks
+        # and scipy's sparse dispatch around the same CSR product and the same solve
+        op = _Direct(self._factor(kd - self.sigma * md), self.n_free)
+        m_op = _Direct(_csr_product(mmat), self.n_free)
         ncv = max(2 * k + 1, 20)
         while True:  # a wider Krylov space if the first does not converge (never seen on frames)
             try:

@@ -423,3 +423,40 @@ def test_a_model_solved_at_x0_counts_and_solves_in_one_eigen_solve(monkeypatch, 
         (default.n_rigid, default.n_elastic, default.mechanism is None) and once.n_rigid == n_rigid
     lam = assert_same_modes(dense, once, np.zeros((1, 0)), n_modes, rtol=1e-8)
     np.testing.assert_allclose(lam, default.eigen(np.zeros((1, 0)), n_modes)[0], rtol=1e-10)
+
+
+def test_eigshs_operators_are_the_plain_product_and_solve_to_the_bit(monkeypatch):
+    """`_point` hands eigsh the CSR product and the factor's solve as bare functions (`_Direct`,
+    `_csr_product`): the same vectors as `M @ v` and as eigsh's run on plain LinearOperators."""
+    import fe_problem.sparse as fs
+    from scipy.sparse.linalg import LinearOperator
+
+    model = grid_frame(9, 10)
+    pars = fp.element_moduli(model, lower=1.8e11, upper=2.4e11)[:6]
+    system = fp.AffineModel(model, pars, solver="sparse", workers=1)
+    solver, theta = system._solver, np.linspace(1.9e11, 2.3e11, 6)
+    _, md, _, mmat = solver._matrices(theta)
+    v = np.random.default_rng(3).standard_normal(solver.n_free)
+    product = fs._csr_product(mmat)
+    assert getattr(product, "__self__", None) is None  # scipy's kernel, not `mmat @`
+    np.testing.assert_array_equal(product(v), mmat @ v)
+    np.testing.assert_array_equal(product(v[::-1]), mmat @ v[::-1])  # a strided view, as ARPACK's slices are not
+    op = fs._Direct(product, solver.n_free)
+    assert op.matvec is product and op.shape == (solver.n_free,) * 2 and np.array_equal(op @ v, mmat @ v)
+    with monkeypatch.context() as mp:  # without scipy's kernel where it was: the product itself
+        mp.setattr(fs.sp, "_sparsetools", None)
+        np.testing.assert_array_equal(fs._csr_product(mmat)(v), mmat @ v)
+
+    new = solver._point(theta, 10, vectors=True)
+    real = fs.eigsh
+
+    def plain(a, **kw):  # the operators as they were: LinearOperators around the same functions
+        n = a.shape[0]
+        kw["M"] = LinearOperator((n, n), matvec=lambda x: mmat @ x, dtype=float)
+        kw["OPinv"] = LinearOperator((n, n), matvec=kw["OPinv"].matvec, dtype=float)
+        return real(a, **kw)
+
+    monkeypatch.setattr(fs, "eigsh", plain)
+    old = solver._point(theta, 10, vectors=True)
+    np.testing.assert_array_equal(new[0], old[0])
+    np.testing.assert_array_equal(new[1], old[1])
