@@ -32,9 +32,22 @@ def signed(phi: np.ndarray) -> np.ndarray:
     modes whose two largest entries are equal and opposite; a plain argmax would let
     rounding (a different factorisation, BLAS) choose between them and flip the shape."""
     a = np.abs(phi)
-    first = np.argmax(a >= (1.0 - SIGN_TIE) * a.max(axis=-2, keepdims=True), axis=-2)
+    first = np.argmax(a >= (1.0 - SIGN_TIE) * _column_max(a), axis=-2)
     big = np.take_along_axis(phi, first[..., None, :], axis=-2)
     return phi * np.where(big < 0, -1.0, 1.0)
+
+
+def _column_max(a: np.ndarray) -> np.ndarray:
+    """a.max(axis=-2, keepdims=True), exactly, by halving the rows with np.maximum: numpy's
+    reduction over the rows of a tall (n, m) array with few columns (a sparse model's shapes)
+    walks them a row at a time: 3,024 x 14, 90 us against 30 us."""
+    while a.shape[-2] > 1:
+        h = a.shape[-2] // 2
+        top = np.maximum(a[..., :h, :], a[..., h:2 * h, :])
+        if a.shape[-2] % 2:
+            np.maximum(top[..., :1, :], a[..., 2 * h:, :], out=top[..., :1, :])
+        a = top
+    return a
 
 
 def take_rows(phi: np.ndarray, rows) -> np.ndarray:

@@ -460,3 +460,27 @@ def test_eigshs_operators_are_the_plain_product_and_solve_to_the_bit(monkeypatch
     old = solver._point(theta, 10, vectors=True)
     np.testing.assert_array_equal(new[0], old[0])
     np.testing.assert_array_equal(new[1], old[1])
+
+
+def test_the_sign_rule_is_the_one_written_column_by_column_to_the_bit():
+    """solver.signed (column maxima by halving, `_column_max`) against the rule written out
+    per shape: the first row within SIGN_TIE of the largest |entry| decides, made positive."""
+    from fe_problem.solver import SIGN_TIE, signed
+
+    def by_column(phi):
+        out = phi.copy()
+        for idx in np.ndindex(phi.shape[:-2] + phi.shape[-1:]):
+            col = phi[idx[:-1] + (slice(None), idx[-1])]
+            first = next(i for i, x in enumerate(np.abs(col)) if x >= (1.0 - SIGN_TIE) * np.abs(col).max())
+            out[idx[:-1] + (slice(None), idx[-1])] = col * (-1.0 if col[first] < 0 else 1.0)
+        return out
+
+    rng = np.random.default_rng(5)
+    tie = np.zeros((7, 3))
+    tie[[2, 5], 0] = [-1.0, 1.0]                # equal and opposite: the lower row decides
+    tie[[1, 4], 1] = [0.5, -0.5 * (1 + 1e-9)]  # the second larger within the tie: the first decides
+    tie[[1, 4], 2] = [0.5, -0.5 * (1 + 1e-7)]  # beyond the tie: the largest decides
+    for phi in (rng.standard_normal((3025, 14)), rng.standard_normal((3, 301, 5)), rng.standard_normal((1, 4)),
+                rng.standard_normal((40, 9))[::3, 1:], tie):
+        np.testing.assert_array_equal(signed(phi), by_column(phi))
+    assert signed(tie)[1, 1] == 0.5 and signed(tie)[4, 2] > 0.0
