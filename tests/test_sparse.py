@@ -481,6 +481,6 @@ def test_the_sign_rule_is_the_one_written_column_by_column_to_the_bit():
     tie[[1, 4], 1] = [0.5, -0.5 * (1 + 1e-9)]  # the second larger within the tie: the first decides
     tie[[1, 4], 2] = [0.5, -0.5 * (1 + 1e-7)]  # beyond the tie: the largest decides
     for phi in (rng.standard_normal((3025, 14)), rng.standard_normal((3, 301, 5)), rng.standard_normal((1, 4)),
-                rng.standard_normal((40, 9))[::3, 1:], tie):
+                rng.standard_normal((40, 9))[::3, 1:], np.asfortranarray(rng.standard_normal((3024, 14))), tie):
         np.testing.assert_array_equal(signed(phi), by_column(phi))
     assert signed(tie)[1, 1] == 0.5 and signed(tie)[4, 2] > 0.0
