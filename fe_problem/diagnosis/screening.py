@@ -27,8 +27,8 @@ from scipy.sparse.linalg import splu
 
 from ..assembly import AffineModel, solver_path
 from ..modal import frequencies_hz
-from .fit import Fit, profiled, profiled_paired, screen
 from ..sparse import _cholmod
+from .fit import Fit, profiled, profiled_paired, screen
 from .local import Term
 from .residuals import Observations
 
@@ -172,7 +172,7 @@ def _adjoint_ldlt(bordered, b: np.ndarray, phi: np.ndarray, c_t: np.ndarray):
     of phi's largest entry last: the K - lam M block without q is regular (phi_q != 0), the
     border's pivot is -b'^T (K - lam M)'^-1 b' and q's the 2 x 2 remainder's, both nonzero.
     The right-hand sides P C^T = C^T - b (phi^T C^T) are built in that order, column-major as
-    CHOLMOD takes them, from C^T's ones (the same values as `_adjoint`'s SuperLU path)."""
+    CHOLMOD takes them: -b (phi^T C^T) plus C^T's nonzeros, the same values as `_adjoint`'s."""
     n, n_coord = c_t.shape
     q = int(np.argmax(np.abs(phi)))
     order = _cholmod.analyze(bordered, mode="simplicial").P()
@@ -185,9 +185,7 @@ def _adjoint_ldlt(bordered, b: np.ndarray, phi: np.ndarray, c_t: np.ndarray):
     except _cholmod.CholmodError:
         return None
     rows, cols = np.divmod(np.flatnonzero(c_t), n_coord)
-    phi_c = np.zeros(n_coord)
-    phi_c[cols] = phi[rows]                                   # phi^T C^T
-    rp = np.outer(phi_c, -np.append(b, 0.0)[perm]).T          # (n + 1, n_coord), column-major
+    rp = np.outer(phi @ c_t, -np.append(b, 0.0)[perm]).T      # (n + 1, n_coord), column-major
     rp[where[rows], cols] += c_t[rows, cols]
     xp = factor.solve_A(rp)
     w = np.random.default_rng(0).standard_normal(n_coord)    # one random combination of the columns
