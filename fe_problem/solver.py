@@ -40,8 +40,12 @@ def signed(phi: np.ndarray) -> np.ndarray:
 def _column_max(a: np.ndarray) -> np.ndarray:
     """a.max(axis=-2, keepdims=True), exactly. When the rows are not adjacent in memory (a
     C-ordered tall (n, m) array with few columns), by halving the rows with np.maximum: numpy's
-    reduction walks such an array a row at a time (3,024 x 14: 110 us against 40 us); along
-    adjacent rows (ARPACK's column-major shapes) its own reduction is faster (6 us)."""
+    reduction walks such an array a row at a time; along adjacent rows (ARPACK's column-major
+    shapes) its own reduction is faster. Per call on a 3,024 x 14 array, one run at load 2.5:
+    111 us by numpy against 31 us halved (C order), 6 us by numpy (Fortran order), from
+    `python -m timeit -s "import numpy as np; from fe_problem.solver import _column_max;
+    a = np.random.default_rng(0).random((3024, 14))" "_column_max(a)"` (and "a.max(axis=-2,
+    keepdims=True)"; np.asfortranarray(...) for the last)."""
     if a.ndim < 2 or a.strides[-2] == a.itemsize:
         return a.max(axis=-2, keepdims=True)
     while a.shape[-2] > 1:

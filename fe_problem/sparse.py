@@ -98,9 +98,12 @@ def default_workers() -> int:
 
 
 class _Direct(LinearOperator):
-    """The square operator (n x n) whose `matvec` is the function `f` itself: eigsh calls
-    `aslinearoperator(op).matvec` two or three times per Lanczos step, and LinearOperator's
-    own `matvec` checks and reshapes around its function each time."""
+    """The square operator (n x n) whose `matvec` is the function `f` itself, for eigsh's use:
+    eigsh calls `aslinearoperator(op).matvec` with (n,) float64 vectors two or three times per
+    Lanczos step, and LinearOperator's own `matvec` checks and reshapes around its function each
+    time. So `matvec` takes (n,) float64 only (what `f` accepts: `_csr_product` raises on
+    anything else, including the (n, 1) that LinearOperator sends `op @ X` to `matvec` with);
+    `op @ X` for X (n, k), k > 1, applies `f` column by column and returns (n, k)."""
 
     def __init__(self, f, n: int):
         super().__init__(np.dtype(float), (n, n))
@@ -109,12 +112,16 @@ class _Direct(LinearOperator):
     def _matvec(self, x: np.ndarray) -> np.ndarray:
         return self.matvec(x)
 
+    def _matmat(self, x: np.ndarray) -> np.ndarray:
+        return np.column_stack([self.matvec(np.ascontiguousarray(x[:, j])) for j in range(x.shape[1])])
+
 
 def _csr_product(a: sp.csr_matrix):
-    """v -> a @ v (v: (n,) floats) for a CSR matrix of floats: the kernel `a @ v` runs
-    (scipy's `csr_matvec` into zeros, the same sums in the same order) without the sparse
-    dispatch layers around it; `a @ v` itself if that kernel is not where it was
-    (tests/test_sparse.py holds the two identical)."""
+    """v -> a @ v for a CSR matrix of floats (m x n), v: (n,) float64, eigsh's use: the kernel
+    `a @ v` runs (scipy's `csr_matvec` into zeros, the same sums in the same order) without the
+    sparse dispatch layers around it, and a v of another shape or type raises ValueError (the
+    kernel itself would read past a short buffer); `a @ v` itself if that kernel is not where
+    it was (tests/test_sparse.py holds the two identical)."""
     matvec = getattr(getattr(sp, "_sparsetools", None), "csr_matvec", None)
     if matvec is None or a.format != "csr" or a.dtype != np.float64:
         return a.__matmul__
@@ -122,6 +129,8 @@ def _csr_product(a: sp.csr_matrix):
     indptr, indices, data = a.indptr, a.indices, a.data
 
     def product(v: np.ndarray) -> np.ndarray:
+        if v.shape != (n,) or v.dtype != np.float64:
+            raise ValueError(f"_csr_product: v must be ({n},) float64, got {v.shape} {v.dtype}")
         out = np.zeros(m)
         matvec(m, n, indptr, indices, data, v, out)
         return out

@@ -462,6 +462,34 @@ def test_eigshs_operators_are_the_plain_product_and_solve_to_the_bit(monkeypatch
     np.testing.assert_array_equal(new[1], old[1])
 
 
+def test_the_bare_operators_keep_linearoperators_shapes_or_refuse():
+    """Outside eigsh's (n,) float64 vectors: `op @ X` of a `_Direct` for X (n, k) is (n, k), each
+    column the product or solve of that column (LinearOperator's default stacked the (n,)
+    results into one (k n,) vector), and `_csr_product` refuses a vector of another length (the
+    kernel would read past it), a column (n, 1) (also as `op @ X`, which LinearOperator sends to
+    matvec) and complex values with ValueError."""
+    import fe_problem.sparse as fs
+
+    system = fp.AffineModel(grid_frame(3, 6), (), solver="sparse", workers=1)
+    solver = system._solver
+    kd, md, _, mmat = solver._matrices(system.x0)
+    n = solver.n_free
+    x = np.random.default_rng(5).standard_normal((n, 3))
+    product = fs._csr_product(mmat)
+    solve = solver._factor(kd - solver.sigma * md)
+    for f, ref in ((product, mmat @ x), (solve, np.column_stack([solve(x[:, j].copy()) for j in range(3)]))):
+        op = fs._Direct(f, n)
+        for got in (op @ x, op.matmat(x), op @ x[:, :2]):
+            assert got.shape == (n, got.shape[1]) and got.shape[1] in (2, 3)
+            np.testing.assert_array_equal(got, ref[:, :got.shape[1]])
+    np.testing.assert_array_equal(fs._Direct(product, n) @ x[:, 1], mmat @ x[:, 1])
+    for bad in (x[:-1, 0], x[:, :1], x[:, 0] + 0j):
+        with pytest.raises(ValueError, match="float64"):
+            product(bad)
+    with pytest.raises(ValueError, match="float64"):  # LinearOperator sends (n, 1) to matvec
+        fs._Direct(product, n) @ x[:, :1]
+
+
 def test_the_sign_rule_is_the_one_written_column_by_column_to_the_bit():
     """solver.signed (column maxima by halving, `_column_max`) against the rule written out
     per shape: the first row within SIGN_TIE of the largest |entry| decides, made positive."""
