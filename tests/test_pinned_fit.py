@@ -31,6 +31,22 @@ def test_the_compressed_residuals_have_the_full_norm_everywhere():
     assert compressed(small_r0, small_jac)[1] is small_jac
 
 
+def test_the_compressed_system_is_the_reduced_qr_of_the_jacobian():
+    """`compressed` takes R of [jac, r0] without forming Q; the formula it replaced formed the
+    reduced Q of jac: R, Q^T r0 and |r0 - Q Q^T r0|. The two agree row by row up to each row's
+    sign (a Householder reflection's), to rounding: 1e-12 of the largest entry (a Jacobian of full
+    rank: of a rank-deficient one, Q^T r0 is not unique, and only the norms are, as above)."""
+    r0, jac = tall_problem(500, 140, 140, 4)
+    c, r = compressed(r0, jac)
+    q, r_ref = np.linalg.qr(jac)
+    c_ref = q.T @ r0
+    sign = np.sign(np.diag(r)[:140]) * np.sign(np.diag(r_ref))
+    np.testing.assert_allclose(sign[:, None] * r[:140], r_ref, rtol=0, atol=1e-12 * np.abs(r_ref).max())
+    np.testing.assert_array_equal(r[140], 0.0)
+    np.testing.assert_allclose(sign * c[:140], c_ref, rtol=0, atol=1e-12 * np.abs(c_ref).max())
+    assert abs(abs(c[140]) - np.linalg.norm(r0 - q @ c_ref)) < 1e-12 * np.linalg.norm(r0)
+
+
 def objective(r0, jac):
     """The MAP objective written out from its definition (chi^2 plus the box priors, sd 1/2 in
     z) and its gradient, on the full (uncompressed) Jacobian."""

