@@ -93,13 +93,17 @@ def changes(base: Baseline, terms: list[Term]) -> tuple[np.ndarray, np.ndarray]:
     still tie exactly, and their order stays the index order."""
     n_coord, m = base.phi_c.shape[0], len(base.modes)
     dlam = np.zeros((len(terms), m))
-    dshape = np.zeros((len(terms), n_coord, m))
-    for idx in _groups(terms).values():
+    groups = list(_groups(terms).values())
+    whole = len(groups) == 1  # one group of all the terms in order (the usual case): no scatter
+    dshape = np.empty((len(terms), n_coord, m)) if whole else np.zeros((len(terms), n_coord, m))
+    phi_cols = {i: np.ascontiguousarray(base.phi_c[:, i]) for i in base.modes}
+    for idx in groups:
         free = _to_free(base.system, np.array([terms[i].dofs for i in idx]))
         c, k = free.shape
         dk = np.array([terms[i].dk for i in idx])
         dm = np.array([terms[i].dm for i in idx])
-        dm2 = np.array([terms[i].dm2 if terms[i].dm2 is not None else np.zeros_like(terms[i].dk) for i in idx])
+        dm2 = (np.zeros_like(dk) if all(terms[i].dm2 is None for i in idx) else
+               np.array([terms[i].dm2 if terms[i].dm2 is not None else np.zeros_like(terms[i].dk) for i in idx]))
         indptr = np.arange(0, c * k + 1, k)
         moved = np.empty((m, c, n_coord))  # mode-major while built: each mode's block contiguous
         for j, (i, g) in enumerate(zip(base.modes, base.g)):
@@ -110,9 +114,12 @@ def changes(base: Baseline, terms: list[Term]) -> tuple[np.ndarray, np.ndarray]:
             c_i = 0.5 * np.einsum("ck,ckl,cl->c", u, -dm + 2.0 * lam * dm2, u)
             # rows of D_i phi_i at the term's free rows (a supported DOF: the zero row n_free)
             g_r = sp.csr_matrix((r.ravel(), free.ravel(), indptr), shape=(c, g.shape[0])) @ g   # (c, n_coord)
-            np.multiply(c_i[:, None], base.phi_c[None, :, i], out=moved[j])
+            np.multiply(c_i[:, None], phi_cols[i][None, :], out=moved[j])
             moved[j] -= g_r
-        dshape[idx] = moved.transpose(1, 2, 0)
+        if whole:
+            dshape[...] = moved.transpose(1, 2, 0)
+        else:
+            dshape[idx] = moved.transpose(1, 2, 0)
     return dlam, dshape
 
 
