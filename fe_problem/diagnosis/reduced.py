@@ -253,8 +253,9 @@ def _m_orthonormal(phi: np.ndarray, blocks: list[np.ndarray], m: sp.spmatrix) ->
     for block in blocks:
         v = block
         for _ in range(2):
-            before = np.sqrt(np.einsum("ij,ij->j", v, m @ v))
-            v = v - q @ (q.T @ (m @ v))
+            mv = m @ v  # one product for the norm before and the projection
+            before = np.sqrt(np.einsum("ij,ij->j", v, mv))
+            v = v - q @ (q.T @ mv)
             norm = np.sqrt(np.einsum("ij,ij->j", v, m @ v))
             ok = norm > DEPENDENT * np.maximum(before, 1e-300)
             v = v[:, ok] / norm[ok]
