@@ -87,6 +87,34 @@ def test_the_bounded_fit_is_the_map_by_independent_solvers():
     assert f(z)[0] <= f(other)[0] * (1 + 1e-14)
 
 
+def replaced_fit(r0, jac):
+    """The route `bounded_linear_fit` took before its back substitution: the data rows alone
+    compressed, the prior's rows stacked under them, `lsq_linear`'s bvls on the whole."""
+    from scipy.optimize import lsq_linear
+
+    n = jac.shape[1]
+    c, r = compressed(r0, jac)
+    res = lsq_linear(np.vstack([r, 2.0 * np.eye(n)]), np.concatenate([0.5 * r.sum(axis=1) - c, np.ones(n)]),
+                     bounds=(0.0, 1.0), method="bvls", max_iter=10 * n + 100)
+    z = res.x.copy()
+    z[res.active_mask < 0], z[res.active_mask > 0] = 0.0, 1.0
+    return z
+
+
+@pytest.mark.parametrize("misfit", [0.3, 3.0])
+def test_the_back_substitution_is_the_replaced_fit(misfit):
+    """Inside the box (a small misfit: no modulus at a bound) the answer is the back substitution
+    on the compressed data and prior rows; with a large misfit (moduli at both bounds) it is bvls's
+    on that compressed system. Both are the replaced route's answer, to 1e-12 in z (the stacked rows'
+    condition number is 16 here: rounding), with the same moduli at their bounds."""
+    r0, jac = tall_problem(600, 150, 80, 5)
+    z, ref = bounded_linear_fit(misfit * r0, jac), replaced_fit(misfit * r0, jac)
+    at_bound = (ref <= 0) | (ref >= 1)
+    assert (at_bound.sum() == 0) if misfit < 1 else (at_bound.sum() >= 6)
+    np.testing.assert_array_equal((z <= 0) | (z >= 1), at_bound)
+    np.testing.assert_allclose(z, ref, rtol=0, atol=1e-12)
+
+
 def test_a_pinned_modulus_is_exactly_on_its_bound():
     """On this problem bvls's last step left two moduli at 1.7e-16 and 1.1e-16, pushed into their
     bound by gradients of 784 and 16,577: counted as free, they broke the optimality conditions.

@@ -298,9 +298,12 @@ def bounded_linear_fit(r0: np.ndarray, jac: np.ndarray) -> np.ndarray:
     replaced moved z by 0.2-0.5 and changed most of its pinned list under a 1e-15 change of
     its Jacobian at 1,080 and 3,024 DOFs; benchmarks/pinned_rounding.py).
 
-    With more residuals than moduli (m > n) the data rows are first compressed to n + 1
-    (`compressed`: the same norm at every z). Solved exactly (to rounding) by `lsq_linear`'s
-    bvls, an active-set method; the moduli its active set holds at a bound are set exactly on
+    The data rows and the prior's rows are compressed together to n + 1 (`compressed`: the same
+    norm at every z, one QR), a triangle R and c: the unbounded minimiser is then one back
+    substitution, the answer wherever it lies in the box (none at a bound: 3,528 x 1,188, 0.65 s
+    against 0.9 s CPU for the compression of the data rows alone and `lsq_linear`'s own
+    unbounded least squares on the stacked rows, which it returned as it is; the same to 1.4e-14
+    in z). Otherwise solved exactly (to rounding) by `lsq_linear`'s bvls, an active-set method; the moduli its active set holds at a bound are set exactly on
     it (bvls's last step leaves them within 1e-16), and a run that ends on its iteration limit
     is an error, never a silent answer. trf, an
     interior method, leaves a pinned modulus 1e-8 to 1e-4 inside its bound and was slower
@@ -308,11 +311,16 @@ def bounded_linear_fit(r0: np.ndarray, jac: np.ndarray) -> np.ndarray:
     are at a bound: bvls 0.96 s, trf 4.1 s CPU; as measured, none at a bound: 0.53 s and 0.13 s)."""
     from scipy.optimize import lsq_linear
 
+    from scipy.linalg import solve_triangular
+
     n = jac.shape[1]
-    c, r = compressed(r0, jac)
-    a = np.vstack([r, 2.0 * np.eye(n)])
-    b = np.concatenate([0.5 * r.sum(axis=1) - c, np.ones(n)])  # a z - b = [c + r (z - 1/2); 2 (z - 1/2)]
-    res = lsq_linear(a, b, bounds=(0.0, 1.0), method="bvls", max_iter=10 * n + 100)
+    # ||c + r (z - 1/2)|| = ||[r0 + jac (z - 1/2); 2 (z - 1/2)]||: data and prior rows at once
+    c, r = compressed(np.concatenate([r0, np.zeros(n)]), np.vstack([jac, 2.0 * np.eye(n)]))
+    if jac.shape[0] > 1:  # compressed by QR: r[:n] upper triangular, its diagonal nonzero (the 2 I)
+        z = 0.5 - solve_triangular(r[:n], c[:n])
+        if np.all((z >= 0.0) & (z <= 1.0)):  # as `lsq_linear` returns its unbounded answer
+            return z
+    res = lsq_linear(r, 0.5 * r.sum(axis=1) - c, bounds=(0.0, 1.0), method="bvls", max_iter=10 * n + 100)
     if res.status <= 0:
         raise RuntimeError(f"the bounded fit of {n} moduli did not converge (bvls: {res.message})")
     z = res.x.copy()
