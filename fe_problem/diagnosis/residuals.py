@@ -128,7 +128,7 @@ class Observations:
         sel = self.has_shape
         cols = np.flatnonzero(sel)
         j = at[cols]
-        u_a = model_shapes[:, :, j]                                                 # (b, n_coord, n_sel), a copy
+        u_a = np.asarray(model_shapes[:, :, j], dtype=float)                        # (b, n_coord, n_sel), a copy
         u_a /= np.linalg.norm(u_a, axis=1, keepdims=True)
         u_m = self.shapes[:, sel]
         # close modes as `residuals` treats them: only the (model, mode) pairs that have a
