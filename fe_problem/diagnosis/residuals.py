@@ -120,19 +120,18 @@ class Observations:
         on a batch of one; the first-order screen's hot path (thousands of candidates a chunk,
         screening.py) calls it on whole batches."""
         idx, ok = pairing, pairing >= 0
-        at = np.clip(idx, 0, None)
-        f = np.where(ok, model_hz[:, at], self.frequencies_hz * (1 + MAX_PAIR_FREQ))
+        f = np.where(ok, model_hz[:, np.clip(idx, 0, None)], self.frequencies_hz * (1 + MAX_PAIR_FREQ))
         r_f = (f - self.frequencies_hz) / (self.frequencies_hz * self.freq_noise)
         if not self.has_shape.any():
             return r_f
         sel = self.has_shape
-        cols = np.flatnonzero(sel)
-        j = at[cols]
-        u_a = np.asarray(model_shapes[:, :, j], dtype=float)                        # (b, n_coord, n_sel), a copy
-        u_a /= np.linalg.norm(u_a, axis=1, keepdims=True)
+        u_a = model_shapes[:, :, np.clip(idx[sel], 0, None)]                     # (b, n_coord, n_sel)
+        u_a = u_a / np.linalg.norm(u_a, axis=1, keepdims=True)
         u_m = self.shapes[:, sel]
         # close modes as `residuals` treats them: only the (model, mode) pairs that have a
         # neighbour within reach go through `close_mode_shape` (none on most models)
+        cols = np.flatnonzero(sel)
+        j = np.clip(idx[cols], 0, None)
         hz_j = model_hz[:, j]                                                       # (b, n_sel)
         # a mode at 0 Hz (a negative eigenvalue clipped: a model softened past stability, as a
         # reduced screen's largest sizes may be) has no neighbour within reach: its gap is inf,
@@ -145,15 +144,9 @@ class Observations:
             mixed = close_mode_shape(u_m[:, col], model_hz[b], model_shapes[b], j[col])
             if mixed is not None:
                 u_a[b, :, col] = mixed
-        u_a *= np.where(np.sum(u_a * u_m, axis=1, keepdims=True) < 0, -1.0, 1.0)
-        if not ok[sel].all():
-            u_a = np.where(ok[sel][None, None, :], u_a, 0.0)
+        u_a = u_a * np.where(np.sum(u_a * u_m, axis=1, keepdims=True) < 0, -1.0, 1.0)
+        u_a = np.where(ok[sel][None, None, :], u_a, 0.0)
         sigma = self.shape_noise * np.max(np.abs(u_m), axis=0)
-        # each model's block in `residuals`' order: mode by mode, the coordinates within (order F),
-        # written in place: (u_a - u_m) / sigma
-        out = np.empty((len(model_hz), self.n_modes + u_a.shape[1] * u_a.shape[2]))
-        out[:, :self.n_modes] = r_f
-        shape_r = out[:, self.n_modes:].reshape(len(model_hz), u_a.shape[2], u_a.shape[1]).transpose(0, 2, 1)
-        np.subtract(u_a, u_m, out=shape_r)
-        shape_r /= sigma                                                            # (b, n_coord, n_sel)
-        return out
+        shape_r = (u_a - u_m) / sigma                                               # (b, n_coord, n_sel)
+        # each model's block in `residuals`' order: mode by mode, the coordinates within (order F)
+        return np.concatenate([r_f, shape_r.transpose(0, 2, 1).reshape(len(model_hz), -1)], axis=1)
