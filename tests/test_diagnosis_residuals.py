@@ -7,6 +7,8 @@ turn (modes built by OpenSeesPy), the first-order screen ranks the roof mass fir
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 import scipy.linalg
@@ -71,6 +73,21 @@ def test_a_mode_without_close_neighbours_keeps_the_plain_residual():
     # bit for bit, is what benchmarks/planar_fingerprint.py checks on the planar diagnosis)
     np.testing.assert_allclose(_shape_residuals(obs, r), plain, rtol=1e-12, atol=1e-12)
     np.testing.assert_allclose(r[:3], (hz - obs.frequencies_hz) / (obs.frequencies_hz * 0.002), rtol=1e-12)
+
+
+def test_modes_at_zero_hz_are_compared_alone_without_a_warning():
+    """A model softened past stability has modes at 0 Hz (negative eigenvalues clipped; a reduced
+    screen's largest sizes). Two of them (0 Hz beside 0 Hz: 0 / 0) and one paired beside a mode
+    far above: each is compared alone, the plain residual, and no divide warning is raised."""
+    obs, hz, shapes = _setup(0.5)
+    zero_hz = np.array([0.0, 0.0, 5.0])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        r, _ = obs.residuals(zero_hz, shapes, np.arange(3))
+    u_a = shapes * np.where(np.sum(shapes * obs.shapes, axis=0) < 0, -1.0, 1.0)
+    plain = (u_a - obs.shapes) / (0.02 * np.abs(obs.shapes).max(axis=0))
+    np.testing.assert_allclose(_shape_residuals(obs, r), plain, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(r[:3], (zero_hz - obs.frequencies_hz) / (obs.frequencies_hz * 0.002), rtol=1e-12)
 
 
 @pytest.mark.parametrize("gap", [0.3 * CLOSE_MODES_REL, CLOSE_MODES_REL, 2.0 * CLOSE_MODES_REL])

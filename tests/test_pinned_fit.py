@@ -31,6 +31,22 @@ def test_the_compressed_residuals_have_the_full_norm_everywhere():
     assert compressed(small_r0, small_jac)[1] is small_jac
 
 
+def test_the_compressed_system_is_the_reduced_qr_of_the_jacobian():
+    """`compressed` takes R of [jac, r0] without forming Q; the formula it replaced formed the
+    reduced Q of jac: R, Q^T r0 and |r0 - Q Q^T r0|. The two agree row by row up to each row's
+    sign (a Householder reflection's), to rounding: 1e-12 of the largest entry (a Jacobian of full
+    rank: of a rank-deficient one, Q^T r0 is not unique, and only the norms are, as above)."""
+    r0, jac = tall_problem(500, 140, 140, 4)
+    c, r = compressed(r0, jac)
+    q, r_ref = np.linalg.qr(jac)
+    c_ref = q.T @ r0
+    sign = np.sign(np.diag(r)[:140]) * np.sign(np.diag(r_ref))
+    np.testing.assert_allclose(sign[:, None] * r[:140], r_ref, rtol=0, atol=1e-12 * np.abs(r_ref).max())
+    np.testing.assert_array_equal(r[140], 0.0)
+    np.testing.assert_allclose(sign * c[:140], c_ref, rtol=0, atol=1e-12 * np.abs(c_ref).max())
+    assert abs(abs(c[140]) - np.linalg.norm(r0 - q @ c_ref)) < 1e-12 * np.linalg.norm(r0)
+
+
 def objective(r0, jac):
     """The MAP objective written out from its definition (chi^2 plus the box priors, sd 1/2 in
     z) and its gradient, on the full (uncompressed) Jacobian."""
@@ -69,6 +85,34 @@ def test_the_bounded_fit_is_the_map_by_independent_solvers():
                      options=dict(ftol=0.0, gtol=0.0, maxiter=20000, maxcor=50)).x
     np.testing.assert_allclose(z, other, rtol=0, atol=own + np.linalg.norm(projected_gradient(f, other)) / 4)
     assert f(z)[0] <= f(other)[0] * (1 + 1e-14)
+
+
+def replaced_fit(r0, jac):
+    """The route `bounded_linear_fit` took before its back substitution: the data rows alone
+    compressed, the prior's rows stacked under them, `lsq_linear`'s bvls on the whole."""
+    from scipy.optimize import lsq_linear
+
+    n = jac.shape[1]
+    c, r = compressed(r0, jac)
+    res = lsq_linear(np.vstack([r, 2.0 * np.eye(n)]), np.concatenate([0.5 * r.sum(axis=1) - c, np.ones(n)]),
+                     bounds=(0.0, 1.0), method="bvls", max_iter=10 * n + 100)
+    z = res.x.copy()
+    z[res.active_mask < 0], z[res.active_mask > 0] = 0.0, 1.0
+    return z
+
+
+@pytest.mark.parametrize("misfit", [0.3, 3.0])
+def test_the_back_substitution_is_the_replaced_fit(misfit):
+    """Inside the box (a small misfit: no modulus at a bound) the answer is the back substitution
+    on the compressed data and prior rows; with a large misfit (moduli at both bounds) it is bvls's
+    on that compressed system. Both are the replaced route's answer, to 1e-12 in z (the stacked rows'
+    condition number is 16 here: rounding), with the same moduli at their bounds."""
+    r0, jac = tall_problem(600, 150, 80, 5)
+    z, ref = bounded_linear_fit(misfit * r0, jac), replaced_fit(misfit * r0, jac)
+    at_bound = (ref <= 0) | (ref >= 1)
+    assert (at_bound.sum() == 0) if misfit < 1 else (at_bound.sum() >= 6)
+    np.testing.assert_array_equal((z <= 0) | (z >= 1), at_bound)
+    np.testing.assert_allclose(z, ref, rtol=0, atol=1e-12)
 
 
 def test_a_pinned_modulus_is_exactly_on_its_bound():

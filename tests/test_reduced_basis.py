@@ -86,6 +86,30 @@ def test_the_basis_holds_the_calibrated_model_exactly(case):
     np.testing.assert_allclose(sh[0], cal.sh0, atol=1e-10 * np.abs(cal.sh0).max())
 
 
+def test_the_ritz_shapes_are_the_signed_products_at_the_coordinates(case):
+    """`SharedBasis._pairs` forms v y as (y^T v^T)^T, mode by mode in memory: its shapes are
+    `signed(v @ y)` at the measured rows, written out here, to rounding (bit for bit with the
+    OpenBLAS of this project's venv), for batches of one and six, with the joint's extra row of
+    y ignored; and exactly for the calibrated modes themselves (y selects them: products with 0
+    and 1), whose largest entries a symmetric frame ties in sign."""
+    from fe_problem.solver import signed, take_rows
+
+    cal, _ = case
+    basis = cal.setting.basis
+    v, k = basis.phi, basis.n_modes
+    rng = np.random.default_rng(2)
+    for b in (1, 6):
+        y = rng.standard_normal((b, v.shape[1] + 1, k))
+        _, sh = basis._pairs(v, np.ones((b, k)), y)
+        ref = take_rows(signed(v @ y[:, :v.shape[1]]), basis.rows)
+        np.testing.assert_allclose(sh, ref, rtol=0, atol=1e-14 * np.abs(ref).max())
+    pick = np.zeros((1, v.shape[1], k))
+    pick[0, np.arange(k), np.arange(k)] = 1.0
+    hz, sh = basis._pairs(v, basis.lam[None, :k], pick)
+    np.testing.assert_array_equal(sh[0], take_rows(signed(v[None, :, :k]), basis.rows)[0])
+    np.testing.assert_array_equal(hz[0], fp.modal.frequencies_hz(basis.lam[:k]))
+
+
 def _counted(c):
     """The candidate with its own (full) forward counting the sizes it solves."""
     n = [0]

@@ -223,7 +223,11 @@ class SharedBasis:
         """Frequencies (b, n_modes) Hz and shapes at the coordinates, signed by the solvers' rule,
         of the Ritz pairs (lam (b, n_modes) rad^2/s^2, y (b, >= n_v, n_modes) mr-orthonormal)."""
         y = y[:, :v.shape[1], :]  # a joint's released rotation (`joint`) is no model DOF
-        phi = signed(v @ y)
+        # the shapes (b, n_free, n_modes) laid out mode by mode, (v y)^T = y^T v^T: the sign
+        # rule's reductions over the DOFs then run along contiguous memory (3,024 DOFs, 66 basis
+        # vectors: 0.9 against 1.1 ms a batch of one size, 13 against 15.5 ms of 19; the same
+        # products to rounding, bit for bit with this venv's OpenBLAS: tests/test_reduced_basis.py)
+        phi = signed(np.swapaxes(np.swapaxes(y, -1, -2) @ v.T, -1, -2))
         return frequencies_hz(lam), take_rows(phi, self.rows)
 
 
@@ -253,8 +257,9 @@ def _m_orthonormal(phi: np.ndarray, blocks: list[np.ndarray], m: sp.spmatrix) ->
     for block in blocks:
         v = block
         for _ in range(2):
-            before = np.sqrt(np.einsum("ij,ij->j", v, m @ v))
-            v = v - q @ (q.T @ (m @ v))
+            mv = m @ v  # one product for the norm before and the projection
+            before = np.sqrt(np.einsum("ij,ij->j", v, mv))
+            v = v - q @ (q.T @ mv)
             norm = np.sqrt(np.einsum("ij,ij->j", v, m @ v))
             ok = norm > DEPENDENT * np.maximum(before, 1e-300)
             v = v[:, ok] / norm[ok]

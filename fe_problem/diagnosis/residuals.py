@@ -133,7 +133,11 @@ class Observations:
         cols = np.flatnonzero(sel)
         j = np.clip(idx[cols], 0, None)
         hz_j = model_hz[:, j]                                                       # (b, n_sel)
-        gap = np.abs(model_hz[:, None, :] - hz_j[:, :, None]) / hz_j[:, :, None]   # (b, n_sel, k)
+        # a mode at 0 Hz (a negative eigenvalue clipped: a model softened past stability, as a
+        # reduced screen's largest sizes may be) has no neighbour within reach: its gap is inf,
+        # or 0 / 0 = NaN beside another at 0 Hz, and neither is below the reach
+        with np.errstate(divide="ignore", invalid="ignore"):
+            gap = np.abs(model_hz[:, None, :] - hz_j[:, :, None]) / hz_j[:, :, None]   # (b, n_sel, k)
         near = gap < CLOSE_MODES_REACH * CLOSE_MODES_REL
         near[:, np.arange(len(cols)), j] = False
         for b, col in zip(*np.nonzero(near.any(axis=2) & ok[cols][None, :])):
