@@ -379,10 +379,22 @@ class AffineModel:
     def nodal_rows(self, dofs) -> np.ndarray:
         """Row indices into the free-DOF vector for nodal DOFs [(node, dir), ...].
 
-        A supported DOF has no row: -1 (its shape entry is zero)."""
-        pos = np.full(self.dofmap.n_total, -1)
-        pos[self.dofmap.free] = np.arange(len(self.dofmap.free))
-        return np.array([pos[self.dofmap.dof(n, d, self.model)] for n, d in dofs], dtype=int)
+        A supported DOF has no row: -1 (its shape entry is zero). Kept with the DOF map (shared
+        by the systems of one model's copies, `DofMap.of`) for the last few DOF lists asked."""
+        try:
+            key = tuple(dofs)
+            kept = self.dofmap.rows_kept.get(key)
+        except TypeError:  # a list of lists: no key
+            key, kept = None, None
+        if kept is None:
+            pos = np.full(self.dofmap.n_total, -1)
+            pos[self.dofmap.free] = np.arange(len(self.dofmap.free))
+            kept = np.array([pos[self.dofmap.dof(n, d, self.model)] for n, d in dofs], dtype=int)
+            if key is not None:
+                if len(self.dofmap.rows_kept) >= 8:
+                    self.dofmap.rows_kept.clear()
+                self.dofmap.rows_kept[key] = kept
+        return kept.copy()
 
     @staticmethod
     def at_rows(phi_free: np.ndarray, rows: np.ndarray) -> np.ndarray:

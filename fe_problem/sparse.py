@@ -97,6 +97,37 @@ def default_workers() -> int:
     return max(1, min(n, 8))
 
 
+#: The sparsity patterns of the last few systems, most recent first: (n, lin, rows, cols,
+#: indptr), lin the sorted entries row * n + col. A diagnosis builds hundreds of systems of one
+#: model (a parameter on an element, a spring, a section changed) on the same pattern: a new
+#: system's entries are looked up in a kept pattern instead of sorted anew (`_pattern`).
+_PATTERNS: list[tuple] = []
+#: CHOLMOD's analyses of the last few patterns (indptr, indices, analysis): a pattern met again
+#: in this process is not analysed again (`SparseModalSolver._analysis`).
+_ANALYSES: list[tuple] = []
+_KEEP_PATTERNS = 4
+
+
+def _pattern(keys: np.ndarray, n: int):
+    """((lin, rows, cols, indptr), slot) of the entries keys = row * n + col (n x n): lin the
+    sorted distinct keys, their rows and columns, the CSR row pointer, and each key's position
+    in lin; `np.unique(keys, return_inverse=True)`'s, from a kept pattern (`_PATTERNS`) when
+    the keys fill exactly its entries (checked: every key found, every entry hit)."""
+    for i, (m, lin, *arrays) in enumerate(_PATTERNS[:2]):
+        if m != n or len(keys) < len(lin):
+            continue
+        slot = np.minimum(np.searchsorted(lin, keys), len(lin) - 1)
+        if np.array_equal(lin[slot], keys) and np.bincount(slot, minlength=len(lin)).all():
+            _PATTERNS.insert(0, _PATTERNS.pop(i))
+            return (lin, *arrays), slot
+    lin, slot = np.unique(keys, return_inverse=True)
+    rows = lin // n
+    made = (lin, rows, lin % n, np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=n))]))
+    _PATTERNS.insert(0, (n,) + made)
+    del _PATTERNS[_KEEP_PATTERNS:]
+    return made, slot.ravel()
+
+
 class SparseModalSolver:
     """Eigen-solves of K0 + sum theta_k dK_k, M0 + sum theta_k dM_k (free DOFs) from triplets.
 
@@ -127,9 +158,7 @@ class SparseModalSolver:
         self._symbolic = None  # CHOLMOD's analysis of the pattern: made on first use in each process
         rows = np.concatenate([k_trip[0], m_trip[0]])
         cols = np.concatenate([k_trip[1], m_trip[1]])
-        lin, slot = np.unique(rows * n + cols, return_inverse=True)
-        self.rows, self.cols = lin // n, lin % n
-        self.indptr = np.concatenate([[0], np.cumsum(np.bincount(self.rows, minlength=n))])
+        (lin, self.rows, self.cols, self.indptr), slot = _pattern(rows * n + cols, n)
         nk = len(k_trip[0])
         self.k_data0, self.gk = self._affine(slot[:nk], k_trip, len(lin))
         self.m_data0, self.gm = self._affine(slot[nk:], m_trip, len(lin))
@@ -186,7 +215,15 @@ class SparseModalSolver:
         """CHOLMOD's symbolic analysis of the pattern (its fill-reducing order and the structure of
         the factor), once per model and process: it is not pickled, a worker makes its own."""
         if self._symbolic is None:
-            self._symbolic = _cholmod.analyze(self._csc(np.ones(len(self.rows))), mode=CHOLMOD_MODE)
+            for entry in _ANALYSES:  # the same pattern analysed before in this process: the same analysis
+                if (entry[0] is self.indptr or np.array_equal(entry[0], self.indptr)) and \
+                        (entry[1] is self.cols or np.array_equal(entry[1], self.cols)):
+                    self._symbolic = entry[2]
+                    break
+            else:
+                self._symbolic = _cholmod.analyze(self._csc(np.ones(len(self.rows))), mode=CHOLMOD_MODE)
+                _ANALYSES.insert(0, (self.indptr, self.cols, self._symbolic))
+                del _ANALYSES[_KEEP_PATTERNS:]
         return self._symbolic
 
     def _csc(self, data: np.ndarray) -> sp.csc_matrix:

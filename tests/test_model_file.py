@@ -410,6 +410,16 @@ def test_a_copy_is_checked_as_a_new_model_is(hframe):
         "a node moved (valid)": dict(nodes=same),
         "an element's id repeated": dict(elements=tuple(el + [el[0]])),
         "a source of its own": dict(source="elsewhere.json", sections={}),
+        "a section renamed, its elements kept": dict(sections={("x" + k if k == sec else k): v
+                                                               for k, v in m.sections.items()}),
+        "a section's shear coefficient changed, its elements kept (valid)": dict(
+            sections={**m.sections, sec: dataclasses.replace(m.sections[sec], shear_coefficient=0.5)}),
+        "a spring added (valid)": dict(springs=m.springs + (Spring(9, (3, "y"), None, 1e4),)),
+        "a spring added at no node": dict(springs=m.springs + (Spring(9, (999, "y"), None, 1e4),)),
+        "a mass at no node": dict(masses=m.masses + (dataclasses.replace(m.masses[0], node=999),)),
+        "a support at no node": dict(supports=m.supports + (Support(999, ("x",)),)),
+        "a measured DOF at no node": dict(measured_dofs=((999, "x"),)),
+        "the same tables, a new name (valid)": dict(name="renamed"),
     }
     outcomes = {name: (_outcome(lambda: m.replace(**ch)), _outcome(lambda: _fresh(m, **ch))) for name, ch in changes.items()}
     for name, (copied, fresh) in outcomes.items():

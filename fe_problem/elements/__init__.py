@@ -35,15 +35,52 @@ def _groups(model: FrameModel):
         yield formulation(name, model.layout), rows, [model.elements[k] for k in rows]
 
 
+#: The element matrices of the last few models built, most recent first: (nodes, elements,
+#: sections, materials, layout, k, m), the model's own tables (held, so compared by identity).
+#: A diagnosis builds hundreds of systems of one model, or of copies that differ in a few
+#: elements (a released end, a modulus) or only outside the elements (a spring): an element
+#: object kept on the same nodes, sections and materials has the same matrices, taken from here.
+_KEPT: list[tuple] = []
+_KEEP = 4
+#: The largest element matrices kept (bytes, k and m together): a huge model is not held.
+_KEEP_BYTES = 64 * 2**20
+
+
 def element_matrices(model: FrameModel) -> tuple[np.ndarray, np.ndarray]:
     """Global-axis stiffness per unit modulus (E = 1) and mass per unit density of every
-    element, both (n_el, k, k) on the element's end DOFs (k = 2 DOFs per node)."""
+    element, both (n_el, k, k) on the element's end DOFs (k = 2 DOFs per node). Read-only.
+
+    The elements a recent model (`_KEPT`) holds as the same objects, on the same nodes,
+    sections and materials (the same tables), are copied from its matrices, and only the
+    others computed: each element's matrices do not depend on which others are computed with
+    it, bit for bit (tests/test_element_reuse.py)."""
+    tables = (model.nodes, model.elements, model.sections, model.materials, model.layout)
     k_dof = 2 * model.layout.per_node
-    k = np.zeros((len(model.elements), k_dof, k_dof))
-    m = np.zeros_like(k)
-    for form, rows, els in _groups(model):
-        k[rows] = form.stiffness(model, els)
-        m[rows] = form.mass(model, els)
+    n_el = len(model.elements)
+    todo = None
+    for entry in _KEPT:
+        if all(a is b for a, b in zip(entry[:5], tables)):
+            return entry[5], entry[6]
+    for entry in _KEPT:
+        if all(a is b for a, b in zip(entry[:5], tables[:1] + tables[2:])) and len(entry[1]) == n_el:
+            same = np.fromiter((a is b for a, b in zip(entry[1], model.elements)), bool, n_el)
+            k, m = entry[5].copy(), entry[6].copy()
+            todo = np.flatnonzero(~same)
+            break
+    if todo is None:
+        k, m = np.zeros((n_el, k_dof, k_dof)), np.zeros((n_el, k_dof, k_dof))
+        todo = np.arange(n_el)
+    if todo.size:
+        elements = [model.elements[r] for r in todo]
+        for name in dict.fromkeys(e.formulation for e in elements):
+            at = [j for j, e in enumerate(elements) if e.formulation == name]
+            form, els = formulation(name, model.layout), [elements[j] for j in at]
+            k[todo[at]] = form.stiffness(model, els)
+            m[todo[at]] = form.mass(model, els)
+    k.setflags(write=False), m.setflags(write=False)
+    if k.nbytes + m.nbytes <= _KEEP_BYTES:
+        _KEPT.insert(0, tables + (k, m))
+        del _KEPT[_KEEP:]
     return k, m
 
 

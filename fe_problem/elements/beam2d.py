@@ -160,8 +160,24 @@ def weighted_stiffness(length: np.ndarray, area: np.ndarray, inertia: np.ndarray
     return k
 
 
+#: From this many elements `to_global` transforms each distinct (a, T) once.
+DISTINCT_MIN = 16
+
+
 def to_global(local: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """T^T a T for a stack of element matrices."""
+    """T^T a T for a stack of element matrices a (n, 6, 6) and rotations T (`rotation`).
+
+    A frame's elements repeat (a regular grid: a few lengths, angles and sections): from
+    `DISTINCT_MIN` elements each distinct pair (a, T), compared by their bytes, is transformed
+    once and copied to the others. The same numbers bit for bit: an element's product does not
+    depend on the others in its stack (tests/test_element_reuse.py)."""
+    n = len(local)
+    if n >= DISTINCT_MIN:
+        key = np.concatenate([local.reshape(n, -1), t[:, 0, :2]], axis=1)
+        key = np.ascontiguousarray(key).view(np.dtype((np.void, key.shape[1] * key.itemsize))).ravel()
+        _, first, back = np.unique(key, return_index=True, return_inverse=True)
+        if len(first) < n:
+            return np.einsum("eki,ekl,elj->eij", t[first], local[first], t[first])[back.ravel()]
     return np.einsum("eki,ekl,elj->eij", t, local, t)
 
 

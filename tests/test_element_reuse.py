@@ -1,0 +1,181 @@
+"""What a system built after another reuses from it, checked against the full computation it
+replaces (the caches emptied, everything computed afresh), bit for bit:
+
+- `element_matrices`: the elements a recent model holds as the same objects on the same nodes,
+  sections and materials are copied, the rest computed (an element's matrices do not depend on
+  which others are computed with it);
+- `beam2d.to_global`: each distinct (local matrix, rotation) transformed once;
+- `DofMap.of`: one map for the copies that keep a model's nodes, elements and supports;
+- `sparse._pattern` and CHOLMOD's analysis: a kept pattern's entries looked up, not sorted anew,
+  and its analysis reused;
+- `AffineModel.nodal_rows`: kept with the DOF map.
+
+No tolerance: each reuse is the same arithmetic on the same numbers, so any difference at all
+is a fault (the planar fingerprint, benchmarks/planar_fingerprint.py, holds the same)."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+import fe_problem as fp
+from fe_problem import elements as elements_mod
+from fe_problem import sparse as sparse_mod
+from fe_problem import terms as terms_mod
+from fe_problem.elements import beam2d, element_matrices, formulation, formulations
+from fe_problem.model import Spring, release_element_end
+
+
+def _forget():
+    elements_mod._KEPT.clear()
+    terms_mod._MAPS.clear()
+    sparse_mod._PATTERNS.clear()
+    sparse_mod._ANALYSES.clear()
+
+
+def _direct(model):
+    """Every element's matrices straight from its formulation, one group per formulation."""
+    k_dof = 2 * model.layout.per_node
+    k, m = np.zeros((len(model.elements), k_dof, k_dof)), np.zeros((len(model.elements), k_dof, k_dof))
+    for name in dict.fromkeys(e.formulation for e in model.elements):
+        rows = [i for i, e in enumerate(model.elements) if e.formulation == name]
+        form = formulation(name, model.layout)
+        els = [model.elements[i] for i in rows]
+        k[rows], m[rows] = form.stiffness(model, els), form.mass(model, els)
+    return k, m
+
+
+def _bits(a, b):
+    return a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
+
+
+@pytest.fixture(scope="module")
+def planar():
+    """A split 3-bay 5-storey frame with a cracked element: over 200 free DOFs (sparse path)."""
+    m = fp.split_elements(fp.regular_frame(3, 5, floor_mass_kg=400.0), 3)
+    return m.replace(elements=tuple(dataclasses.replace(e, crack_position=0.3, crack_stiffness=2e7) if e.id == 9
+                                    else e for e in m.elements))
+
+
+@pytest.fixture(scope="module")
+def space():
+    return fp.split_elements(fp.regular_frame_3d(2, 1, 2), 2)
+
+
+def _copies(model):
+    """Copies of `model` a diagnosis builds: a spring added, an end released, a modulus, a
+    section changed under its name, the Timoshenko form."""
+    e = model.elements[4]
+    node = model.supports[0].node
+    free = next(n for n in model.node_ids if n != node)
+    sec = e.section
+    thick = dataclasses.replace(model.sections[sec], area_m2=1.5 * model.sections[sec].area_m2)
+    out = {
+        "a spring": model.replace(springs=model.springs + (Spring(901, (free, "x"), None, 1e6),)),
+        "an end released": release_element_end(model, e.id, e.node_j, 1e7,
+                                                None if model.layout.dimension == 2 else ("rz",)),
+        "a modulus": model.with_element_moduli({e.id: 0.8 * model.element_modulus_pa(e.id)}),
+        "a section": model.replace(sections={**model.sections, sec: thick}),
+    }
+    if "timoshenko" in formulations(model.layout):
+        out["timoshenko"] = fp.with_formulation(model, "timoshenko")
+    return out
+
+
+@pytest.mark.parametrize("which", ["planar", "space"])
+def test_element_matrices_of_copies_are_computed_afresh_bit_for_bit(which, request):
+    model = request.getfixturevalue(which)
+    _forget()
+    for name, copy in _copies(model).items():
+        element_matrices(model)            # the model's matrices kept: the copy reuses what it shares
+        k, m = element_matrices(copy)
+        k_full, m_full = _direct(copy)
+        assert _bits(k, k_full) and _bits(m, m_full), name
+        assert not k.flags.writeable      # shared: read-only
+    _forget()
+
+
+def test_a_subset_of_elements_has_the_matrices_of_the_whole(planar):
+    """The property the reuse rests on, on every size of subset: computing some elements alone
+    gives what computing them with all the others gives."""
+    k_all, m_all = _direct(planar)
+    form = formulation("euler-bernoulli", planar.layout)
+    rng = np.random.default_rng(3)
+    for size in (1, 2, 3, 7, 15, 16, 17, 40):
+        rows = np.sort(rng.choice(len(planar.elements), size, replace=False))
+        els = [planar.elements[r] for r in rows]
+        assert _bits(form.stiffness(planar, els), k_all[rows]) and _bits(form.mass(planar, els), m_all[rows])
+
+
+def test_to_global_of_repeated_elements_is_the_plain_product():
+    """Many repeated (a, T) pairs and some distinct ones, signed zeros among them: the same bytes
+    as the einsum over the whole stack."""
+    rng = np.random.default_rng(5)
+    a = rng.standard_normal((6, 6, 6))
+    a[1, 2, 3] = -0.0
+    angle = rng.uniform(0, np.pi, 6)
+    pick, turn = rng.integers(0, 6, 200), rng.integers(0, 6, 200)  # a and T repeat independently
+    local, t = a[pick], beam2d.rotation(np.cos(angle), np.sin(angle))[turn]
+    local[7] = rng.standard_normal((6, 6))  # one of its own
+    plain = np.einsum("eki,ekl,elj->eij", t, local, t)
+    assert _bits(beam2d.to_global(local, t), plain)
+    few = slice(0, beam2d.DISTINCT_MIN - 1)
+    assert _bits(beam2d.to_global(local[few], t[few]), plain[few])
+
+
+def test_a_dof_map_is_shared_only_by_copies_with_the_same_nodes_elements_and_supports(planar):
+    _forget()
+    base = terms_mod.DofMap.of(planar)
+    copies = _copies(planar)
+    assert terms_mod.DofMap.of(copies["a section"]) is base
+    assert terms_mod.DofMap.of(copies["a spring"]) is base
+    released = terms_mod.DofMap.of(copies["an end released"])
+    assert released is not base and released.n_total == base.n_total + 1
+    _forget()
+    fresh = terms_mod.DofMap._build(copies["a section"])
+    assert _bits(fresh.element_dofs, base.element_dofs) and _bits(fresh.free, base.free)
+
+
+@pytest.mark.parametrize("which", ["planar", "space"])
+def test_a_system_built_after_others_is_the_one_built_alone(which, request):
+    """Systems of a model's copies built one after another (the pattern, its analysis, the DOF
+    map and the element matrices reused), each against itself built with the caches emptied:
+    K, M, the zero-energy count and the modes, bit for bit."""
+    model = request.getfixturevalue(which)
+    e = model.elements[2]
+    e0 = model.element_modulus_pa(e.id)
+    builds = {"model": lambda: fp.AffineModel(model),
+              "a modulus parameter": lambda: fp.AffineModel(model, (fp.Parameter("modulus", (e.id,), 0.1 * e0, e0, e0),))}
+    for name, copy in _copies(model).items():
+        builds[name] = lambda copy=copy: fp.AffineModel(copy)
+    _forget()
+    after = {name: build() for name, build in builds.items()}
+    coords = tuple((n, "x") for n in model.node_ids[1::3])
+    for name, build in builds.items():
+        _forget()
+        alone = build()
+        s = after[name]
+        assert s.path == "sparse"
+        theta = s.x0[None, :]
+        assert _bits(s.stiffness(theta)[0].toarray(), alone.stiffness(theta)[0].toarray()), name
+        assert _bits(s.mass(theta)[0].toarray(), alone.mass(theta)[0].toarray()), name
+        assert s.n_rigid == alone.n_rigid
+        lam, phi = s.eigen(theta, 6, vectors=True)
+        lam_alone, phi_alone = alone.eigen(theta, 6, vectors=True)
+        assert _bits(lam, lam_alone) and _bits(phi, phi_alone), name
+        rows = s.nodal_rows(coords)
+        assert _bits(rows, alone.nodal_rows(coords)) and _bits(s.nodal_rows(coords), rows)
+    _forget()
+
+
+def test_a_pattern_is_reused_only_when_its_entries_are_exactly_filled():
+    sparse_mod._PATTERNS.clear()
+    keys = np.array([0, 5, 5, 12, 3, 0])
+    (lin, rows, cols, indptr), slot = sparse_mod._pattern(keys, 4)
+    (lin2, *_), slot2 = sparse_mod._pattern(keys[::-1].copy(), 4)
+    assert lin2 is lin and _bits(lin[slot2], keys[::-1].copy())
+    for other in (np.array([0, 5, 12]), np.array([0, 5, 12, 3, 7])):  # one entry short, one more
+        (lin3, *_), slot3 = sparse_mod._pattern(other, 4)
+        expect, inverse = np.unique(other, return_inverse=True)
+        assert lin3 is not lin and _bits(lin3, expect) and _bits(slot3, inverse.ravel())
+    sparse_mod._PATTERNS.clear()
