@@ -22,6 +22,7 @@ import scipy.sparse as sp
 
 from .limits import MAX_SPARSE_DOFS  # noqa: F401  (fe_problem.assembly.MAX_SPARSE_DOFS, as before)
 from .elements import formulation
+from .elements.base import coordinates
 from .model import FrameModel, ModelFileError
 from .parameters import Parameter
 from .paths import SOLVERS
@@ -325,7 +326,7 @@ class AffineModel:
         structure's rigid motions with K r c = 0 (K dense or sparse)."""
         m = self.model
         rigid = np.zeros((self.dofmap.n_total, m.layout.n_rigid_motions))
-        rigid[: self.dofmap.n_nodal] = m.layout.rigid_motions(m.coordinates)
+        rigid[: self.dofmap.n_nodal] = m.layout.rigid_motions(coordinates(m))
         for (_, node), dofs in self.dofmap.hinges.items():  # a released end turns with the body
             for rot, dof in dofs.items():
                 rigid[dof] = rigid[self.dofmap.dof(node, rot, m)]

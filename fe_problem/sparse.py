@@ -105,7 +105,7 @@ _PATTERNS: list[tuple] = []
 #: CHOLMOD's analyses of the last few patterns (indptr, indices, analysis): a pattern met again
 #: in this process is not analysed again (`SparseModalSolver._analysis`).
 _ANALYSES: list[tuple] = []
-_KEEP_PATTERNS = 4
+_KEEP_PATTERNS = 3
 
 
 def _pattern(keys: np.ndarray, n: int):

@@ -69,26 +69,46 @@ class DofMap:
         for entry in _MAPS:
             if all(a is b for a, b in zip(entry[:4], tables)):
                 return entry[4]
-        made = cls._build(model)
-        _MAPS.insert(0, tables + (made,))
+        like = next((entry for entry in _MAPS if entry[0] is model.nodes and entry[3] is model.layout
+                     and len(entry[1]) == len(model.elements)), None)
+        made, ends, released = cls._build(model, like)
+        _MAPS.insert(0, tables + (made, ends, released))
         del _MAPS[_KEEP_MAPS:]
         return made
 
     @classmethod
-    def _build(cls, model: FrameModel) -> "DofMap":
+    def _build(cls, model: FrameModel, like: tuple | None = None):
+        """(the map, every element's end node positions (n_el, 2), the positions of the elements
+        with a released end). `like`: a `_MAPS` entry on the same nodes (the same tuple) with as
+        many elements: its node DOFs are taken, and its ends and released rows for the element
+        objects it shares (a copy with an end released, a modulus, a support changed)."""
         lay = model.layout
         per = lay.per_node
-        node_dofs = {n.id: per * k + np.arange(per) for k, n in enumerate(model.nodes)}
         nxt = model.n_dof
         hinges: dict[tuple[int, int], dict[str, int]] = {}
         stiffness: dict[tuple[int, int], dict[str, float]] = {}
         relative: dict[tuple[int, int], dict[str, tuple[int, float]]] = {}
         extended: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         pos = model._node_pos  # every element's nodal DOFs at once; the released ends below
-        ends = np.array([[pos[e.node_i], pos[e.node_j]] for e in model.elements], dtype=int).reshape(-1, 2)
+
+        def has_release(e) -> bool:
+            return e.release_i is not None or e.release_j is not None or bool(e.releases_i) or bool(e.releases_j)
+
+        if like is None:
+            node_dofs = {n.id: per * k + np.arange(per) for k, n in enumerate(model.nodes)}
+            ends = np.array([[pos[e.node_i], pos[e.node_j]] for e in model.elements], dtype=int).reshape(-1, 2)
+            released = [k for k, e in enumerate(model.elements) if has_release(e)]
+        else:
+            node_dofs, ends = like[4].node_dofs, like[5].copy()
+            n_el = len(model.elements)
+            same = np.fromiter((a is b for a, b in zip(like[1], model.elements)), bool, n_el)
+            new = np.flatnonzero(~same)
+            for k in new:
+                e = model.elements[k]
+                ends[k] = pos[e.node_i], pos[e.node_j]
+            released = sorted([k for k in like[6] if same[k]] + [int(k) for k in new if has_release(model.elements[k])])
+        ends.setflags(write=False)
         edofs = (per * ends[:, :, None] + np.arange(per)).reshape(len(model.elements), 2 * per)
-        released = [k for k, e in enumerate(model.elements)
-                    if e.release_i is not None or e.release_j is not None or e.releases_i or e.releases_j]
         for k in released:
             e = model.elements[k]
             columns = []  # the skew releases' columns of E
@@ -111,7 +131,8 @@ class DofMap:
         fixed = np.zeros(nxt, dtype=bool)
         for s in model.supports:
             fixed[[node_dofs[s.node][lay.position(d)] for d in s.directions]] = True
-        return cls(model.n_dof, nxt, edofs, hinges, np.flatnonzero(~fixed), node_dofs, stiffness, relative, extended)
+        made = cls(model.n_dof, nxt, edofs, hinges, np.flatnonzero(~fixed), node_dofs, stiffness, relative, extended)
+        return made, ends, released
 
     def dof(self, node: int, direction: str, model: FrameModel) -> int:
         """The global index of a nodal DOF."""

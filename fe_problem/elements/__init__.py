@@ -42,7 +42,7 @@ def _groups(model: FrameModel):
 #: object kept on the same nodes, sections and materials has the same matrices, taken from here.
 _KEPT: list[tuple] = []
 _KEEP = 4
-#: The largest element matrices kept (bytes, k and m together): a huge model is not held.
+#: The most memory the kept matrices take (bytes, all entries): a huge model is not held.
 _KEEP_BYTES = 64 * 2**20
 
 
@@ -78,9 +78,14 @@ def element_matrices(model: FrameModel) -> tuple[np.ndarray, np.ndarray]:
             k[todo[at]] = form.stiffness(model, els)
             m[todo[at]] = form.mass(model, els)
     k.setflags(write=False), m.setflags(write=False)
-    if k.nbytes + m.nbytes <= _KEEP_BYTES:
-        _KEPT.insert(0, tables + (k, m))
-        del _KEPT[_KEEP:]
+    _KEPT.insert(0, tables + (k, m))
+    del _KEPT[_KEEP:]
+    total = 0
+    for i, entry in enumerate(_KEPT):
+        total += entry[5].nbytes + entry[6].nbytes
+        if total > _KEEP_BYTES:
+            del _KEPT[i:]
+            break
     return k, m
 
 

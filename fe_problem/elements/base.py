@@ -22,6 +22,22 @@ if TYPE_CHECKING:
     from ..model import Element, FrameModel
 
 
+#: The last model's nodes and their coordinates: the copies a diagnosis builds keep the nodes
+#: tuple (`FrameModel.coordinates` is per model object; the same tuple gives the same array).
+_KEPT_COORDINATES: list = [None, None]
+
+
+def coordinates(model: FrameModel) -> np.ndarray:
+    """`model.coordinates` (read-only), taken from the last model asked with the same nodes
+    tuple when this one has not computed its own."""
+    own = model.__dict__.get("coordinates")
+    if own is None and _KEPT_COORDINATES[0] is model.nodes:
+        return _KEPT_COORDINATES[1]
+    own = model.coordinates if own is None else own
+    _KEPT_COORDINATES[:] = [model.nodes, own]
+    return own
+
+
 class ElementFormulation(ABC):
     """One element formulation. Subclasses set `name` and `layout` and implement the methods."""
 

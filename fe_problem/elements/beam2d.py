@@ -173,12 +173,19 @@ def to_global(local: np.ndarray, t: np.ndarray) -> np.ndarray:
     depend on the others in its stack (tests/test_element_reuse.py)."""
     n = len(local)
     if n >= DISTINCT_MIN:
-        key = np.concatenate([local.reshape(n, -1), t[:, 0, :2]], axis=1)
-        key = np.ascontiguousarray(key).view(np.dtype((np.void, key.shape[1] * key.itemsize))).ravel()
-        _, first, back = np.unique(key, return_index=True, return_inverse=True)
-        if len(first) < n:
-            return np.einsum("eki,ekl,elj->eij", t[first], local[first], t[first])[back.ravel()]
+        # each pair's bits (a's 36 and T's cos, sin) hashed to one integer, the pairs grouped by
+        # hash, and a group taken as one pair only if its members' bits are all the same
+        bits = np.ascontiguousarray(np.concatenate([local.reshape(n, -1), t[:, 0, :2]], axis=1)).view(np.uint64)
+        _, first, back = np.unique((bits * _MIX[: bits.shape[1]]).sum(axis=1), return_index=True,
+                                   return_inverse=True)
+        back = back.ravel()
+        if len(first) < n and np.array_equal(bits[first][back], bits):
+            return np.einsum("eki,ekl,elj->eij", t[first], local[first], t[first])[back]
     return np.einsum("eki,ekl,elj->eij", t, local, t)
+
+
+#: Odd 64-bit multipliers of `to_global`'s hash (fixed: the same grouping in every run).
+_MIX = np.random.default_rng(20261127).integers(1, 2**63, 38, dtype=np.uint64) * np.uint64(2) + np.uint64(1)
 
 
 def interpolate(length: np.ndarray, cos: np.ndarray, sin: np.ndarray, ends: np.ndarray, smooth: np.ndarray,

@@ -67,17 +67,20 @@ def _positive(value: Any, where: str, allow_zero: bool = False, field: str | Non
 def validate(m: FrameModel, base: FrameModel | None = None) -> None:
     """Raise ModelFileError (naming `m.source`, the item and the field) if `m` breaks a rule.
 
-    `base`: a valid model `m` was copied from (`FrameModel.replace`). Where the two share their
-    nodes (the same tuple), layout and source, the nodes are not checked again, and an element
-    object `base` holds is checked only for the section and material it names (nothing else
-    of an element's rules depends on what a copy can change): a diagnosis builds hundreds of
-    copies of a 1,000-element model that differ in a few elements or a section. The outcome
-    (error or not, and its message) is the full check's (tests/test_model_file.py)."""
+    `base`: a valid model `m` was copied from (`FrameModel.replace`). Where the two have the
+    same layout, source and node ids (in order), a node object `base` holds at the same place is
+    not checked again, nor a table (masses, springs, supports, measured DOFs) `m` shares with
+    it, and an element object `base` holds with neither end at a node that changed is checked
+    only for the section and material it names (nothing else of an element's rules depends on
+    what a copy can change): a diagnosis builds hundreds of copies of a 1,000-element model
+    that differ in a few elements, a section or a node. The outcome (error or not, and its
+    message) is the full check's (tests/test_model_file.py)."""
     src = m.source
-    kept = base is not None and base.nodes is m.nodes and base.layout == m.layout and base.source == src
+    moved = _moved_nodes(m, base)  # None: no base to rely on
+    kept = moved is not None
     if not kept:
         _check_ids(src, "nodes", [n.id for n in m.nodes])
-    for n in (() if kept else m.nodes):
+    for n in (m.nodes if not kept else [n for n in m.nodes if n.id in moved]):
         for v, name in ((n.x, "x"), (n.y, "y"), (n.z, "z")):
             if not (is_number(v) and abs(v) <= RANGES["coordinate"]):
                 raise ModelFileError(f"{src}: node {n.id} field '{name}' must be a finite number of metres within "
@@ -86,21 +89,41 @@ def validate(m: FrameModel, base: FrameModel | None = None) -> None:
             raise ModelFileError(f"{src}: node {n.id} field 'z': a planar model's nodes lie in the x-y plane "
                                  f"(z = 0), got {shown(n.z)}; a space frame's file says \"dimension\": 3")
     _validate_tables(m)
-    # the same elements, and every section and material name base had: each element names a
-    # section and material m has, and nothing else of its rules can have changed
-    same = kept and base.elements is m.elements and m.sections.keys() >= base.sections.keys() \
+    # the same elements on the same nodes, and every section and material name base had: each
+    # element names a section and material m has, and nothing else of its rules can have changed
+    same = kept and not moved and base.elements is m.elements and m.sections.keys() >= base.sections.keys() \
         and m.materials.keys() >= base.materials.keys()
     if not same:
         _check_ids(src, "elements", [e.id for e in m.elements])
         nodes = {n.id: n for n in m.nodes}
         known = formulations(m.layout)
-        checked = {id(e) for e in base.elements} if kept else set()
+        checked = {id(e) for e in base.elements if not (moved and (e.node_i in moved or e.node_j in moved))} \
+            if kept else set()
         for e in m.elements:
             if id(e) not in checked or e.section not in m.sections or e.material not in m.materials:
                 _validate_element(m, e, nodes, known)
     _validate_nodal(m, base if kept else None)
     if not (kept and base.elements is m.elements and base.springs is m.springs):
         _check_connected(m)
+
+
+def _moved_nodes(m: FrameModel, base: FrameModel | None) -> set | None:
+    """The ids of the nodes of `m` that are not `base`'s node objects at the same place, when
+    `base` has the same layout, source and node ids in the same order (a copy: `validate`);
+    else None."""
+    if base is None or base.layout != m.layout or base.source != m.source:
+        return None
+    if base.nodes is m.nodes:
+        return set()
+    if len(base.nodes) != len(m.nodes):
+        return None
+    moved = set()
+    for a, b in zip(base.nodes, m.nodes):
+        if a is not b:
+            if a.id != b.id:
+                return None
+            moved.add(b.id)
+    return moved
 
 
 def _check_connected(m: FrameModel) -> None:
