@@ -233,7 +233,7 @@ class Terms:
                                  else mats[e.material].youngs_modulus_pa for e in model.elements])
         self.k_weight = self.modulus.copy()
         self.m_weight = np.array([mats[e.material].density_kg_m3 for e in model.elements])
-        self.index = {e.id: i for i, e in enumerate(model.elements)}
+        self.index = model._element_pos  # element id -> position, built once per model
         self.taken: dict[str, set] = {"spring": set(), "release": set(), "mass": set()}
         for i, par in enumerate(parameters):
             self._term(i, par)
