@@ -101,11 +101,16 @@ class AffineModel:
     modes the caller will ask for: the solve that counts the zero-energy modes returns them too,
     so the model costs one eigen-solve, not two (their shift is the count's, not the one set
     from the first elastic mode: the same modes to ARPACK's tolerance; tests/test_sparse.py).
+    `like`: on the sparse path, the system of `model` itself with no parameter (a candidate's
+    Setting system): where this system's K and M at x0 are that one's to rounding (a parameter
+    at its initial value), its zero-energy count and shift are taken, and the count's
+    eigen-solve is not made (`SparseModalSolver._same_at_x0`; the same modes to ARPACK's
+    tolerance, tests/test_element_reuse.py).
     """
 
     @blas_pinned  # K and M are built with BLAS products: the same matrices on any thread count
     def __init__(self, model: FrameModel, parameters: tuple[Parameter, ...] = (), solver: str = "auto",
-                 workers: int | None = None, x0_modes: int = 0):
+                 workers: int | None = None, x0_modes: int = 0, like: "AffineModel | None" = None):
         self.model = model
         self.parameters = tuple(parameters)
         terms = Terms(model, self.parameters)
@@ -133,8 +138,9 @@ class AffineModel:
             n_null = self._n_rigid_motions(k_trip, np.where(self.x0 != 0.0, self.x0, self.upper))
             self._solver = ModalSolver(k0, m0, dk, dm, self.x0, model.name, n_body=n_body, n_null=n_null)
         else:
+            same = like is not None and like.path == "sparse" and like.model is model and not like.parameters
             self._solver = SparseModalSolver(k_trip, m_trip, n, self.x0, model.name, workers, min_zero=n_body,
-                                             x0_modes=x0_modes)
+                                             x0_modes=x0_modes, count_from=like._solver if same else None)
         #: None, or what moves in the zero-energy motions that are not rigid-body motions
         self.mechanism: str | None = self._find_mechanism() if self.n_rigid > n_body else None
 

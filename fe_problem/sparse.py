@@ -147,7 +147,7 @@ class SparseModalSolver:
 
     def __init__(self, k_trip, m_trip, n: int, x0: np.ndarray, name: str, workers: int | None = None,
                  min_zero: int = 0, factorization: str | None = None, arpack_tol: float = ARPACK_TOL,
-                 x0_modes: int = 0):
+                 x0_modes: int = 0, count_from: "SparseModalSolver | None" = None):
         self.n_free, self.name, self.n_params = n, name, len(x0)
         self.workers = default_workers() if workers is None else int(workers)
         self.factorization = default_factorization() if factorization is None else factorization
@@ -168,6 +168,10 @@ class SparseModalSolver:
         self.sigma = -1.0  # provisional; set from the first elastic mode below
         self._order(x0)
         self._x0_pairs = None  # the modes at x0 the count's solve found (`x0_modes`), or None
+        if self._same_at_x0(count_from, x0):  # the same matrices at x0: its count and shift
+            self.n_rigid, self.sigma = count_from.n_rigid, count_from.sigma
+            self.n_elastic = n - self.n_rigid
+            return
         if x0_modes > 0 and self.n_params == 0:
             k = min(n, max(12, min_zero + x0_modes))
             pairs = self._point(x0, k, vectors=True)
@@ -181,6 +185,25 @@ class SparseModalSolver:
         self.n_elastic = n - self.n_rigid
         if x0_modes > 0 and self.n_params == 0 and self.n_rigid + min(x0_modes, self.n_elastic) <= len(pairs[0]):
             self._x0_pairs = pairs
+
+    #: `count_from`'s matrices and these at x0 agree to this fraction of their largest entry: the
+    #: same sums in another order (a parameter's element taken out of K0 and put back at x0).
+    SAME_AT_X0 = 1e-13
+
+    def _same_at_x0(self, other: "SparseModalSolver | None", x0: np.ndarray) -> bool:
+        """Whether `other` (a system with no parameter, on the same pattern, with the same
+        zero-energy floor) has K and M equal to these at x0 to `SAME_AT_X0`: then its zero-energy
+        count and shift are this system's (a candidate's parameter at its initial value is the
+        model itself: its count's eigen-solve would find the same eigenvalues to rounding)."""
+        if other is None or other.n_params or other.n_free != self.n_free or other.n_rigid >= self.n_free:
+            return False
+        if not ((other.indptr is self.indptr or np.array_equal(other.indptr, self.indptr))
+                and (other.cols is self.cols or np.array_equal(other.cols, self.cols))):
+            return False
+        for mine, theirs in ((self.k_data(x0), other.k_data0), (self.m_data(x0), other.m_data0)):
+            if np.abs(mine - theirs).max() > self.SAME_AT_X0 * np.abs(theirs).max():
+                return False
+        return True
 
     def _affine(self, slot, trip, nnz: int):
         """Constant values (nnz,) and the sparse (nnz, p) map G of one family."""

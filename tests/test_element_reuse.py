@@ -220,3 +220,37 @@ def test_a_pattern_is_reused_only_when_its_entries_are_exactly_filled():
         expect, inverse = np.unique(other, return_inverse=True)
         assert lin3 is not lin and _bits(lin3, expect) and _bits(slot3, inverse.ravel())
     sparse_mod._PATTERNS.clear()
+
+
+def test_a_parameter_at_the_models_value_takes_the_models_count_and_shift(planar, monkeypatch):
+    """`AffineModel(model, params, like=system)`: a modulus, density or mass parameter at the
+    model's own value is the model at x0, so the model's zero-energy count and shift are taken
+    and the count's eigen-solve is not made. Against the system built without `like` (its own
+    count): the same count, the shift to 1e-12 relative (K and M at x0 are the same sums in
+    another order), and the frequencies at sizes across the parameter's range to 1e-10 relative
+    (the sparse path's accuracy requirement, sparse.ARPACK_TOL), the shapes to 1e-8 of their
+    largest entry. A parameter away from the model's value does not match: the own count."""
+    e = planar.elements[5]
+    e0, rho0 = planar.element_modulus_pa(e.id), planar.materials[e.material].density_kg_m3
+    node = planar.masses[0].node
+    m0 = sum(lm.mass_kg for lm in planar.masses if lm.node == node)
+    model_system = fp.AffineModel(planar)
+    cases = [(fp.Parameter("modulus", (e.id,), 1e-3 * e0, e0, e0), [0.3 * e0, 0.9 * e0]),
+             (fp.Parameter("density", (e.id,), 0.0, 3 * rho0, rho0), [0.5 * rho0, 2.5 * rho0]),
+             (fp.Parameter("mass", (node,), 0.0, m0 + 5e3, m0), [m0 + 100.0, m0 + 4e3])]
+    for par, sizes in cases:
+        own = fp.AffineModel(planar, (par,))
+        with monkeypatch.context() as patch:
+            patch.setattr(sparse_mod.SparseModalSolver, "_lowest", lambda *a: pytest.fail("count solved"))
+            taken = fp.AffineModel(planar, (par,), like=model_system)
+        assert taken._solver.sigma == model_system._solver.sigma
+        assert taken.n_rigid == own.n_rigid and taken.n_elastic == own.n_elastic
+        assert abs(taken._solver.sigma - own._solver.sigma) <= 1e-12 * abs(own._solver.sigma)
+        theta = np.array(sizes + [par.initial])[:, None]
+        lam, phi = taken.eigen(theta, 8, vectors=True)
+        lam_own, phi_own = own.eigen(theta, 8, vectors=True)
+        np.testing.assert_allclose(lam, lam_own, rtol=1e-10, atol=0)
+        assert np.abs(phi - phi_own).max() <= 1e-8 * np.abs(phi_own).max()
+    away = fp.Parameter("modulus", (e.id,), 1e-3 * e0, e0, 0.5 * e0)
+    assert fp.AffineModel(planar, (away,), like=model_system)._solver.sigma == \
+        fp.AffineModel(planar, (away,))._solver.sigma
