@@ -95,6 +95,20 @@ def test_element_matrices_of_copies_are_computed_afresh_bit_for_bit(which, reque
     _forget()
 
 
+def test_a_sections_dict_changed_in_place_is_not_taken_for_the_same(planar):
+    """A frozen model's sections dict can still be changed in place: the kept matrices are
+    taken only while it holds the same values."""
+    _forget()
+    model = planar.replace(sections=dict(planar.sections))
+    element_matrices(model)
+    name = model.elements[0].section
+    model.sections[name] = dataclasses.replace(model.sections[name], area_m2=2.0 * model.sections[name].area_m2)
+    k, m = element_matrices(model)
+    k_full, m_full = _direct(model)
+    assert _bits(k, k_full) and _bits(m, m_full)
+    _forget()
+
+
 def test_a_subset_of_elements_has_the_matrices_of_the_whole(planar):
     """The property the reuse rests on, on every size of subset: computing some elements alone
     gives what computing them with all the others gives."""

@@ -46,6 +46,15 @@ _KEEP = 4
 _KEEP_BYTES = 64 * 2**20
 
 
+def _unchanged(entry: tuple, model: FrameModel) -> bool:
+    """Whether the sections and materials dicts of a kept entry (the same objects as `model`'s)
+    still hold the same values: a dict is mutable, a frozen model's too."""
+    sections, materials = entry[7]
+    return (len(sections) == len(model.sections) and len(materials) == len(model.materials)
+            and all(model.sections.get(k) is v for k, v in sections)
+            and all(model.materials.get(k) is v for k, v in materials))
+
+
 def element_matrices(model: FrameModel) -> tuple[np.ndarray, np.ndarray]:
     """Global-axis stiffness per unit modulus (E = 1) and mass per unit density of every
     element, both (n_el, k, k) on the element's end DOFs (k = 2 DOFs per node). Read-only.
@@ -59,10 +68,11 @@ def element_matrices(model: FrameModel) -> tuple[np.ndarray, np.ndarray]:
     n_el = len(model.elements)
     todo = None
     for entry in _KEPT:
-        if all(a is b for a, b in zip(entry[:5], tables)):
+        if all(a is b for a, b in zip(entry[:5], tables)) and _unchanged(entry, model):
             return entry[5], entry[6]
     for entry in _KEPT:
-        if all(a is b for a, b in zip(entry[:5], tables[:1] + tables[2:])) and len(entry[1]) == n_el:
+        if all(a is b for a, b in zip(entry[:1] + entry[2:5], tables[:1] + tables[2:])) \
+                and len(entry[1]) == n_el and _unchanged(entry, model):
             same = np.fromiter((a is b for a, b in zip(entry[1], model.elements)), bool, n_el)
             k, m = entry[5].copy(), entry[6].copy()
             todo = np.flatnonzero(~same)
@@ -78,7 +88,7 @@ def element_matrices(model: FrameModel) -> tuple[np.ndarray, np.ndarray]:
             k[todo[at]] = form.stiffness(model, els)
             m[todo[at]] = form.mass(model, els)
     k.setflags(write=False), m.setflags(write=False)
-    _KEPT.insert(0, tables + (k, m))
+    _KEPT.insert(0, tables + (k, m, (tuple(model.sections.items()), tuple(model.materials.items()))))
     del _KEPT[_KEEP:]
     total = 0
     for i, entry in enumerate(_KEPT):
