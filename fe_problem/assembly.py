@@ -21,7 +21,7 @@ import scipy.linalg
 import scipy.sparse as sp
 
 from .limits import MAX_SPARSE_DOFS  # noqa: F401  (fe_problem.assembly.MAX_SPARSE_DOFS, as before)
-from .elements import formulation
+from .elements import element_blocks
 from .elements.base import coordinates
 from .model import FrameModel, ModelFileError
 from .parameters import Parameter
@@ -166,7 +166,7 @@ class AffineModel:
         solver = self._solver
         parts_r, parts_c, parts_k, parts_m = [solver.rows], [solver.cols], [solver.k_data0], [solver.m_data0]
         for sign, mod in ((-1.0, self.model), (1.0, model)):
-            k_el, m_el = _element_blocks(mod, rows)
+            k_el, m_el = element_blocks(mod, rows)
             k_el *= sign * np.array([mod.element_modulus_pa(mod.elements[r].id) for r in rows])[:, None, None]
             rho = [mod.materials[mod.elements[r].material].density_kg_m3 for r in rows]
             m_el *= sign * np.array(rho)[:, None, None]
@@ -388,8 +388,9 @@ class AffineModel:
 
         A supported DOF has no row: -1 (its shape entry is zero). Kept with the DOF map (shared
         by the systems of one model's copies, `DofMap.of`) for the last few DOF lists asked."""
+        dofs = tuple(dofs)  # read once: `dofs` may be a generator
         try:
-            key = tuple(dofs)
+            key = dofs
             kept = self.dofmap.rows_kept.get(key)
         except TypeError:  # a list of lists: no key
             key, kept = None, None
@@ -408,19 +409,6 @@ class AffineModel:
         """Shapes (b, n_free, k) at the rows `nodal_rows` gave: (b, len(rows), k), zero where
         a DOF is supported (row -1)."""
         return take_rows(phi_free, rows)
-
-
-def _element_blocks(model: FrameModel, rows: list[int]) -> tuple[np.ndarray, np.ndarray]:
-    """Stiffness per unit modulus and mass per unit density (e, k, k) of the elements at `rows`
-    of model.elements (`element_matrices` of those elements alone)."""
-    k_dof = 2 * model.layout.per_node
-    k, m = np.zeros((len(rows), k_dof, k_dof)), np.zeros((len(rows), k_dof, k_dof))
-    for name in dict.fromkeys(model.elements[r].formulation for r in rows):
-        at = [j for j, r in enumerate(rows) if model.elements[r].formulation == name]
-        els = [model.elements[rows[j]] for j in at]
-        form = formulation(name, model.layout)
-        k[at], m[at] = form.stiffness(model, els), form.mass(model, els)
-    return k, m
 
 
 __all__ = ["AUTO_DENSE_BYTES", "AffineModel", "DofMap", "SPARSE_MIN_DOFS", "SOLVERS", "check_dense_size",

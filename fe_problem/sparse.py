@@ -27,6 +27,7 @@ from __future__ import annotations
 import multiprocessing
 import os
 import pickle
+import threading
 import uuid
 
 import numpy as np
@@ -106,6 +107,15 @@ _PATTERNS: list[tuple] = []
 #: in this process is not analysed again (`SparseModalSolver._analysis`).
 _ANALYSES: list[tuple] = []
 _KEEP_PATTERNS = 3
+#: Held while `_PATTERNS` or `_ANALYSES` is changed: systems may be built on several threads.
+_KEPT_LOCK = threading.Lock()
+
+
+def _to_front(kept: list, entry: tuple) -> None:
+    """Put `entry` first in `kept` (a module list of `_KEEP_PATTERNS` at most), under the lock:
+    the list is rebuilt from one read, so no thread pops or inserts by a stale index."""
+    with _KEPT_LOCK:
+        kept[:] = ([entry] + [e for e in kept if e is not entry])[:_KEEP_PATTERNS]
 
 
 def _pattern(keys: np.ndarray, n: int):
@@ -113,18 +123,18 @@ def _pattern(keys: np.ndarray, n: int):
     sorted distinct keys, their rows and columns, the CSR row pointer, and each key's position
     in lin; `np.unique(keys, return_inverse=True)`'s, from a kept pattern (`_PATTERNS`) when
     the keys fill exactly its entries (checked: every key found, every entry hit)."""
-    for i, (m, lin, *arrays) in enumerate(_PATTERNS[:2]):
+    for entry in _PATTERNS[:2]:  # a copy: read once
+        m, lin, *arrays = entry
         if m != n or len(keys) < len(lin):
             continue
         slot = np.minimum(np.searchsorted(lin, keys), len(lin) - 1)
         if np.array_equal(lin[slot], keys) and np.bincount(slot, minlength=len(lin)).all():
-            _PATTERNS.insert(0, _PATTERNS.pop(i))
+            _to_front(_PATTERNS, entry)
             return (lin, *arrays), slot
     lin, slot = np.unique(keys, return_inverse=True)
     rows = lin // n
     made = (lin, rows, lin % n, np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=n))]))
-    _PATTERNS.insert(0, (n,) + made)
-    del _PATTERNS[_KEEP_PATTERNS:]
+    _to_front(_PATTERNS, (n,) + made)
     return made, slot.ravel()
 
 
@@ -238,15 +248,14 @@ class SparseModalSolver:
         """CHOLMOD's symbolic analysis of the pattern (its fill-reducing order and the structure of
         the factor), once per model and process: it is not pickled, a worker makes its own."""
         if self._symbolic is None:
-            for entry in _ANALYSES:  # the same pattern analysed before in this process: the same analysis
+            for entry in list(_ANALYSES):  # the same pattern analysed before in this process: the same analysis
                 if (entry[0] is self.indptr or np.array_equal(entry[0], self.indptr)) and \
                         (entry[1] is self.cols or np.array_equal(entry[1], self.cols)):
                     self._symbolic = entry[2]
                     break
             else:
                 self._symbolic = _cholmod.analyze(self._csc(np.ones(len(self.rows))), mode=CHOLMOD_MODE)
-                _ANALYSES.insert(0, (self.indptr, self.cols, self._symbolic))
-                del _ANALYSES[_KEEP_PATTERNS:]
+                _to_front(_ANALYSES, (self.indptr, self.cols, self._symbolic))
         return self._symbolic
 
     def _csc(self, data: np.ndarray) -> sp.csc_matrix:

@@ -8,7 +8,8 @@ replaces (the caches emptied, everything computed afresh), bit for bit:
 - `DofMap.of`: one map for the copies that keep a model's nodes, elements and supports;
 - `sparse._pattern` and CHOLMOD's analysis: a kept pattern's entries looked up, not sorted anew,
   and its analysis reused;
-- `AffineModel.nodal_rows`: kept with the DOF map.
+- `AffineModel.nodal_rows`: kept with the DOF map;
+- `elements.base.coordinates`: the last model's coordinates, for the same nodes and layout.
 
 No tolerance: each reuse is the same arithmetic on the same numbers, so any difference at all
 is a fault (the planar fingerprint, benchmarks/planar_fingerprint.py, holds the same)."""
@@ -22,7 +23,9 @@ import fe_problem as fp
 from fe_problem import elements as elements_mod
 from fe_problem import sparse as sparse_mod
 from fe_problem import terms as terms_mod
-from fe_problem.elements import beam2d, element_matrices, formulation, formulations
+from fe_problem.dofs import SPACE_FRAME
+from fe_problem.elements import base as base_mod
+from fe_problem.elements import beam2d, element_blocks, element_matrices, formulation, formulations
 from fe_problem.model import Spring, release_element_end
 
 
@@ -31,6 +34,7 @@ def _forget():
     terms_mod._MAPS.clear()
     sparse_mod._PATTERNS.clear()
     sparse_mod._ANALYSES.clear()
+    base_mod._KEPT_COORDINATES = None
 
 
 def _direct(model):
@@ -268,3 +272,126 @@ def test_a_parameter_at_the_models_value_takes_the_models_count_and_shift(planar
     away = fp.Parameter("modulus", (e.id,), 1e-3 * e0, e0, 0.5 * e0)
     assert fp.AffineModel(planar, (away,), like=model_system)._solver.sigma == \
         fp.AffineModel(planar, (away,))._solver.sigma
+
+
+def test_element_blocks_of_some_rows_are_those_of_the_whole_model(planar):
+    """The one helper that computes element matrices from their formulations (element_matrices
+    and an edited system's blocks both call it): a mix of formulations, rows in any order, bit
+    for bit the matrices computed per formulation over the whole model."""
+    model = planar.replace(elements=tuple(dataclasses.replace(e, formulation="timoshenko") if e.id % 3 == 0 and e.id != 9 else e
+                                          for e in planar.elements))
+    k_all, m_all = _direct(model)
+    rows = [17, 3, 0, 9, 30, 4]
+    k, m = element_blocks(model, rows)
+    assert _bits(k, k_all[rows]) and _bits(m, m_all[rows])
+    _forget()
+    k, m = element_matrices(model)
+    assert _bits(k, k_all) and _bits(m, m_all)
+    _forget()
+
+
+def test_to_global_of_any_transformation_is_the_plain_product():
+    """Transformations that agree in their first row (the cos, sin of `rotation`) but not
+    elsewhere are different pairs: the same bytes as the einsum over the whole stack."""
+    rng = np.random.default_rng(8)
+    n = 3 * beam2d.DISTINCT_MIN
+    local = np.repeat(rng.standard_normal((1, 6, 6)), n, axis=0)
+    t = np.repeat(beam2d.rotation(np.array([0.6]), np.array([0.8])), n, axis=0)
+    t[1::2, 3:, 3:] = rng.standard_normal((3, 3))  # half the stack: another lower block
+    t[2::4, 2, 2] = 2.0
+    assert _bits(beam2d.to_global(local, t), np.einsum("eki,ekl,elj->eij", t, local, t))
+
+
+def test_nodal_rows_of_a_generator_then_of_a_list():
+    """DOFs given as a generator (read once) and then as a list: each nodal DOF's row is the
+    free DOF of that name, both times."""
+    _forget()
+    system = fp.AffineModel(fp.regular_frame(2, 2), solver="dense")
+    names = system._dof_names()
+    nodes = [4, 5, 6]
+    for dofs in (((n, "x") for n in nodes), [(n, "x") for n in nodes]):
+        rows = system.nodal_rows(dofs)
+        assert [names[r] for r in rows] == [f"node {n} x" for n in nodes]
+    _forget()
+
+
+def test_a_space_copy_on_a_planar_models_nodes_has_its_own_coordinates():
+    """A planar model and its space copy (`replace(layout=...)`) share one nodes tuple: each
+    system, and a later copy of the space model, reads coordinates in its own layout (3
+    columns for the space model), not the last model's."""
+    _forget()
+    planar = fp.regular_frame(2, 2)
+    sections = {k: dataclasses.replace(s, inertia_m4=None, iy_m4=s.inertia_m4, iz_m4=s.inertia_m4,
+                                       j_m4=2 * s.inertia_m4) for k, s in planar.sections.items()}
+    space = planar.replace(layout=SPACE_FRAME, sections=sections,
+                           elements=tuple(dataclasses.replace(e, orientation=(0.0, 0.0, 1.0)) for e in planar.elements),
+                           supports=tuple(dataclasses.replace(s, directions=("x", "y", "z", "rx", "ry", "rz"))
+                                          for s in planar.supports), measured_dofs=())
+    assert space.nodes is planar.nodes
+    built = [fp.AffineModel(m, solver="dense") for m in (space, planar, space.replace(name="copy"))]
+    for model, system in zip((space, planar, space), built):
+        _forget()
+        alone = fp.AffineModel(model, solver="dense")
+        assert system.n_rigid == alone.n_rigid
+        assert _bits(system.stiffness(system.x0[None, :]), alone.stiffness(alone.x0[None, :]))
+    copy = space.replace(name="another copy")
+    base_mod.coordinates(planar)
+    assert _bits(base_mod.coordinates(copy), np.asarray(space.coordinates))
+    _forget()
+
+
+def test_a_pattern_moved_first_while_another_is_kept_meanwhile(planar):
+    """Another thread keeps a pattern between `_pattern`'s read of the kept list and its
+    moving the matched pattern first (simulated: the comparison of sizes inserts one): the
+    matched pattern ends first, each pattern is kept once, and no more than `_KEEP_PATTERNS`."""
+    sparse_mod._PATTERNS.clear()
+    a, b, other = np.array([0, 5, 12]), np.array([0, 3, 5, 12]), np.array([1, 6])
+    sparse_mod._pattern(b, 4)
+    sparse_mod._pattern(a, 4)  # kept: [a, b]
+    (other_lin, *_), _ = sparse_mod._pattern(other, 4)
+    meanwhile = sparse_mod._PATTERNS.pop(0)
+    assert meanwhile[1] is other_lin
+
+    class Meddling(int):
+        done = False
+
+        def __ne__(self, m):
+            if not Meddling.done:
+                Meddling.done = True
+                sparse_mod._PATTERNS.insert(0, meanwhile)  # another thread's pattern, kept meanwhile
+            return int(self) != m
+
+    (lin, *_), slot = sparse_mod._pattern(b[[3, 0, 2, 1]].copy(), Meddling(4))
+    assert Meddling.done and _bits(lin[slot], b[[3, 0, 2, 1]])
+    kept = sparse_mod._PATTERNS
+    assert kept[0][1] is lin
+    assert len(kept) <= sparse_mod._KEEP_PATTERNS and len({id(e) for e in kept}) == len(kept)
+    assert any(e is meanwhile for e in kept)
+    sparse_mod._PATTERNS.clear()
+
+
+def test_like_on_another_model_is_not_taken(planar, monkeypatch):
+    """`like` built on a copy with a spring added (the same free DOFs, another K) or a support
+    freed (other free DOFs, other rigid motions): the system makes its own count, the same as
+    without `like`; the solver's own check refuses the other system's matrices too."""
+    e = planar.elements[5]
+    e0 = planar.element_modulus_pa(e.id)
+    par = fp.Parameter("modulus", (e.id,), 1e-3 * e0, e0, e0)
+    free = next(n for n in planar.node_ids if n not in {s.node for s in planar.supports})
+    sup = planar.supports[0]
+    copies = {"a spring": planar.replace(springs=planar.springs + (Spring(901, (free, "x"), None, 1e9),)),
+              "a support freed": planar.replace(supports=(dataclasses.replace(sup, directions=("y",)),)
+                                                + planar.supports[1:])}
+    own = fp.AffineModel(planar, (par,))
+    for name, copy in copies.items():
+        like = fp.AffineModel(copy)
+        assert like.path == "sparse" and not like.parameters
+        assert not own._solver._same_at_x0(like._solver, own.x0), name
+        counted = []
+        lowest = sparse_mod.SparseModalSolver._lowest
+        with monkeypatch.context() as patch:
+            patch.setattr(sparse_mod.SparseModalSolver, "_lowest",
+                          lambda self, *a: counted.append(1) or lowest(self, *a))
+            taken = fp.AffineModel(planar, (par,), like=like)
+        assert counted, name
+        assert taken.n_rigid == own.n_rigid and taken._solver.sigma == own._solver.sigma, name

@@ -55,6 +55,21 @@ def _unchanged(entry: tuple, model: FrameModel) -> bool:
             and all(model.materials.get(k) is v for k, v in materials))
 
 
+def element_blocks(model: FrameModel, rows) -> tuple[np.ndarray, np.ndarray]:
+    """Global-axis stiffness per unit modulus (E = 1) and mass per unit density (e, k, k) of the
+    elements at positions `rows` of model.elements, computed (nothing kept): one call per
+    formulation, in first-seen order. The one place element matrices are computed from their
+    formulations (`element_matrices` of all or of the elements not kept; an edited system's)."""
+    k_dof = 2 * model.layout.per_node
+    elements = [model.elements[r] for r in rows]
+    k, m = np.zeros((len(elements), k_dof, k_dof)), np.zeros((len(elements), k_dof, k_dof))
+    for name in dict.fromkeys(e.formulation for e in elements):
+        at = [j for j, e in enumerate(elements) if e.formulation == name]
+        form, els = formulation(name, model.layout), [elements[j] for j in at]
+        k[at], m[at] = form.stiffness(model, els), form.mass(model, els)
+    return k, m
+
+
 def element_matrices(model: FrameModel) -> tuple[np.ndarray, np.ndarray]:
     """Global-axis stiffness per unit modulus (E = 1) and mass per unit density of every
     element, both (n_el, k, k) on the element's end DOFs (k = 2 DOFs per node). Read-only.
@@ -64,7 +79,6 @@ def element_matrices(model: FrameModel) -> tuple[np.ndarray, np.ndarray]:
     others computed: each element's matrices do not depend on which others are computed with
     it, bit for bit (tests/test_element_reuse.py)."""
     tables = (model.nodes, model.elements, model.sections, model.materials, model.layout)
-    k_dof = 2 * model.layout.per_node
     n_el = len(model.elements)
     todo = None
     for entry in _KEPT:
@@ -78,15 +92,9 @@ def element_matrices(model: FrameModel) -> tuple[np.ndarray, np.ndarray]:
             todo = np.flatnonzero(~same)
             break
     if todo is None:
-        k, m = np.zeros((n_el, k_dof, k_dof)), np.zeros((n_el, k_dof, k_dof))
-        todo = np.arange(n_el)
-    if todo.size:
-        elements = [model.elements[r] for r in todo]
-        for name in dict.fromkeys(e.formulation for e in elements):
-            at = [j for j, e in enumerate(elements) if e.formulation == name]
-            form, els = formulation(name, model.layout), [elements[j] for j in at]
-            k[todo[at]] = form.stiffness(model, els)
-            m[todo[at]] = form.mass(model, els)
+        k, m = element_blocks(model, range(n_el))
+    elif todo.size:
+        k[todo], m[todo] = element_blocks(model, todo)
     k.setflags(write=False), m.setflags(write=False)
     _KEPT.insert(0, tables + (k, m, (tuple(model.sections.items()), tuple(model.materials.items()))))
     del _KEPT[_KEEP:]
@@ -132,5 +140,5 @@ def deformed_frame(model: FrameModel, u: np.ndarray, scale: float, n_points: int
     return out
 
 
-__all__ = ["ElementFormulation", "FORMULATIONS", "PROFILES", "deformed_frame", "element_matrices", "formulation",
-           "formulations", "profile_stiffness", "register"]
+__all__ = ["ElementFormulation", "FORMULATIONS", "PROFILES", "deformed_frame", "element_blocks", "element_matrices",
+           "formulation", "formulations", "profile_stiffness", "register"]
