@@ -21,7 +21,8 @@ import scipy.linalg
 import scipy.sparse as sp
 
 from .limits import MAX_SPARSE_DOFS  # noqa: F401  (fe_problem.assembly.MAX_SPARSE_DOFS, as before)
-from .elements import formulation
+from .elements import element_blocks
+from .elements.base import coordinates
 from .model import FrameModel, ModelFileError
 from .parameters import Parameter
 from .paths import SOLVERS
@@ -100,11 +101,16 @@ class AffineModel:
     modes the caller will ask for: the solve that counts the zero-energy modes returns them too,
     so the model costs one eigen-solve, not two (their shift is the count's, not the one set
     from the first elastic mode: the same modes to ARPACK's tolerance; tests/test_sparse.py).
+    `like`: on the sparse path, the system of `model` itself with no parameter (a candidate's
+    Setting system): where this system's K and M at x0 are that one's to rounding (a parameter
+    at its initial value), its zero-energy count and shift are taken, and the count's
+    eigen-solve is not made (`SparseModalSolver._same_at_x0`; the same modes to ARPACK's
+    tolerance, tests/test_element_reuse.py).
     """
 
     @blas_pinned  # K and M are built with BLAS products: the same matrices on any thread count
     def __init__(self, model: FrameModel, parameters: tuple[Parameter, ...] = (), solver: str = "auto",
-                 workers: int | None = None, x0_modes: int = 0):
+                 workers: int | None = None, x0_modes: int = 0, like: "AffineModel | None" = None):
         self.model = model
         self.parameters = tuple(parameters)
         terms = Terms(model, self.parameters)
@@ -132,8 +138,9 @@ class AffineModel:
             n_null = self._n_rigid_motions(k_trip, np.where(self.x0 != 0.0, self.x0, self.upper))
             self._solver = ModalSolver(k0, m0, dk, dm, self.x0, model.name, n_body=n_body, n_null=n_null)
         else:
+            same = like is not None and like.path == "sparse" and like.model is model and not like.parameters
             self._solver = SparseModalSolver(k_trip, m_trip, n, self.x0, model.name, workers, min_zero=n_body,
-                                             x0_modes=x0_modes)
+                                             x0_modes=x0_modes, count_from=like._solver if same else None)
         #: None, or what moves in the zero-energy motions that are not rigid-body motions
         self.mechanism: str | None = self._find_mechanism() if self.n_rigid > n_body else None
 
@@ -159,7 +166,7 @@ class AffineModel:
         solver = self._solver
         parts_r, parts_c, parts_k, parts_m = [solver.rows], [solver.cols], [solver.k_data0], [solver.m_data0]
         for sign, mod in ((-1.0, self.model), (1.0, model)):
-            k_el, m_el = _element_blocks(mod, rows)
+            k_el, m_el = element_blocks(mod, rows)
             k_el *= sign * np.array([mod.element_modulus_pa(mod.elements[r].id) for r in rows])[:, None, None]
             rho = [mod.materials[mod.elements[r].material].density_kg_m3 for r in rows]
             m_el *= sign * np.array(rho)[:, None, None]
@@ -325,7 +332,7 @@ class AffineModel:
         structure's rigid motions with K r c = 0 (K dense or sparse)."""
         m = self.model
         rigid = np.zeros((self.dofmap.n_total, m.layout.n_rigid_motions))
-        rigid[: self.dofmap.n_nodal] = m.layout.rigid_motions(m.coordinates)
+        rigid[: self.dofmap.n_nodal] = m.layout.rigid_motions(coordinates(m))
         for (_, node), dofs in self.dofmap.hinges.items():  # a released end turns with the body
             for rot, dof in dofs.items():
                 rigid[dof] = rigid[self.dofmap.dof(node, rot, m)]
@@ -379,29 +386,29 @@ class AffineModel:
     def nodal_rows(self, dofs) -> np.ndarray:
         """Row indices into the free-DOF vector for nodal DOFs [(node, dir), ...].
 
-        A supported DOF has no row: -1 (its shape entry is zero)."""
-        pos = np.full(self.dofmap.n_total, -1)
-        pos[self.dofmap.free] = np.arange(len(self.dofmap.free))
-        return np.array([pos[self.dofmap.dof(n, d, self.model)] for n, d in dofs], dtype=int)
+        A supported DOF has no row: -1 (its shape entry is zero). Kept with the DOF map (shared
+        by the systems of one model's copies, `DofMap.of`) for the last few DOF lists asked."""
+        dofs = tuple(dofs)  # read once: `dofs` may be a generator
+        try:
+            key = dofs
+            kept = self.dofmap.rows_kept.get(key)
+        except TypeError:  # a list of lists: no key
+            key, kept = None, None
+        if kept is None:
+            pos = np.full(self.dofmap.n_total, -1)
+            pos[self.dofmap.free] = np.arange(len(self.dofmap.free))
+            kept = np.array([pos[self.dofmap.dof(n, d, self.model)] for n, d in dofs], dtype=int)
+            if key is not None:
+                if len(self.dofmap.rows_kept) >= 8:
+                    self.dofmap.rows_kept.clear()
+                self.dofmap.rows_kept[key] = kept
+        return kept.copy()
 
     @staticmethod
     def at_rows(phi_free: np.ndarray, rows: np.ndarray) -> np.ndarray:
         """Shapes (b, n_free, k) at the rows `nodal_rows` gave: (b, len(rows), k), zero where
         a DOF is supported (row -1)."""
         return take_rows(phi_free, rows)
-
-
-def _element_blocks(model: FrameModel, rows: list[int]) -> tuple[np.ndarray, np.ndarray]:
-    """Stiffness per unit modulus and mass per unit density (e, k, k) of the elements at `rows`
-    of model.elements (`element_matrices` of those elements alone)."""
-    k_dof = 2 * model.layout.per_node
-    k, m = np.zeros((len(rows), k_dof, k_dof)), np.zeros((len(rows), k_dof, k_dof))
-    for name in dict.fromkeys(model.elements[r].formulation for r in rows):
-        at = [j for j, r in enumerate(rows) if model.elements[r].formulation == name]
-        els = [model.elements[rows[j]] for j in at]
-        form = formulation(name, model.layout)
-        k[at], m[at] = form.stiffness(model, els), form.mass(model, els)
-    return k, m
 
 
 __all__ = ["AUTO_DENSE_BYTES", "AffineModel", "DofMap", "SPARSE_MIN_DOFS", "SOLVERS", "check_dense_size",

@@ -27,6 +27,7 @@ from __future__ import annotations
 import multiprocessing
 import os
 import pickle
+import threading
 import uuid
 
 import numpy as np
@@ -137,6 +138,46 @@ def _csr_product(a: sp.csr_matrix):
     return product
 
 
+#: The sparsity patterns of the last few systems, most recent first: (n, lin, rows, cols,
+#: indptr), lin the sorted entries row * n + col. A diagnosis builds hundreds of systems of one
+#: model (a parameter on an element, a spring, a section changed) on the same pattern: a new
+#: system's entries are looked up in a kept pattern instead of sorted anew (`_pattern`).
+_PATTERNS: list[tuple] = []
+#: CHOLMOD's analyses of the last few patterns (indptr, indices, analysis): a pattern met again
+#: in this process is not analysed again (`SparseModalSolver._analysis`).
+_ANALYSES: list[tuple] = []
+_KEEP_PATTERNS = 3
+#: Held while `_PATTERNS` or `_ANALYSES` is changed: systems may be built on several threads.
+_KEPT_LOCK = threading.Lock()
+
+
+def _to_front(kept: list, entry: tuple) -> None:
+    """Put `entry` first in `kept` (a module list of `_KEEP_PATTERNS` at most), under the lock:
+    the list is rebuilt from one read, so no thread pops or inserts by a stale index."""
+    with _KEPT_LOCK:
+        kept[:] = ([entry] + [e for e in kept if e is not entry])[:_KEEP_PATTERNS]
+
+
+def _pattern(keys: np.ndarray, n: int):
+    """((lin, rows, cols, indptr), slot) of the entries keys = row * n + col (n x n): lin the
+    sorted distinct keys, their rows and columns, the CSR row pointer, and each key's position
+    in lin; `np.unique(keys, return_inverse=True)`'s, from a kept pattern (`_PATTERNS`) when
+    the keys fill exactly its entries (checked: every key found, every entry hit)."""
+    for entry in _PATTERNS[:2]:  # a copy: read once
+        m, lin, *arrays = entry
+        if m != n or len(keys) < len(lin):
+            continue
+        slot = np.minimum(np.searchsorted(lin, keys), len(lin) - 1)
+        if np.array_equal(lin[slot], keys) and np.bincount(slot, minlength=len(lin)).all():
+            _to_front(_PATTERNS, entry)
+            return (lin, *arrays), slot
+    lin, slot = np.unique(keys, return_inverse=True)
+    rows = lin // n
+    made = (lin, rows, lin % n, np.concatenate([[0], np.cumsum(np.bincount(rows, minlength=n))]))
+    _to_front(_PATTERNS, (n,) + made)
+    return made, slot.ravel()
+
+
 class SparseModalSolver:
     """Eigen-solves of K0 + sum theta_k dK_k, M0 + sum theta_k dM_k (free DOFs) from triplets.
 
@@ -156,7 +197,7 @@ class SparseModalSolver:
 
     def __init__(self, k_trip, m_trip, n: int, x0: np.ndarray, name: str, workers: int | None = None,
                  min_zero: int = 0, factorization: str | None = None, arpack_tol: float = ARPACK_TOL,
-                 x0_modes: int = 0):
+                 x0_modes: int = 0, count_from: "SparseModalSolver | None" = None):
         self.n_free, self.name, self.n_params = n, name, len(x0)
         self.workers = default_workers() if workers is None else int(workers)
         self.factorization = default_factorization() if factorization is None else factorization
@@ -167,9 +208,7 @@ class SparseModalSolver:
         self._symbolic = None  # CHOLMOD's analysis of the pattern: made on first use in each process
         rows = np.concatenate([k_trip[0], m_trip[0]])
         cols = np.concatenate([k_trip[1], m_trip[1]])
-        lin, slot = np.unique(rows * n + cols, return_inverse=True)
-        self.rows, self.cols = lin // n, lin % n
-        self.indptr = np.concatenate([[0], np.cumsum(np.bincount(self.rows, minlength=n))])
+        (lin, self.rows, self.cols, self.indptr), slot = _pattern(rows * n + cols, n)
         nk = len(k_trip[0])
         self.k_data0, self.gk = self._affine(slot[:nk], k_trip, len(lin))
         self.m_data0, self.gm = self._affine(slot[nk:], m_trip, len(lin))
@@ -179,6 +218,10 @@ class SparseModalSolver:
         self.sigma = -1.0  # provisional; set from the first elastic mode below
         self._order(x0)
         self._x0_pairs = None  # the modes at x0 the count's solve found (`x0_modes`), or None
+        if self._same_at_x0(count_from, x0):  # the same matrices at x0: its count and shift
+            self.n_rigid, self.sigma = count_from.n_rigid, count_from.sigma
+            self.n_elastic = n - self.n_rigid
+            return
         if x0_modes > 0 and self.n_params == 0:
             k = min(n, max(12, min_zero + x0_modes))
             pairs = self._point(x0, k, vectors=True)
@@ -192,6 +235,25 @@ class SparseModalSolver:
         self.n_elastic = n - self.n_rigid
         if x0_modes > 0 and self.n_params == 0 and self.n_rigid + min(x0_modes, self.n_elastic) <= len(pairs[0]):
             self._x0_pairs = pairs
+
+    #: `count_from`'s matrices and these at x0 agree to this fraction of their largest entry: the
+    #: same sums in another order (a parameter's element taken out of K0 and put back at x0).
+    SAME_AT_X0 = 1e-13
+
+    def _same_at_x0(self, other: "SparseModalSolver | None", x0: np.ndarray) -> bool:
+        """Whether `other` (a system with no parameter, on the same pattern, with the same
+        zero-energy floor) has K and M equal to these at x0 to `SAME_AT_X0`: then its zero-energy
+        count and shift are this system's (a candidate's parameter at its initial value is the
+        model itself: its count's eigen-solve would find the same eigenvalues to rounding)."""
+        if other is None or other.n_params or other.n_free != self.n_free or other.n_rigid >= self.n_free:
+            return False
+        if not ((other.indptr is self.indptr or np.array_equal(other.indptr, self.indptr))
+                and (other.cols is self.cols or np.array_equal(other.cols, self.cols))):
+            return False
+        for mine, theirs in ((self.k_data(x0), other.k_data0), (self.m_data(x0), other.m_data0)):
+            if np.abs(mine - theirs).max() > self.SAME_AT_X0 * np.abs(theirs).max():
+                return False
+        return True
 
     def _affine(self, slot, trip, nnz: int):
         """Constant values (nnz,) and the sparse (nnz, p) map G of one family."""
@@ -226,7 +288,14 @@ class SparseModalSolver:
         """CHOLMOD's symbolic analysis of the pattern (its fill-reducing order and the structure of
         the factor), once per model and process: it is not pickled, a worker makes its own."""
         if self._symbolic is None:
-            self._symbolic = _cholmod.analyze(self._csc(np.ones(len(self.rows))), mode=CHOLMOD_MODE)
+            for entry in list(_ANALYSES):  # the same pattern analysed before in this process: the same analysis
+                if (entry[0] is self.indptr or np.array_equal(entry[0], self.indptr)) and \
+                        (entry[1] is self.cols or np.array_equal(entry[1], self.cols)):
+                    self._symbolic = entry[2]
+                    break
+            else:
+                self._symbolic = _cholmod.analyze(self._csc(np.ones(len(self.rows))), mode=CHOLMOD_MODE)
+                _to_front(_ANALYSES, (self.indptr, self.cols, self._symbolic))
         return self._symbolic
 
     def _csc(self, data: np.ndarray) -> sp.csc_matrix:

@@ -34,6 +34,13 @@ from .model import FrameModel
 from .parameters import Parameter
 
 
+#: The DOF maps of the last few models (nodes, elements, supports, layout, map), most recent
+#: first: a diagnosis builds hundreds of systems of one model and of copies that keep its nodes,
+#: elements and supports (a DOF map depends on nothing else), held so compared by identity.
+_MAPS: list[tuple] = []
+_KEEP_MAPS = 4
+
+
 @dataclass(frozen=True)
 class DofMap:
     """Where every element end, spring and mass sits in the global DOF vector."""
@@ -49,24 +56,59 @@ class DofMap:
     relative: dict[tuple[int, int], dict[str, tuple[int, float]]] = dataclasses.field(default_factory=dict)
     #: element row -> (its relative DOFs (m,), B (k, k + m)): its DOFs' values are B (nodal, h)
     extended: dict[int, tuple[np.ndarray, np.ndarray]] = dataclasses.field(default_factory=dict)
+    #: `AffineModel.nodal_rows` of the last DOF lists asked (a tuple of (node, direction) -> rows)
+    rows_kept: dict = dataclasses.field(default_factory=dict, compare=False, repr=False)
 
     @classmethod
     def of(cls, model: FrameModel) -> "DofMap":
         """The DOF map of `model`: nodal DOFs first, then one hinge DOF per released rotation
-        of an element end."""
+        of an element end. The same object for models that share their nodes, elements and
+        supports (the same tuples: copies that differ in a section, a material, a spring or a
+        mass; `_MAPS`). Treat it as read-only."""
+        tables = (model.nodes, model.elements, model.supports, model.layout)
+        for entry in _MAPS:
+            if all(a is b for a, b in zip(entry[:4], tables)):
+                return entry[4]
+        like = next((entry for entry in _MAPS if entry[0] is model.nodes and entry[3] is model.layout
+                     and len(entry[1]) == len(model.elements)), None)
+        made, ends, released = cls._build(model, like)
+        _MAPS.insert(0, tables + (made, ends, released))
+        del _MAPS[_KEEP_MAPS:]
+        return made
+
+    @classmethod
+    def _build(cls, model: FrameModel, like: tuple | None = None):
+        """(the map, every element's end node positions (n_el, 2), the positions of the elements
+        with a released end). `like`: a `_MAPS` entry on the same nodes (the same tuple) with as
+        many elements: its node DOFs are taken, and its ends and released rows for the element
+        objects it shares (a copy with an end released, a modulus, a support changed)."""
         lay = model.layout
         per = lay.per_node
-        node_dofs = {n.id: per * k + np.arange(per) for k, n in enumerate(model.nodes)}
         nxt = model.n_dof
         hinges: dict[tuple[int, int], dict[str, int]] = {}
         stiffness: dict[tuple[int, int], dict[str, float]] = {}
         relative: dict[tuple[int, int], dict[str, tuple[int, float]]] = {}
         extended: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         pos = model._node_pos  # every element's nodal DOFs at once; the released ends below
-        ends = np.array([[pos[e.node_i], pos[e.node_j]] for e in model.elements], dtype=int).reshape(-1, 2)
+
+        def has_release(e) -> bool:
+            return e.release_i is not None or e.release_j is not None or bool(e.releases_i) or bool(e.releases_j)
+
+        if like is None:
+            node_dofs = {n.id: per * k + np.arange(per) for k, n in enumerate(model.nodes)}
+            ends = np.array([[pos[e.node_i], pos[e.node_j]] for e in model.elements], dtype=int).reshape(-1, 2)
+            released = [k for k, e in enumerate(model.elements) if has_release(e)]
+        else:
+            node_dofs, ends = like[4].node_dofs, like[5].copy()
+            n_el = len(model.elements)
+            same = np.fromiter((a is b for a, b in zip(like[1], model.elements)), bool, n_el)
+            new = np.flatnonzero(~same)
+            for k in new:
+                e = model.elements[k]
+                ends[k] = pos[e.node_i], pos[e.node_j]
+            released = sorted([k for k in like[6] if same[k]] + [int(k) for k in new if has_release(model.elements[k])])
+        ends.setflags(write=False)
         edofs = (per * ends[:, :, None] + np.arange(per)).reshape(len(model.elements), 2 * per)
-        released = [k for k, e in enumerate(model.elements)
-                    if e.release_i is not None or e.release_j is not None or e.releases_i or e.releases_j]
         for k in released:
             e = model.elements[k]
             columns = []  # the skew releases' columns of E
@@ -89,7 +131,8 @@ class DofMap:
         fixed = np.zeros(nxt, dtype=bool)
         for s in model.supports:
             fixed[[node_dofs[s.node][lay.position(d)] for d in s.directions]] = True
-        return cls(model.n_dof, nxt, edofs, hinges, np.flatnonzero(~fixed), node_dofs, stiffness, relative, extended)
+        made = cls(model.n_dof, nxt, edofs, hinges, np.flatnonzero(~fixed), node_dofs, stiffness, relative, extended)
+        return made, ends, released
 
     def dof(self, node: int, direction: str, model: FrameModel) -> int:
         """The global index of a nodal DOF."""
@@ -190,7 +233,7 @@ class Terms:
                                  else mats[e.material].youngs_modulus_pa for e in model.elements])
         self.k_weight = self.modulus.copy()
         self.m_weight = np.array([mats[e.material].density_kg_m3 for e in model.elements])
-        self.index = {e.id: i for i, e in enumerate(model.elements)}
+        self.index = model._element_pos  # element id -> position, built once per model
         self.taken: dict[str, set] = {"spring": set(), "release": set(), "mass": set()}
         for i, par in enumerate(parameters):
             self._term(i, par)
@@ -215,7 +258,7 @@ class Terms:
         its `DofMap.element_block` (an element with a skew release on its relative DOFs too)."""
         edofs, ext = self.dofmap.element_dofs, self.dofmap.extended
         rows = np.arange(len(edofs)) if rows is None else np.asarray(rows)
-        special = [j for j, r in enumerate(rows) if int(r) in ext]
+        special = [j for j, r in enumerate(rows) if int(r) in ext] if ext else []
         if not special:
             fam.blocks(term, edofs[rows], mats)
             return
@@ -272,19 +315,21 @@ class Terms:
         model = self.model
         self._blocks(self.k, -1, None, self.k_el * self.k_weight[:, None, None])
         self._blocks(self.m, -1, None, self.m_el * self.m_weight[:, None, None])
-        # the lumped masses in one part, in the order one part per mass gave (the same triplets)
-        dofs: list[int] = []
-        values: list[float] = []
-        for lm in model.masses:
-            if lm.node not in self.taken["mass"]:
-                t = self._translations(lm.node)
-                dofs += t
-                values += [lm.mass_kg] * len(t)
-            for rot in model.layout.rotations:
-                dofs.append(self._dof(lm.node, rot))
-                values.append(lm.inertia_kg_m2)
-        if dofs:
-            self.m.add(-1, dofs, dofs, values)
+        # the lumped masses in one part, mass by mass its translations (unless a parameter holds
+        # that node's mass) then its rotations: the order one part per mass gave (the same triplets)
+        if model.masses:
+            lay = model.layout
+            at = np.array([model._node_pos[lm.node] for lm in model.masses])
+            where = [lay.position(d) for d in lay.translations + lay.rotations]
+            dofs = lay.per_node * at[:, None] + np.array(where, dtype=int)
+            n_t = len(lay.translations)
+            values = np.empty(dofs.shape)
+            values[:, :n_t] = np.array([lm.mass_kg for lm in model.masses])[:, None]
+            values[:, n_t:] = np.array([lm.inertia_kg_m2 for lm in model.masses])[:, None]
+            keep = np.ones(dofs.shape, dtype=bool)
+            keep[:, :n_t] = np.array([lm.node not in self.taken["mass"] for lm in model.masses])[:, None]
+            if keep.any():
+                self.m.add(-1, dofs[keep], dofs[keep], values[keep])
         for s in model.springs:
             if s.id not in self.taken["spring"]:
                 self._spring(-1, s, s.stiffness)

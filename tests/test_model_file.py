@@ -399,6 +399,9 @@ def test_a_copy_is_checked_as_a_new_model_is(hframe):
     bad_el = dataclasses.replace(el[5], material="unobtainium")
     far = tuple(dataclasses.replace(n, x=n.x + 1e7) if n.id == 3 else n for n in m.nodes)
     same = tuple(dataclasses.replace(n, y=n.y + 0.25) if n.id == 3 else n for n in m.nodes)
+    e3 = next(e for e in m.elements if 3 in (e.node_i, e.node_j))
+    other = m.node(e3.node_j if e3.node_i == 3 else e3.node_i)
+    onto = tuple(dataclasses.replace(n, x=other.x, y=other.y) if n.id == 3 else n for n in m.nodes)
     changes = {
         "a section an element names, gone": dict(sections={k: v for k, v in m.sections.items() if k != sec}),
         "a material an element names, gone": dict(materials={k: v for k, v in m.materials.items() if k != mat}),
@@ -410,6 +413,20 @@ def test_a_copy_is_checked_as_a_new_model_is(hframe):
         "a node moved (valid)": dict(nodes=same),
         "an element's id repeated": dict(elements=tuple(el + [el[0]])),
         "a source of its own": dict(source="elsewhere.json", sections={}),
+        "a section renamed, its elements kept": dict(sections={("x" + k if k == sec else k): v
+                                                               for k, v in m.sections.items()}),
+        "a section's shear coefficient changed, its elements kept (valid)": dict(
+            sections={**m.sections, sec: dataclasses.replace(m.sections[sec], shear_coefficient=0.5)}),
+        "a spring added (valid)": dict(springs=m.springs + (Spring(9, (3, "y"), None, 1e4),)),
+        "a spring added at no node": dict(springs=m.springs + (Spring(9, (999, "y"), None, 1e4),)),
+        "a mass at no node": dict(masses=m.masses + (dataclasses.replace(m.masses[0], node=999),)),
+        "a support at no node": dict(supports=m.supports + (Support(999, ("x",)),)),
+        "a measured DOF at no node": dict(measured_dofs=((999, "x"),)),
+        "the same tables, a new name (valid)": dict(name="renamed"),
+        "a node moved onto its neighbour (an element of zero length)": dict(nodes=onto),
+        "a node given another id": dict(nodes=tuple(dataclasses.replace(n, id=99) if n.id == 3 else n for n in m.nodes)),
+        "a node moved out of the plane": dict(nodes=tuple(dataclasses.replace(n, z=1.0) if n.id == 3 else n
+                                                          for n in m.nodes)),
     }
     outcomes = {name: (_outcome(lambda: m.replace(**ch)), _outcome(lambda: _fresh(m, **ch))) for name, ch in changes.items()}
     for name, (copied, fresh) in outcomes.items():

@@ -295,7 +295,7 @@ def stiffness_loss(st: Setting) -> Iterator[Candidate]:
     for e in st.model.elements:
         e0 = st.model.element_modulus_pa(e.id)
         system = lazy_system(lambda e=e, e0=e0: AffineModel(
-            st.model, (Parameter("modulus", (e.id,), 1e-3 * e0, e0, e0),)))
+            st.model, (Parameter("modulus", (e.id,), 1e-3 * e0, e0, e0),), like=st.system))
 
         def forward(a, system=system, e0=e0):
             return solve(system(), (e0 * (1.0 - np.asarray(a)))[:, None], st.coords, st.n_modes)
@@ -390,7 +390,7 @@ def added_mass(st: Setting) -> Iterator[Candidate]:
     for node in st.model.node_ids:
         m0 = sum(lm.mass_kg for lm in st.model.masses if lm.node == node)
         system = lazy_system(lambda node=node, m0=m0: AffineModel(
-            st.model, (Parameter("mass", (node,), 0.0, m0 + total, m0),)))
+            st.model, (Parameter("mass", (node,), 0.0, m0 + total, m0),), like=st.system))
 
         def forward(a, system=system, m0=m0):
             return solve(system(), m0 + np.asarray(a, dtype=float)[:, None], st.coords, st.n_modes)
@@ -562,7 +562,8 @@ def stiffness_gain(st: Setting) -> Iterator[Candidate]:
     """A member stiffer than its model: its modulus times (1 + a), uniform over the element."""
     for e in st.model.elements:
         e0 = st.model.element_modulus_pa(e.id)
-        system = lazy_system(lambda e=e, e0=e0: AffineModel(st.model, (Parameter("modulus", (e.id,), 1e-3 * e0, 10 * e0, e0),)))
+        system = lazy_system(lambda e=e, e0=e0: AffineModel(
+            st.model, (Parameter("modulus", (e.id,), 1e-3 * e0, 10 * e0, e0),), like=st.system))
 
         def forward(a, system=system, e0=e0):
             return solve(system(), (e0 * (1.0 + np.asarray(a)))[:, None], st.coords, st.n_modes)
@@ -638,7 +639,7 @@ def distributed_mass(st: Setting) -> Iterator[Candidate]:
         m_e = rho0 * st.model.sections[e.section].area_m2 * st.model.element_length_m(e.id)
         upper = max(0.5 * total / m_e, 0.1)
         system = lazy_system(lambda e=e, rho0=rho0, upper=upper: AffineModel(
-            st.model, (Parameter("density", (e.id,), 0.0, rho0 * (1 + upper), rho0),)))
+            st.model, (Parameter("density", (e.id,), 0.0, rho0 * (1 + upper), rho0),), like=st.system))
 
         def forward(a, system=system, rho0=rho0):
             return solve(system(), (rho0 * (1.0 + np.asarray(a)))[:, None], st.coords, st.n_modes)

@@ -35,15 +35,75 @@ def _groups(model: FrameModel):
         yield formulation(name, model.layout), rows, [model.elements[k] for k in rows]
 
 
+#: The element matrices of the last few models built, most recent first: (nodes, elements,
+#: sections, materials, layout, k, m), the model's own tables (held, so compared by identity).
+#: A diagnosis builds hundreds of systems of one model, or of copies that differ in a few
+#: elements (a released end, a modulus) or only outside the elements (a spring): an element
+#: object kept on the same nodes, sections and materials has the same matrices, taken from here.
+_KEPT: list[tuple] = []
+_KEEP = 4
+#: The most memory the kept matrices take (bytes, all entries): a huge model is not held.
+_KEEP_BYTES = 64 * 2**20
+
+
+def _unchanged(entry: tuple, model: FrameModel) -> bool:
+    """Whether the sections and materials dicts of a kept entry (the same objects as `model`'s)
+    still hold the same values: a dict is mutable, a frozen model's too."""
+    sections, materials = entry[7]
+    return (len(sections) == len(model.sections) and len(materials) == len(model.materials)
+            and all(model.sections.get(k) is v for k, v in sections)
+            and all(model.materials.get(k) is v for k, v in materials))
+
+
+def element_blocks(model: FrameModel, rows) -> tuple[np.ndarray, np.ndarray]:
+    """Global-axis stiffness per unit modulus (E = 1) and mass per unit density (e, k, k) of the
+    elements at positions `rows` of model.elements, computed (nothing kept): one call per
+    formulation, in first-seen order. The one place element matrices are computed from their
+    formulations (`element_matrices` of all or of the elements not kept; an edited system's)."""
+    k_dof = 2 * model.layout.per_node
+    elements = [model.elements[r] for r in rows]
+    k, m = np.zeros((len(elements), k_dof, k_dof)), np.zeros((len(elements), k_dof, k_dof))
+    for name in dict.fromkeys(e.formulation for e in elements):
+        at = [j for j, e in enumerate(elements) if e.formulation == name]
+        form, els = formulation(name, model.layout), [elements[j] for j in at]
+        k[at], m[at] = form.stiffness(model, els), form.mass(model, els)
+    return k, m
+
+
 def element_matrices(model: FrameModel) -> tuple[np.ndarray, np.ndarray]:
     """Global-axis stiffness per unit modulus (E = 1) and mass per unit density of every
-    element, both (n_el, k, k) on the element's end DOFs (k = 2 DOFs per node)."""
-    k_dof = 2 * model.layout.per_node
-    k = np.zeros((len(model.elements), k_dof, k_dof))
-    m = np.zeros_like(k)
-    for form, rows, els in _groups(model):
-        k[rows] = form.stiffness(model, els)
-        m[rows] = form.mass(model, els)
+    element, both (n_el, k, k) on the element's end DOFs (k = 2 DOFs per node). Read-only.
+
+    The elements a recent model (`_KEPT`) holds as the same objects, on the same nodes,
+    sections and materials (the same tables), are copied from its matrices, and only the
+    others computed: each element's matrices do not depend on which others are computed with
+    it, bit for bit (tests/test_element_reuse.py)."""
+    tables = (model.nodes, model.elements, model.sections, model.materials, model.layout)
+    n_el = len(model.elements)
+    todo = None
+    for entry in _KEPT:
+        if all(a is b for a, b in zip(entry[:5], tables)) and _unchanged(entry, model):
+            return entry[5], entry[6]
+    for entry in _KEPT:
+        if all(a is b for a, b in zip(entry[:1] + entry[2:5], tables[:1] + tables[2:])) \
+                and len(entry[1]) == n_el and _unchanged(entry, model):
+            same = np.fromiter((a is b for a, b in zip(entry[1], model.elements)), bool, n_el)
+            k, m = entry[5].copy(), entry[6].copy()
+            todo = np.flatnonzero(~same)
+            break
+    if todo is None:
+        k, m = element_blocks(model, range(n_el))
+    elif todo.size:
+        k[todo], m[todo] = element_blocks(model, todo)
+    k.setflags(write=False), m.setflags(write=False)
+    _KEPT.insert(0, tables + (k, m, (tuple(model.sections.items()), tuple(model.materials.items()))))
+    del _KEPT[_KEEP:]
+    total = 0
+    for i, entry in enumerate(_KEPT):
+        total += entry[5].nbytes + entry[6].nbytes
+        if total > _KEEP_BYTES:
+            del _KEPT[i:]
+            break
     return k, m
 
 
@@ -80,5 +140,5 @@ def deformed_frame(model: FrameModel, u: np.ndarray, scale: float, n_points: int
     return out
 
 
-__all__ = ["ElementFormulation", "FORMULATIONS", "PROFILES", "deformed_frame", "element_matrices", "formulation",
-           "formulations", "profile_stiffness", "register"]
+__all__ = ["ElementFormulation", "FORMULATIONS", "PROFILES", "deformed_frame", "element_blocks", "element_matrices",
+           "formulation", "formulations", "profile_stiffness", "register"]

@@ -22,6 +22,28 @@ if TYPE_CHECKING:
     from ..model import Element, FrameModel
 
 
+#: The last model's (nodes, layout, coordinates): the copies a diagnosis builds keep the nodes
+#: tuple (`FrameModel.coordinates` is per model object; the same tuple in the same layout gives
+#: the same array). One tuple, read once and replaced whole: a thread never pairs one model's
+#: nodes with another's array. The layout is part of the key: a planar model and its space copy
+#: (`replace(layout=...)`) share one nodes tuple but not their coordinates' columns.
+_KEPT_COORDINATES: tuple | None = None
+
+
+def coordinates(model: FrameModel) -> np.ndarray:
+    """`model.coordinates` (read-only), taken from the last model asked with the same nodes
+    tuple and layout when this one has not computed its own."""
+    global _KEPT_COORDINATES
+    own = model.__dict__.get("coordinates")
+    if own is None:
+        kept = _KEPT_COORDINATES
+        if kept is not None and kept[0] is model.nodes and (kept[1] is model.layout or kept[1] == model.layout):
+            return kept[2]
+        own = model.coordinates
+    _KEPT_COORDINATES = (model.nodes, model.layout, own)
+    return own
+
+
 class ElementFormulation(ABC):
     """One element formulation. Subclasses set `name` and `layout` and implement the methods."""
 

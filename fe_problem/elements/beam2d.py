@@ -160,9 +160,35 @@ def weighted_stiffness(length: np.ndarray, area: np.ndarray, inertia: np.ndarray
     return k
 
 
+#: From this many elements `to_global` transforms each distinct (a, T) once.
+DISTINCT_MIN = 16
+
+
 def to_global(local: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """T^T a T for a stack of element matrices."""
+    """T^T a T for a stack of element matrices a (n, 6, 6) and transformations T (n, 6, 6), any
+    (`rotation`'s or another's).
+
+    A frame's elements repeat (a regular grid: a few lengths, angles and sections): from
+    `DISTINCT_MIN` elements each distinct pair (a, T), compared by their bytes, is transformed
+    once and copied to the others. The same numbers bit for bit: an element's product does not
+    depend on the others in its stack (tests/test_element_reuse.py)."""
+    n = len(local)
+    if n >= DISTINCT_MIN:
+        # each pair's bits (all of a and all of T: any T, not only `rotation`'s) hashed to one
+        # integer, the pairs grouped by hash, and a group taken as one pair only if its members'
+        # bits are all the same
+        bits = np.ascontiguousarray(np.concatenate([local.reshape(n, -1), t.reshape(n, -1)], axis=1),
+                                    dtype=np.float64).view(np.uint64)
+        _, first, back = np.unique((bits * _MIX[: bits.shape[1]]).sum(axis=1), return_index=True,
+                                   return_inverse=True)
+        back = back.ravel()
+        if len(first) < n and np.array_equal(bits[first][back], bits):
+            return np.einsum("eki,ekl,elj->eij", t[first], local[first], t[first])[back]
     return np.einsum("eki,ekl,elj->eij", t, local, t)
+
+
+#: Odd 64-bit multipliers of `to_global`'s hash (fixed: the same grouping in every run).
+_MIX = np.random.default_rng(20261127).integers(1, 2**63, 72, dtype=np.uint64) * np.uint64(2) + np.uint64(1)
 
 
 def interpolate(length: np.ndarray, cos: np.ndarray, sin: np.ndarray, ends: np.ndarray, smooth: np.ndarray,

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..dofs import PLANAR_FRAME
 from . import beam2d
-from .base import ElementFormulation, register
+from .base import ElementFormulation, coordinates, register
 
 if TYPE_CHECKING:
     from ..model import Element, FrameModel
@@ -36,21 +36,31 @@ class Geometry:
 
     @classmethod
     def of(cls, model: FrameModel, elements: Sequence[Element]) -> "Geometry":
-        """The geometry of `elements` of `model`."""
-        at, pos = model.coordinates, model._node_pos  # not model.node(): O(n) per lookup
-        xi = at[[pos[e.node_i] for e in elements]]
-        xj = at[[pos[e.node_j] for e in elements]]
+        """The geometry of `elements` of `model` (each section's and material's values read once
+        and gathered: the same numbers as read element by element)."""
+        at, pos = coordinates(model), model._node_pos  # not model.node(): O(n) per lookup
+        ends = np.array([(pos[e.node_i], pos[e.node_j]) for e in elements], dtype=int).reshape(-1, 2)
+        xi, xj = at[ends[:, 0]], at[ends[:, 1]]
         d = xj - xi
         length = np.hypot(d[:, 0], d[:, 1])
-        sec = [model.sections[e.section] for e in elements]
+        sec, s_at = _gather([e.section for e in elements])
+        mat, m_at = _gather([e.material for e in elements])
+        sections, materials = [model.sections[k] for k in sec], [model.materials[k] for k in mat]
         return cls(length, d[:, 0] / length, d[:, 1] / length,
-                   np.array([s.area_m2 for s in sec]), np.array([s.inertia_m4 for s in sec]),
-                   np.array([s.shear_coefficient for s in sec]),
-                   np.array([_e_over_g(model.materials[e.material]) for e in elements]))
+                   np.array([s.area_m2 for s in sections])[s_at], np.array([s.inertia_m4 for s in sections])[s_at],
+                   np.array([s.shear_coefficient for s in sections])[s_at],
+                   np.array([_e_over_g(m) for m in materials])[m_at])
 
     def to_global(self, local: np.ndarray) -> np.ndarray:
         """Local-axis element matrices (n, 6, 6) to global axes."""
         return beam2d.to_global(local, beam2d.rotation(self.cos, self.sin))
+
+
+def _gather(names: list) -> tuple[list, np.ndarray]:
+    """The distinct names in first-seen order and where each of `names` is among them."""
+    first = {k: None for k in names}
+    where = {k: i for i, k in enumerate(first)}
+    return list(first), np.array([where[k] for k in names], dtype=int)
 
 
 def _e_over_g(material) -> float:

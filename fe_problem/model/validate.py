@@ -67,16 +67,20 @@ def _positive(value: Any, where: str, allow_zero: bool = False, field: str | Non
 def validate(m: FrameModel, base: FrameModel | None = None) -> None:
     """Raise ModelFileError (naming `m.source`, the item and the field) if `m` breaks a rule.
 
-    `base`: a valid model `m` was copied from (`FrameModel.replace`). Where the two share their
-    nodes (the same tuple), layout and source, the nodes are not checked again, and an element
-    object `base` holds is checked only for the section and material it names (nothing else
-    of an element's rules depends on what a copy can change): a diagnosis builds hundreds of
-    copies of a 1,000-element model that differ in a few elements or a section. The outcome
-    (error or not, and its message) is the full check's (tests/test_model_file.py)."""
+    `base`: a valid model `m` was copied from (`FrameModel.replace`). Where the two have the
+    same layout, source and node ids (in order), a node object `base` holds at the same place is
+    not checked again, nor a table (masses, springs, supports, measured DOFs) `m` shares with
+    it, and an element object `base` holds with neither end at a node that changed is checked
+    only for the section and material it names (nothing else of an element's rules depends on
+    what a copy can change): a diagnosis builds hundreds of copies of a 1,000-element model
+    that differ in a few elements, a section or a node. The outcome (error or not, and its
+    message) is the full check's (tests/test_model_file.py)."""
     src = m.source
-    kept = base is not None and base.nodes is m.nodes and base.layout == m.layout and base.source == src
-    _check_ids(src, "nodes", [n.id for n in m.nodes])
-    for n in (() if kept else m.nodes):
+    moved = _moved_nodes(m, base)  # None: no base to rely on
+    kept = moved is not None
+    if not kept:
+        _check_ids(src, "nodes", [n.id for n in m.nodes])
+    for n in (m.nodes if not kept else [n for n in m.nodes if n.id in moved]):
         for v, name in ((n.x, "x"), (n.y, "y"), (n.z, "z")):
             if not (is_number(v) and abs(v) <= RANGES["coordinate"]):
                 raise ModelFileError(f"{src}: node {n.id} field '{name}' must be a finite number of metres within "
@@ -85,15 +89,41 @@ def validate(m: FrameModel, base: FrameModel | None = None) -> None:
             raise ModelFileError(f"{src}: node {n.id} field 'z': a planar model's nodes lie in the x-y plane "
                                  f"(z = 0), got {shown(n.z)}; a space frame's file says \"dimension\": 3")
     _validate_tables(m)
-    _check_ids(src, "elements", [e.id for e in m.elements])
-    nodes = {n.id: n for n in m.nodes}
-    known = formulations(m.layout)
-    checked = {id(e) for e in base.elements} if kept else set()
-    for e in m.elements:
-        if id(e) not in checked or e.section not in m.sections or e.material not in m.materials:
-            _validate_element(m, e, nodes, known)
-    _validate_nodal(m)
-    _check_connected(m)
+    # the same elements on the same nodes, and every section and material name base had: each
+    # element names a section and material m has, and nothing else of its rules can have changed
+    same = kept and not moved and base.elements is m.elements and m.sections.keys() >= base.sections.keys() \
+        and m.materials.keys() >= base.materials.keys()
+    if not same:
+        _check_ids(src, "elements", [e.id for e in m.elements])
+        nodes = {n.id: n for n in m.nodes}
+        known = formulations(m.layout)
+        checked = {id(e) for e in base.elements if not (moved and (e.node_i in moved or e.node_j in moved))} \
+            if kept else set()
+        for e in m.elements:
+            if id(e) not in checked or e.section not in m.sections or e.material not in m.materials:
+                _validate_element(m, e, nodes, known)
+    _validate_nodal(m, base if kept else None)
+    if not (kept and base.elements is m.elements and base.springs is m.springs):
+        _check_connected(m)
+
+
+def _moved_nodes(m: FrameModel, base: FrameModel | None) -> set | None:
+    """The ids of the nodes of `m` that are not `base`'s node objects at the same place, when
+    `base` has the same layout, source and node ids in the same order (a copy: `validate`);
+    else None."""
+    if base is None or base.layout != m.layout or base.source != m.source:
+        return None
+    if base.nodes is m.nodes:
+        return set()
+    if len(base.nodes) != len(m.nodes):
+        return None
+    moved = set()
+    for a, b in zip(base.nodes, m.nodes):
+        if a is not b:
+            if a.id != b.id:
+                return None
+            moved.add(b.id)
+    return moved
 
 
 def _check_connected(m: FrameModel) -> None:
@@ -268,15 +298,21 @@ def _check_dof(m: FrameModel, dof: Any, where: str) -> None:
         raise ModelFileError(f"{where}: unknown direction {dof[1]!r}; use one of {m.layout.names}")
 
 
-def _validate_nodal(m: FrameModel) -> None:
-    """Masses, springs, supports, measured DOFs and the excitation."""
-    src, idset = m.source, set(m.node_ids)
-    for lm in m.masses:
+def _validate_nodal(m: FrameModel, base: FrameModel | None = None) -> None:
+    """Masses, springs, supports, measured DOFs and the excitation. `base`: a valid model with
+    the same nodes and layout (`validate`'s kept case): a table `m` shares with it (the same
+    tuple) holds what it held there, so it is not checked again."""
+    src, idset = m.source, m._node_pos  # a dict of the node ids, built once per model
+
+    def fresh(name: str) -> bool:
+        return base is None or getattr(base, name) is not getattr(m, name)
+
+    for lm in (m.masses if fresh("masses") else ()):
         if lm.node not in idset:
             raise ModelFileError(f"{src}: mass at unknown node {lm.node}")
         _positive(lm.mass_kg, f"{src}: mass at node {lm.node} 'mass_kg'", allow_zero=True, field="mass_kg")
         _positive(lm.inertia_kg_m2, f"{src}: mass at node {lm.node} 'inertia_kg_m2'", allow_zero=True, field="inertia_kg_m2")
-    for s in m.springs:
+    for s in (m.springs if fresh("springs") else ()):
         _check_dof(m, s.dof_a, f"{src}: spring {s.id}")
         if s.dof_b is not None:
             _check_dof(m, s.dof_b, f"{src}: spring {s.id}")
@@ -284,16 +320,17 @@ def _validate_nodal(m: FrameModel) -> None:
                 raise ModelFileError(f"{src}: spring {s.id} joins DOF {list(s.dof_a)} to itself: it does nothing; "
                                      "a spring to ground lists one DOF")
         _positive(s.stiffness, f"{src}: spring {s.id} 'stiffness'", allow_zero=True, field="stiffness")
-    for sup in m.supports:
+    for sup in (m.supports if fresh("supports") else ()):
         if sup.node not in idset:
             raise ModelFileError(f"{src}: support at unknown node {sup.node}")
         for d in sup.directions:
             if d not in m.layout.names:
                 raise ModelFileError(f"{src}: support at node {sup.node}: unknown direction {d!r}; use one of "
                                      f"{m.layout.names}")
-    for i, dof in enumerate(m.measured_dofs):
-        _check_dof(m, dof, f"{src}: measured_dofs[{i}]")
-    if len(set(m.measured_dofs)) != len(m.measured_dofs):
+    if fresh("measured_dofs"):
+        for i, dof in enumerate(m.measured_dofs):
+            _check_dof(m, dof, f"{src}: measured_dofs[{i}]")
+    if fresh("measured_dofs") and len(set(m.measured_dofs)) != len(m.measured_dofs):
         raise ModelFileError(f"{src}: 'measured_dofs' lists a DOF twice")
     if m.excitation is not None:
         _check_dof(m, m.excitation, f"{src}: excitation")
