@@ -147,14 +147,33 @@ def test_look_along_with_the_basis_is_the_full_look(case, kind, profile, where):
     np.testing.assert_allclose(drop, cal.base.chi2 - best.chi2, rtol=1e-10)
 
 
-def test_groups_and_trends_are_solved_in_full(case):
+def test_groups_and_trends_are_fitted_on_their_spread_basis_to_the_full_fit(case):
     """A group's or a trend's change is not held by the shared basis (reduced.py: frequencies
-    off by up to 9.6e-2): none has a reduced forward, so their fits solve every size in full
-    (their reduced screen, on a basis of their own, only ranks them: `class_promises`)."""
+    off by up to 9.6e-2): none has a reduced forward. Its fit searches on its own spread basis
+    (`Candidate.reduced_screen`, `fit._search_forward`) and one batch of full solves confirms
+    it: the classes the diagnosis fits (the 8 `class_promises` keeps) and every trend take that
+    path with at most 6 full solves (the grid has 16 sizes; solved in full, 20 to 34 with the
+    scalar search), the chi^2 and scale are the full model's at its a, and a and chi^2 are those
+    of the fit solved in full (a within the search's xatol, 1e-4 of the bracket's upper end, as
+    a local candidate's; chi^2 within 1e-6 relative)."""
     cal, _ = case
     groups = distributed_candidates(cal.setting)
     assert {d.kind for d in groups} >= {"group_stiffness_loss", "group_stiffness_gain", "stiffness_trend"}
     assert all(d.reduced is None for d in groups)
+    promises = class_promises(cal.obs, groups, cal.base, 8)
+    chosen = [i for i, _ in _kept(promises, 8)] + [i for i, d in enumerate(groups) if d.kind == "stiffness_trend"]
+    for i in dict.fromkeys(chosen):
+        c, n_full = _counted(groups[i])
+        with_basis = fit(cal.obs, c, promises[i][1])
+        assert 0 < n_full[0] <= 6, (c.label, n_full[0])
+        without = fit(cal.obs, dataclasses.replace(c, reduced_screen=None), promises[i][1])
+        assert n_full[0] - 6 > len(c.grid)  # the fit without the basis solved the grid and its search
+        full_at_a = chi2_batch(cal.obs, c, np.array([with_basis.a]))[0]
+        assert with_basis.chi2 == full_at_a.chi2 and with_basis.s == full_at_a.s
+        grid = np.asarray(c.grid)
+        above = grid[grid > max(with_basis.a, without.a)]
+        assert abs(with_basis.a - without.a) < 1e-4 * above.min(), c.label
+        assert abs(with_basis.chi2 - without.chi2) <= 1e-6 * without.chi2, c.label
 
 
 #: The spread basis (`SharedBasis.spread`) against full solves at the sizes the classes are ranked

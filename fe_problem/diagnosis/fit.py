@@ -294,14 +294,28 @@ def _reduced_fit(obs: Observations, cand: Candidate, grid: np.ndarray, reduced) 
     return None
 
 
+def _search_forward(cand: Candidate):
+    """The reduced forward `fit` searches on: the candidate's own (`reduced_forward`: a local
+    change on the shared basis), else its reduced screen (a group's or a trend's change on its
+    spread basis, `SharedBasis.spread`), else None. The spread basis holds the paired modes'
+    frequencies within 2.1e-5 relative where the classes are ranked and worse at the largest
+    sizes; `_reduced_fit`'s full solves confirm the search or send it to full solves of the
+    grid, so a class's fit is still the full model's at its a."""
+    reduced = reduced_forward(cand)
+    if reduced is None and cand.reduced_screen is not None:
+        reduced = cand.reduced_screen()
+    return reduced
+
+
 def fit(obs: Observations, cand: Candidate, a_hint: float | None = None) -> Fit:
     """The best a in [0, upper]: a batched grid (plus the screening hint), then a bounded scalar
     refinement in the bracket around the best grid point. Where the candidate has a reduced
-    forward, grid and refinement run on the shared basis and one batch of full solves confirms
-    them (`_reduced_fit`), else (or where they do not confirm it) both are solved with the
-    candidate's own system: the Fit returned (a, s, chi^2, residuals) is always the full model's."""
+    forward (`_search_forward`: its own, or a distributed class's spread basis), grid and
+    refinement run on it and one batch of full solves confirms them (`_reduced_fit`), else (or
+    where they do not confirm it) both are solved with the candidate's own system: the Fit
+    returned (a, s, chi^2, residuals) is always the full model's."""
     grid = np.unique(np.concatenate([cand.grid, [] if a_hint is None else [a_hint]]))
-    reduced = reduced_forward(cand)
+    reduced = _search_forward(cand)
     if reduced is not None:
         confirmed = _reduced_fit(obs, cand, grid, reduced)
         if confirmed is not None:
