@@ -228,16 +228,10 @@ def _bracket(grid: np.ndarray, k: int) -> tuple[float, float, float]:
     return float(lo), float(hi), 1e-4 * max(float(hi), 1e-9)
 
 
-def _refined(obs: Observations, cand: Candidate, grid: np.ndarray, k: int, forward=None,
-             known: list[Fit] | None = None) -> tuple[float, Fit | None]:
+def _refined(obs: Observations, cand: Candidate, grid: np.ndarray, k: int, forward=None) -> tuple[float, Fit | None]:
     """The bounded scalar search in the bracket around grid point `k` (`forward`: the reduced
     forward, or None: the candidate's own system) and its fit (None where the bracket is one
-    point): its answer is one of the search's fits, not solved again. `known`: the grid's fits on
-    the reduced `forward`; with grid point `k` inside the grid the search starts from them
-    (`bounded_search`: the grid's best point and its two neighbours, the parabola through them
-    its first step; 17 % fewer evaluations over 300 test functions), else, and always on the
-    candidate's own system (the dense path's fits stay bit for bit as they were), it is scipy's
-    bounded method from scratch."""
+    point): its answer is one of the search's fits, not solved again."""
     lo, hi, xatol = _bracket(grid, k)
     if hi <= lo:
         return float(grid[k]), None
@@ -249,74 +243,9 @@ def _refined(obs: Observations, cand: Candidate, grid: np.ndarray, k: int, forwa
             tried[v] = chi2_batch(obs, cand, np.array([v]), forward=forward)[0]
         return tried[v].chi2
 
-    if known is not None and forward is not None and 0 < k < len(grid) - 1:
-        tried.update({float(grid[i]): known[i] for i in (k - 1, k, k + 1)})
-        x = bounded_search(chi2_at, (lo, known[k - 1].chi2), (float(grid[k]), known[k].chi2),
-                           (hi, known[k + 1].chi2), xatol)
-    else:
-        x = minimize_scalar(chi2_at, bounds=(lo, hi), method="bounded", options={"xatol": xatol}).x
-    chi2_at(x)
-    return float(x), tried[float(x)]
-
-
-def bounded_search(f, lo: tuple[float, float], mid: tuple[float, float], hi: tuple[float, float],
-                   xatol: float, maxiter: int = 500) -> float:
-    """The minimum of f in [lo, hi] by Brent's bounded method (scipy's `minimize_scalar(method=
-    "bounded")`, the same steps and stopping rule: |x - midpoint| <= 2 tol - (b - a) / 2 with tol
-    = sqrt(eps) |x| + xatol / 3) started from three points already known, (x, f(x)) each: lo
-    and hi the bracket's ends, mid between them with f(mid) at most f(lo) and f(hi) (a grid's
-    best point and its neighbours). scipy's method starts from a golden-section point and
-    evaluates no end; here the first step is the vertex of the parabola through the three points
-    (a golden-section step where that is not acceptable) and the ends count as Brent's two
-    previous points. Returns the best x evaluated (mid where none is lower)."""
-    sqrt_eps, golden_mean = np.sqrt(2.2e-16), 0.5 * (3.0 - np.sqrt(5.0))
-    a, b = lo[0], hi[0]
-    xf, fx = mid
-    (nfc, fnfc), (fulc, ffulc) = (lo, hi) if lo[1] <= hi[1] else (hi, lo)
-    e = rat = b - a  # the steps before: the bracket, so that the parabola may be taken at once
-    for _ in range(maxiter):
-        xm = 0.5 * (a + b)
-        tol1 = sqrt_eps * abs(xf) + xatol / 3.0
-        tol2 = 2.0 * tol1
-        if abs(xf - xm) <= tol2 - 0.5 * (b - a):
-            break
-        golden = True
-        if abs(e) > tol1:
-            r = (xf - nfc) * (fx - ffulc)
-            q = (xf - fulc) * (fx - fnfc)
-            p = (xf - fulc) * q - (xf - nfc) * r
-            q = 2.0 * (q - r)
-            if q > 0.0:
-                p = -p
-            q = abs(q)
-            r, e = e, rat
-            if abs(p) < abs(0.5 * q * r) and q * (a - xf) < p < q * (b - xf):
-                golden = False
-                rat = p / q
-                x = xf + rat
-                if x - a < tol2 or b - x < tol2:
-                    rat = tol1 * (np.sign(xm - xf) + (xm == xf))
-        if golden:
-            e = (a - xf) if xf >= xm else (b - xf)
-            rat = golden_mean * e
-        x = xf + (np.sign(rat) + (rat == 0)) * max(abs(rat), tol1)
-        fu = f(x)
-        if fu <= fx:
-            if x >= xf:
-                a = xf
-            else:
-                b = xf
-            fulc, ffulc, nfc, fnfc, xf, fx = nfc, fnfc, xf, fx, x, fu
-        else:
-            if x < xf:
-                a = x
-            else:
-                b = x
-            if fu <= fnfc or nfc == xf:
-                fulc, ffulc, nfc, fnfc = nfc, fnfc, x, fu
-            elif fu <= ffulc or fulc == xf or fulc == nfc:
-                fulc, ffulc = x, fu
-    return float(xf)
+    res = minimize_scalar(chi2_at, bounds=(lo, hi), method="bounded", options={"xatol": xatol})
+    chi2_at(res.x)
+    return float(res.x), tried[float(res.x)]
 
 
 def _reduced_fit(obs: Observations, cand: Candidate, grid: np.ndarray, reduced) -> Fit | None:
@@ -333,10 +262,9 @@ def _reduced_fit(obs: Observations, cand: Candidate, grid: np.ndarray, reduced) 
     bracket lies above it, on the basis, by `GRID_MARGIN` times the largest reduced-to-full
     difference seen at the points solved plus `GRID_SLACK` (the rule of `_confirmed_grid`).
     Returns the answer's fit, the full model's."""
-    on_basis = chi2_batch(obs, cand, grid, forward=reduced)
-    approx = np.array([f.chi2 for f in on_basis])
+    approx = np.array([f.chi2 for f in chi2_batch(obs, cand, grid, forward=reduced)])
     k = int(np.argmin(approx))
-    x, at_x = _refined(obs, cand, grid, k, reduced, on_basis)
+    x, at_x = _refined(obs, cand, grid, k, reduced)
     lo, hi, xatol = _bracket(grid, k)
     if at_x is None or at_x.chi2 > approx[k]:
         x, seen_x = float(grid[k]), approx[k]
