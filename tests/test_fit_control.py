@@ -1,6 +1,7 @@
-"""The fit control's shortcuts (fe_problem/diagnosis/rounds.py, fit.py) against the computation each
-replaces, on the cracked 2 x 8 frame of tests/test_reduced_basis.py (sparse path; the data hide a
-crack built as a rotational spring inside an element, not by any candidate)."""
+"""The fit control's shortcuts (fe_problem/diagnosis/rounds.py) against the computation each replaces,
+on the cracked 2 x 8 frame of tests/test_reduced_basis.py (sparse path; the data hide a crack built
+as a rotational spring inside an element, not by any candidate). A distributed class's fit on its
+spread basis against its full fit: tests/test_reduced_basis.py."""
 
 import numpy as np
 import pytest
