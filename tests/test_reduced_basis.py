@@ -171,14 +171,76 @@ def test_look_along_with_the_basis_is_the_full_look(case, kind, profile, where):
     np.testing.assert_allclose(drop, cal.base.chi2 - best.chi2, rtol=1e-10)
 
 
-def test_groups_and_trends_are_solved_in_full(case):
+def test_groups_and_trends_are_fitted_on_their_spread_basis_to_the_full_fit(case):
     """A group's or a trend's change is not held by the shared basis (reduced.py: frequencies
-    off by up to 9.6e-2): none has a reduced forward, so their fits solve every size in full
-    (their reduced screen, on a basis of their own, only ranks them: `class_promises`)."""
+    off by up to 9.6e-2): none has a reduced forward. Its fit searches on its own spread basis
+    (`Candidate.reduced_screen`, `fit._search_forward`) and one batch of full solves confirms
+    it: the classes the diagnosis fits (the 8 `class_promises` keeps) and every trend take that
+    path with at most 6 full solves (the grid has 16 sizes; solved in full, 20 to 34 with the
+    scalar search), the chi^2 and scale are the full model's at its a, and a and chi^2 are those
+    of the fit solved in full (a within the search's xatol, 1e-4 of the bracket's upper end, as
+    a local candidate's; chi^2 within 1e-6 relative)."""
     cal, _ = case
     groups = distributed_candidates(cal.setting)
     assert {d.kind for d in groups} >= {"group_stiffness_loss", "group_stiffness_gain", "stiffness_trend"}
     assert all(d.reduced is None for d in groups)
+    promises = class_promises(cal.obs, groups, cal.base, 8)
+    chosen = [i for i, _ in _kept(promises, 8)] + [i for i, d in enumerate(groups) if d.kind == "stiffness_trend"]
+    for i in dict.fromkeys(chosen):
+        c, n_full = _counted(groups[i])
+        with_basis = fit(cal.obs, c, promises[i][1])
+        assert 0 < n_full[0] <= 6, (c.label, n_full[0])
+        without = fit(cal.obs, dataclasses.replace(c, reduced_screen=None), promises[i][1])
+        assert n_full[0] - 6 > len(c.grid)  # the fit without the basis solved the grid and its search
+        full_at_a = chi2_batch(cal.obs, c, np.array([with_basis.a]))[0]
+        assert with_basis.chi2 == full_at_a.chi2 and with_basis.s == full_at_a.s
+        assert_same_fit(c, with_basis, without)
+
+
+def assert_same_fit(c, with_basis, without) -> None:
+    """a within the search's xatol (1e-4 of the bracket's upper end: the grid's first size above
+    both, or its last) and chi^2 within 1e-6 relative."""
+    grid = np.asarray(c.grid)
+    above = grid[grid > max(with_basis.a, without.a)]
+    hi = above.min() if above.size else grid[-1]
+    assert abs(with_basis.a - without.a) < 1e-4 * hi, (c.label, with_basis.a, without.a)
+    assert abs(with_basis.chi2 - without.chi2) <= 1e-6 * without.chi2, (c.label, with_basis.chi2, without.chi2)
+
+
+def storey_loss_calibration(storey: int, ratio: float):
+    """The 2 x 8 frame of `cracked_calibration` (sparse path) measured with the columns of one
+    storey (the vertical elements whose midpoint lies between its floors, 3 m apart) at `ratio`
+    of their modulus, each element's own modulus set in the model (`Element.youngs_modulus_pa`),
+    not by a candidate: its calibration."""
+    model = fp.split_elements(fp.regular_frame(2, 8, floor_mass_kg=2000.0), 3).replace(name="frame2x8")
+    columns = set()
+    for e in model.elements:
+        i, j = model.node(e.node_i), model.node(e.node_j)
+        if i.x == j.x and 3.0 * (storey - 1) < 0.5 * (i.y + j.y) < 3.0 * storey:
+            columns.add(e.id)
+    assert len(columns) == 9  # three columns, each in three elements
+    elements = tuple(dataclasses.replace(e, youngs_modulus_pa=ratio * model.materials[e.material].youngs_modulus_pa)
+                     if e.id in columns else e for e in model.elements)
+    truth = model.replace(elements=elements)
+    data = fp.synthetic_measurement(truth, 8, freq_noise=0.002, shape_noise=0.02, model_name=model.name, seed=1)
+    cal = calibrate(model, data, 0.002, 0.02)
+    assert solver_path(len(cal.setting.local.dofmap.free)) == "sparse"
+    return cal
+
+
+@pytest.mark.parametrize("storey", [1, 4])
+def test_a_storey_losing_most_of_its_stiffness_is_fitted_on_its_spread_basis_to_the_full_fit(storey):
+    """Where the spread basis is weakest (its error grows with a): a storey's columns at 0.2 of
+    their modulus, a loss of 0.8 of the class's largest 0.9. The storey's loss fitted with its
+    spread basis (`fit._search_forward`) is the fit solved in full (`assert_same_fit`; today the
+    basis's search is confirmed, with 5 full solves against 24), and it finds the loss (a within
+    0.01 of 0.8)."""
+    cal = storey_loss_calibration(storey, 0.2)
+    c = next(g for g in distributed_candidates(cal.setting) if g.label == f"group_stiffness_loss@group=storey{storey}")
+    with_basis = fit(cal.obs, c)
+    without = fit(cal.obs, dataclasses.replace(c, reduced_screen=None))
+    assert abs(without.a - 0.8) < 0.01, without.a
+    assert_same_fit(c, with_basis, without)
 
 
 #: The spread basis (`SharedBasis.spread`) against full solves at the sizes the classes are ranked

@@ -202,7 +202,8 @@ class Candidate:
     #: reduced form
     reduced: Callable[[], Callable | None] | None = None
     #: () -> the reduced forward of a change spread over many members (`SharedBasis.spread`), for
-    #: ranking the distributed classes only (`fit.class_promises`), or None where the basis does
+    #: ranking the distributed classes (`fit.class_promises`) and searching their fits
+    #: (`fit._search_forward`; the answer confirmed by full solves), or None where the basis does
     #: not apply; None: no such form
     reduced_screen: Callable[[], Callable | None] | None = None
 

@@ -195,9 +195,12 @@ def _confirmed_grid(obs: Observations, cand: Candidate, grid: np.ndarray, pairin
     best point outside the bracket and the best local minimum outside it (the reduced grid's
     runner-up, where a minimum it misjudged would show). Confirmed when the best point is the
     lowest of them in full and every point outside the bracket lies above it by `GRID_MARGIN`
-    times the largest difference seen plus `GRID_SLACK`. Only local changes have a reduced
-    forward (their frequencies within 1e-6 of full solves over every grid, reduced.py), so
-    the rule guards against a surprise, not against a known error."""
+    times the largest difference seen plus `GRID_SLACK`. Used for local changes (`look_along`),
+    whose reduced forward holds frequencies within 1e-6 of full solves over every grid
+    (reduced.py). `_reduced_fit` applies the same rule to a distributed class's spread basis,
+    whose error is known and grows with a (a trend's frequencies off by 0.1 at its largest
+    size): there the rule rests on the error measured at the points it solves, not on a bound
+    over the grid."""
     reduced = reduced_forward(cand)
     if reduced is None:
         return None
@@ -249,7 +252,8 @@ def _refined(obs: Observations, cand: Candidate, grid: np.ndarray, k: int, forwa
 
 
 def _reduced_fit(obs: Observations, cand: Candidate, grid: np.ndarray, reduced) -> Fit | None:
-    """`fit` on the shared basis, confirmed by one batch of full solves, or None where they do
+    """`fit` on a reduced forward (`_search_forward`: the shared basis, or a distributed class's
+    spread basis), confirmed by one batch of full solves (at most six), or None where they do
     not confirm it (then `fit` solves the grid in full). The grid and the scalar search run on
     the reduced forward; the answer x is the search's, or the grid's best point grid[k] where
     that is lower on the basis. None at once where x lies within xatol of a bracket end that is
@@ -294,14 +298,29 @@ def _reduced_fit(obs: Observations, cand: Candidate, grid: np.ndarray, reduced) 
     return None
 
 
+def _search_forward(cand: Candidate):
+    """The reduced forward `fit` searches on: the candidate's own (`reduced_forward`: a local
+    change on the shared basis), else its reduced screen (a group's or a trend's change on its
+    spread basis, `SharedBasis.spread`), else None. The spread basis holds the paired modes'
+    frequencies within 2.1e-5 relative where the classes are ranked and worse as a grows (a
+    trend's off by 0.1 at its largest size); `_reduced_fit`'s full solves confirm the search,
+    its margin measured at the points they solve only, or send it to full solves of the grid,
+    so a class's fit is still the full model's at its a."""
+    reduced = reduced_forward(cand)
+    if reduced is None and cand.reduced_screen is not None:
+        reduced = cand.reduced_screen()
+    return reduced
+
+
 def fit(obs: Observations, cand: Candidate, a_hint: float | None = None) -> Fit:
     """The best a in [0, upper]: a batched grid (plus the screening hint), then a bounded scalar
     refinement in the bracket around the best grid point. Where the candidate has a reduced
-    forward, grid and refinement run on the shared basis and one batch of full solves confirms
-    them (`_reduced_fit`), else (or where they do not confirm it) both are solved with the
-    candidate's own system: the Fit returned (a, s, chi^2, residuals) is always the full model's."""
+    forward (`_search_forward`: its own, or a distributed class's spread basis), grid and
+    refinement run on it and one batch of full solves confirms them (`_reduced_fit`), else (or
+    where they do not confirm it) both are solved with the candidate's own system: the Fit
+    returned (a, s, chi^2, residuals) is always the full model's."""
     grid = np.unique(np.concatenate([cand.grid, [] if a_hint is None else [a_hint]]))
-    reduced = reduced_forward(cand)
+    reduced = _search_forward(cand)
     if reduced is not None:
         confirmed = _reduced_fit(obs, cand, grid, reduced)
         if confirmed is not None:

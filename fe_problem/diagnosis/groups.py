@@ -15,12 +15,19 @@ elements:
   of the global scale.
 
 The candidates are built on one affine system with every element's modulus a parameter, so a
-class's sizes are solved in one batched eigen-solve (`Candidate.forward`), always in full: on the
-shared reduced basis (reduced.py) a group's or a trend's frequencies were off by up to 9.6e-2
-relative and its chi^2 by up to 3.6e4 (tests/test_reduced_basis.py's frame), so none has a
-reduced forward. Only their ranking (which `core.N_DISTRIBUTED_FIT` classes are fitted) runs on a
-basis of each class's own change (`Candidate.reduced_screen`, `SharedBasis.spread`), and the best
-of that ranking are solved in full to confirm it (`fit.class_promises`). They are scored beside
+class's sizes are solved in full in one batched eigen-solve (`Candidate.forward`). On the shared
+reduced basis (reduced.py) a group's or a trend's frequencies were off by up to 9.6e-2 relative
+and its chi^2 by up to 3.6e4 (tests/test_reduced_basis.py's frame), so none has a reduced
+forward (`Candidate.reduced`). Each has a basis of its own change instead (`Candidate.reduced_screen`,
+`SharedBasis.spread`), whose error is small where the classes are ranked and grows with a (a
+trend's frequencies off by 0.1 at its largest size). Their ranking (which `core.N_DISTRIBUTED_FIT`
+classes are fitted) runs on it, the best solved in full to confirm it (`fit.class_promises`);
+the fit of each class kept searches on it too (`fit._search_forward`: grid and scalar search),
+and `fit._reduced_fit`'s batch of at most six full solves confirms the search or the grid is
+solved in full. That confirmation measures the basis's error at the points it solves only, not
+over the grid: the answer (a, s, chi^2) is the full model's at its a, and tests compare it with
+the fit solved in full (tests/test_reduced_basis.py, a storey at 0.2 of its modulus among them).
+They are scored beside
 the local classes by their evidence (evidence.py); they do not enter the likelihood-ratio search
 for local causes.
 """

@@ -21,10 +21,13 @@ for a local change of stiffness up to half its largest size, within 1e-6 over ev
 (a mass of half the model's at one node: 3e-7). A change spread over many members is not held:
 with R = dK Phi (a group's or a trend's moduli, the basis of a first version) the frequencies
 were off by up to 4.5e-2 relative for a column line losing 0.9 of its modulus, 9.6e-2 for a
-trend, and chi^2 by up to 3.6e4 away from the grid's best point, so those candidates are
-solved in full (groups.py); a basis of the change's own series (`SharedBasis.spread`: powers of
-A0^-1 dK applied to the modes) holds them well enough to rank them (the best ranked are solved
-in full, `fit.class_promises`), not to fit them. Even for a local change the basis serves the
+trend, and chi^2 by up to 3.6e4 away from the grid's best point, so those candidates have no
+reduced forward on this basis (groups.py). A basis of the change's own series
+(`SharedBasis.spread`: powers of A0^-1 dK applied to the modes) holds them far better where they
+are ranked and worse as a grows (a trend's frequencies off by 0.1 at its largest size): they are
+ranked on it (the best ranked solved in full, `fit.class_promises`) and their fits search on it
+(`fit._search_forward`), confirmed like a local change's below, at the points solved only. Even
+for a local change the basis serves the
 search only: `fit._reduced_fit` solves the search's answer, the grid's best point, the answer
 -+ twice the search's tolerance and the best points outside the grid's bracket in full and
 falls back to the full grid unless they confirm it (`fit._confirmed_grid`, for
@@ -162,8 +165,9 @@ class SharedBasis:
     def spread(self, dk: sp.spmatrix):
         """The reduced forward of a change spread over many members, K0 + a dk with M unchanged
         (dk: n_free x n_free on the model's free DOFs; a group's or a trend's moduli), for the
-        ranking of those classes only (`fit.class_promises`: the classes kept are solved in
-        full). Basis: [Phi, (A0^-1 dk) Phi_k, (A0^-1 dk)^2 Phi_k, ..., (A0^-1 M0) A0^-1 dk Phi_k]
+        ranking of those classes (`fit.class_promises`: the classes kept are solved in full)
+        and the search of their fits (`fit._search_forward`: its answer confirmed by full solves
+        at the points `fit._reduced_fit` checks, else the grid solved in full). Basis: [Phi, (A0^-1 dk) Phi_k, (A0^-1 dk)^2 Phi_k, ..., (A0^-1 M0) A0^-1 dk Phi_k]
         (`SPREAD_POWERS` powers of A0^-1 dk; Phi_k the `n_modes` lowest modes, Phi those and
         `SPREAD_EXTRA_MODES` more), the Krylov space of the change's own series rather than of
         the frequency alone (R = dk Phi with powers of A0^-1 M0 alone, the first version, was

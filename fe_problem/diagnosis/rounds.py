@@ -26,6 +26,8 @@ brings a mode is chosen by its joint refit with the others (`joint.choose_bringi
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import dataclasses
 from dataclasses import dataclass
 
@@ -68,9 +70,50 @@ class Step:
     ties: tuple[str, ...] = ()
 
 
+#: The first round's candidates of the diagnosis under way in this context (thread or task): the
+#: setting they were built in, and label -> candidate for the uniform (not weak zone) ones, filled
+#: on the first look-up (15,566 at 3,024 DOFs); None outside `further_causes` (`_listed`).
+_LISTED: contextvars.ContextVar[tuple[Setting, list[Candidate], dict[str, Candidate]] | None] = (
+    contextvars.ContextVar("femu_diagnosis_listed", default=None))
+
+
+@contextlib.contextmanager
+def _listed(setting: Setting, candidates: list[Candidate]):
+    """While the rounds run, `_candidate_on` of a uniform (not a weak zone) label in `setting`
+    itself (its model, coordinates, mode count and nominal model: one cause, its size refitted:
+    `_joint_refit`, `_finish`) gives the first round's own candidate: the same setting and label
+    build the same candidate, and that one keeps its solved sizes and its setting's shared basis
+    (built once more per refit before). The listing belongs to this context only (a ContextVar),
+    so diagnoses run at once in other threads never see it."""
+    token = _LISTED.set((setting, candidates, {}))
+    try:
+        yield
+    finally:
+        _LISTED.reset(token)
+
+
+def _listed_candidate(model: FrameModel, st: Setting, label: str) -> Candidate | None:
+    """The first round's candidate `label` where the listing's setting is the one `_candidate_on`
+    would build (`model`, `st`'s coordinates, mode count and nominal model), else None."""
+    listed = _LISTED.get()
+    if listed is None or _zone_centre(label) is not None:
+        return None
+    setting, candidates, by_label = listed
+    if not (setting.model is model and setting.coords == st.coords and setting.n_modes == st.n_modes
+            and setting.nominal is st.nominal):
+        return None
+    if not by_label:
+        by_label.update((c.label, c) for c in candidates if _zone_centre(c.label) is None)
+    return by_label.get(label)
+
+
 def _candidate_on(model: FrameModel, st: Setting, kind: str, label: str) -> Candidate:
-    """The candidate `label` of `kind`, rebuilt on `model` (the others' effects included); a
-    weak zone at any position (a refined one too) from the centre its label gives."""
+    """The candidate `label` of `kind`, rebuilt on `model` (the others' effects included), or the
+    first round's where it was built in the same setting (`_listed`); a weak zone at any
+    position (a refined one too) from the centre its label gives."""
+    listed = _listed_candidate(model, st, label)
+    if listed is not None:
+        return listed
     setting = Setting(model, st.coords, st.n_modes, st.nominal)
     centre = _zone_centre(label)
     if centre is not None:
@@ -101,6 +144,12 @@ def _with(base: FrameModel, st: Setting, picks: list[tuple[str, str]], sizes: li
 
 def further_causes(cal, found, sel, cause: Cause, kinds, n_fit, alpha: float, max_causes: int) -> Rounds:
     """Add causes one by one after the first (see the module docstring)."""
+    with _listed(cal.setting, found.candidates):
+        return _further_causes(cal, found, sel, cause, kinds, n_fit, alpha, max_causes)
+
+
+def _further_causes(cal, found, sel, cause: Cause, kinds, n_fit, alpha: float, max_causes: int) -> Rounds:
+    """`further_causes` with the first round's candidates listed (`_listed`)."""
     from .core import gain
 
     st = cal.setting
