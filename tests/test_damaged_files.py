@@ -301,10 +301,11 @@ FRF_DAMAGE = [  # (maker, damage, fragment)
     (_csv, "latin-1", "not UTF-8 text"), (_csv, "header only", "no frequency lines after the header"),
     (_csv, "model the root", "field 'model' '/': /: is a directory"), (_csv, "node a word", "node 'one' is not"),
     (_csv, "reference a word", "bad '# reference: five x'"), (_csv, "a ragged row", "fields, but the header has 31"),
-    (_csv, "1e400", "not a finite number"),
+    (_csv, "1e400", "'1e400' is not a finite number"),
 ]
 
 
+@pytest.mark.filterwarnings("error::RuntimeWarning")  # the error, not a numpy warning before it
 @pytest.mark.parametrize("maker,damage,says", FRF_DAMAGE, ids=[f"{m.__name__[1:]} {d}" for m, d, _ in FRF_DAMAGE])
 def test_a_damaged_frf_file_is_an_frf_file_error_and_one_line(frf, tmp_path, capsys, maker, damage, says):
     f = maker(frf, tmp_path, damage)

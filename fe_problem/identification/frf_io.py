@@ -427,6 +427,9 @@ def read_csv(path: str | Path) -> FRFSet:
         except ValueError:
             bad = next(v for v in fields if not _is_number(v))
             raise FRFFileError(f"{path}: line {number}: {bad.strip()!r} is not a number") from None
+        if not np.all(np.isfinite(table[r])):  # 'inf', 'nan' or a number beyond a float: 1e400
+            bad = fields[int(np.flatnonzero(~np.isfinite(table[r]))[0])]
+            raise FRFFileError(f"{path}: line {number}: {bad.strip()!r} is not a finite number")
     scale = ordinate_factor(meta.get("units", ""), form, f"{path}: '# units:'", FRFFileError)
     model = meta.get("model")
     return _checked(FRFSet(table[:, 0], scale * (table[:, 1::2] + 1j * table[:, 2::2]).T, tuple(coords),
