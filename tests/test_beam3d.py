@@ -235,7 +235,9 @@ def opensees_modes(frame: Frame, timoshenko: bool, n_modes: int = N_MODES, map_t
     shapes = np.array([[ops.nodeEigenvector(nid, k + 1, d + 1) for k in range(n_modes)]
                        for nid in ids for d in range(6)])
     ops.wipe()
-    return np.sqrt(lam) / (2 * np.pi), shapes
+    # a complex eigenvalue (a massless released rotation) comes back as minus its magnitude: NaN Hz
+    with np.errstate(invalid="ignore"):
+        return np.sqrt(lam) / (2 * np.pi), shapes
 
 
 def opensees_modes_fresh(frame: Frame, timoshenko: bool, n_modes: int = N_MODES, **options):
