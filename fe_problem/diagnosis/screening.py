@@ -163,13 +163,13 @@ def _adjoint(k0, m0, lam: float, phi: np.ndarray, c_t: np.ndarray, ldlt: bool = 
     not on the order: SuperLU's pivoted LU when that error exceeds `ADJOINT_BACKWARD_TOL`, and
     without `ldlt` or scikit-sparse."""
     n = k0.shape[0]
-    a = k0 - lam * m0
     b = m0 @ phi
+    col = sp.csc_matrix(b[:, None])
+    bordered = sp.bmat([[k0 - lam * m0, col], [col.T, None]], format="csc")
     if ldlt and _cholmod is not None and n >= 2:
-        out = _adjoint_ldlt(a, b, phi, c_t)
+        out = _adjoint_ldlt(bordered, b, phi, c_t)
         if out is not None:
             return out
-    bordered = sp.bmat([[a, sp.csc_matrix(b[:, None])], [sp.csc_matrix(b[None, :]), None]], format="csc")
     rhs = c_t - np.outer(b, phi @ c_t)   # P C^T: the part M-orthogonal to phi
     sol = splu(bordered).solve(np.vstack([rhs, np.zeros((1, rhs.shape[1]))]))
     out = sol.copy()
@@ -187,9 +187,9 @@ def _bordered_order(bordered, phi: np.ndarray) -> np.ndarray:
     return np.concatenate([order[(order != q) & (order != n)], [n, q]])
 
 
-def _adjoint_ldlt(a, b: np.ndarray, phi: np.ndarray, c_t: np.ndarray):
-    """The solve of `_adjoint` by CHOLMOD's simplicial L D L^T of the bordered matrix B (a: K - lam
-    M, CSC; b: M phi), or None when its backward error in any row and column exceeds
+def _adjoint_ldlt(bordered, b: np.ndarray, phi: np.ndarray, c_t: np.ndarray):
+    """The solve of `_adjoint` by CHOLMOD's simplicial L D L^T of the bordered matrix B
+    (`bordered`, CSC, as `_adjoint` builds it; b: M phi), or None when its backward error in any row and column exceeds
     `ADJOINT_BACKWARD_TOL`.
 
     L D L^T does not pivot. The order (`_bordered_order`) keeps the last two pivots away from
@@ -208,8 +208,6 @@ def _adjoint_ldlt(a, b: np.ndarray, phi: np.ndarray, c_t: np.ndarray):
     The right-hand sides P C^T = C^T - b (phi^T C^T) are built in that order, column-major as
     CHOLMOD takes them: -b (phi^T C^T) plus C^T's nonzeros, the same values as `_adjoint`'s."""
     n, n_coord = c_t.shape
-    col = sp.csc_matrix(b[:, None])
-    bordered = sp.bmat([[a, col], [col.T, None]], format="csc")
     perm = _bordered_order(bordered, phi)
     where = np.empty(n + 1, dtype=np.int64)
     where[perm] = np.arange(n + 1)
@@ -393,9 +391,8 @@ def bounded_linear_fit(r0: np.ndarray, jac: np.ndarray) -> np.ndarray:
     interior method, leaves a pinned modulus 1e-8 to 1e-4 inside its bound and was slower
     wherever bounds are active (a 3,024-DOF frame's 1,176 moduli, its misfit tripled so that 16
     are at a bound: bvls 0.96 s, trf 4.1 s CPU; as measured, none at a bound: 0.53 s and 0.13 s)."""
-    from scipy.optimize import lsq_linear
-
     from scipy.linalg import solve_triangular
+    from scipy.optimize import lsq_linear
 
     n = jac.shape[1]
     # ||c + r (z - 1/2)|| = ||[r0 + jac (z - 1/2); 2 (z - 1/2)]||: data and prior rows at once
