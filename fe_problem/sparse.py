@@ -158,12 +158,18 @@ def _to_front(kept: list, entry: tuple) -> None:
         kept[:] = ([entry] + [e for e in kept if e is not entry])[:_KEEP_PATTERNS]
 
 
+def _same_pattern(indptr: np.ndarray, cols: np.ndarray, other_indptr: np.ndarray, other_cols: np.ndarray) -> bool:
+    """Whether two CSC patterns (indptr, row indices) are the same (the same arrays, or equal)."""
+    return ((indptr is other_indptr or np.array_equal(indptr, other_indptr))
+            and (cols is other_cols or np.array_equal(cols, other_cols)))
+
+
 def _pattern(keys: np.ndarray, n: int):
     """((lin, rows, cols, indptr), slot) of the entries keys = row * n + col (n x n): lin the
     sorted distinct keys, their rows and columns, the CSR row pointer, and each key's position
     in lin; `np.unique(keys, return_inverse=True)`'s, from a kept pattern (`_PATTERNS`) when
     the keys fill exactly its entries (checked: every key found, every entry hit)."""
-    for entry in _PATTERNS[:2]:  # a copy: read once
+    for entry in list(_PATTERNS):  # a copy: read once
         m, lin, *arrays = entry
         if m != n or len(keys) < len(lin):
             continue
@@ -247,8 +253,7 @@ class SparseModalSolver:
         model itself: its count's eigen-solve would find the same eigenvalues to rounding)."""
         if other is None or other.n_params or other.n_free != self.n_free or other.n_rigid >= self.n_free:
             return False
-        if not ((other.indptr is self.indptr or np.array_equal(other.indptr, self.indptr))
-                and (other.cols is self.cols or np.array_equal(other.cols, self.cols))):
+        if not _same_pattern(other.indptr, other.cols, self.indptr, self.cols):
             return False
         for mine, theirs in ((self.k_data(x0), other.k_data0), (self.m_data(x0), other.m_data0)):
             if np.abs(mine - theirs).max() > self.SAME_AT_X0 * np.abs(theirs).max():
@@ -289,8 +294,7 @@ class SparseModalSolver:
         the factor), once per model and process: it is not pickled, a worker makes its own."""
         if self._symbolic is None:
             for entry in list(_ANALYSES):  # the same pattern analysed before in this process: the same analysis
-                if (entry[0] is self.indptr or np.array_equal(entry[0], self.indptr)) and \
-                        (entry[1] is self.cols or np.array_equal(entry[1], self.cols)):
+                if _same_pattern(entry[0], entry[1], self.indptr, self.cols):
                     self._symbolic = entry[2]
                     break
             else:

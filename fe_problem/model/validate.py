@@ -330,7 +330,7 @@ def _validate_nodal(m: FrameModel, base: FrameModel | None = None) -> None:
     if fresh("measured_dofs"):
         for i, dof in enumerate(m.measured_dofs):
             _check_dof(m, dof, f"{src}: measured_dofs[{i}]")
-    if fresh("measured_dofs") and len(set(m.measured_dofs)) != len(m.measured_dofs):
-        raise ModelFileError(f"{src}: 'measured_dofs' lists a DOF twice")
+        if len(set(m.measured_dofs)) != len(m.measured_dofs):
+            raise ModelFileError(f"{src}: 'measured_dofs' lists a DOF twice")
     if m.excitation is not None:
         _check_dof(m, m.excitation, f"{src}: excitation")
