@@ -28,11 +28,13 @@ PROFILES = {"uniform": (1.0, 1.0, 1.0), "toward_i": (1.0, 0.5, 0.0), "toward_j":
             "middle": (0.0, 1.0, 0.0)}
 
 
-def _groups(model: FrameModel):
-    """(formulation, positions in model.elements, elements) for each formulation used."""
-    for name in dict.fromkeys(e.formulation for e in model.elements):
-        rows = [k for k, e in enumerate(model.elements) if e.formulation == name]
-        yield formulation(name, model.layout), rows, [model.elements[k] for k in rows]
+def _groups(model: FrameModel, rows=None):
+    """(formulation, positions, elements) for each formulation used, in first-seen order, among
+    the elements at positions `rows` of model.elements (default: all); positions within `rows`."""
+    elements = model.elements if rows is None else [model.elements[r] for r in rows]
+    for name in dict.fromkeys(e.formulation for e in elements):
+        at = [j for j, e in enumerate(elements) if e.formulation == name]
+        yield formulation(name, model.layout), at, [elements[j] for j in at]
 
 
 #: The element matrices of the last few models built, most recent first: (nodes, elements,
@@ -61,11 +63,8 @@ def element_blocks(model: FrameModel, rows) -> tuple[np.ndarray, np.ndarray]:
     formulation, in first-seen order. The one place element matrices are computed from their
     formulations (`element_matrices` of all or of the elements not kept; an edited system's)."""
     k_dof = 2 * model.layout.per_node
-    elements = [model.elements[r] for r in rows]
-    k, m = np.zeros((len(elements), k_dof, k_dof)), np.zeros((len(elements), k_dof, k_dof))
-    for name in dict.fromkeys(e.formulation for e in elements):
-        at = [j for j, e in enumerate(elements) if e.formulation == name]
-        form, els = formulation(name, model.layout), [elements[j] for j in at]
+    k, m = np.zeros((len(rows), k_dof, k_dof)), np.zeros((len(rows), k_dof, k_dof))
+    for form, at, els in _groups(model, rows):
         k[at], m[at] = form.stiffness(model, els), form.mass(model, els)
     return k, m
 
