@@ -14,6 +14,7 @@ import numpy as np
 
 from . import frame2d  # noqa: F401  (registers the planar formulations)
 from . import frame3d  # noqa: F401  (registers the space frame formulations)
+from . import lumped  # noqa: F401  (registers their lumped-mass variants, "<name>-lumped")
 from .base import ElementFormulation, formulation, formulations, register
 
 if TYPE_CHECKING:

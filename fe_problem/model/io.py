@@ -22,7 +22,7 @@ MODEL_SUFFIX = ".model.json"
 #: otherwise leave a free-free structure without a word)
 KEYS = {
     "model": ("format", "name", "dimension", "description", "materials", "sections", "nodes", "elements", "masses",
-              "springs", "supports", "measured_dofs", "excitation"),
+              "springs", "supports", "measured_dofs", "excitation", "meta"),
     "node": ("id", "x", "y", "z"),
     "element": ("id", "nodes", "section", "material", "formulation", "release_i", "release_j", "youngs_modulus_pa",
                 "crack_position", "crack_stiffness", "weak_zone", "orientation", "releases_i", "releases_j"),
@@ -169,11 +169,14 @@ def model_from_dict(d: dict, source: str = "<memory>") -> FrameModel:
     name = d.get("name", Path(source).stem)
     if not isinstance(name, str) or not name.strip():
         raise ModelFileError(f"{source}: field 'name' must be a non-empty string, got {shown(name)}")
+    meta = d.get("meta", {})
+    if not isinstance(meta, dict):
+        raise ModelFileError(f"{source}: field 'meta' must be an object, got {shown(meta)}")
     return FrameModel(
         name=name, nodes=tuple(nodes), materials=materials, sections=sections,
         elements=tuple(elements), masses=tuple(masses), springs=tuple(springs), supports=tuple(supports),
         measured_dofs=measured, excitation=_dof(exc, f"{source}: excitation") if exc is not None else None,
-        description=str(d.get("description", "")), source=source, layout=layout)
+        description=str(d.get("description", "")), source=source, layout=layout, meta=meta)
 
 
 def _vector(v, where: str):
@@ -253,6 +256,7 @@ def model_to_dict(model: FrameModel) -> dict:
     head: dict[str, Any] = {"format": MODEL_FORMAT, "name": model.name}
     if space:
         head["dimension"] = 3
+    tail = {"meta": model.meta} if model.meta else {}
     return {
         **head,
         "description": model.description,
@@ -267,6 +271,7 @@ def model_to_dict(model: FrameModel) -> dict:
         "supports": [{"node": s.node, "directions": list(s.directions)} for s in model.supports],
         "measured_dofs": [list(d) for d in model.measured_dofs],
         "excitation": list(model.excitation) if model.excitation else None,
+        **tail,
     }
 
 

@@ -180,6 +180,9 @@ class FrameModel:
     description: str = ""
     source: str = field(default="<memory>", compare=False)
     layout: DofLayout = field(default=DEFAULT_LAYOUT, repr=False)
+    #: Where the model came from and how it was read (a JSON object, kept as it is: an imported
+    #: model's ``"import"`` record, fe_problem/model/nastran.py and opensees.py); no physics.
+    meta: dict = field(default_factory=dict, compare=False, repr=False)
 
     def __post_init__(self) -> None:
         validate(self, _REPLACING.get())
