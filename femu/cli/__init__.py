@@ -11,17 +11,19 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import keyword
 import os
 import sys
 import warnings
 
 #: The commands, in the order `femu --help` lists them: each is the module femu.cli.<name>.
-COMMANDS = ("model", "suite", "optimizers", "study", "results", "report", "reproduce", "diagnose", "identify")
+COMMANDS = ("model", "suite", "optimizers", "study", "results", "report", "reproduce", "diagnose", "identify",
+            "import", "export")
 
 
 def _module(name: str):
-    """The module of command `name`."""
-    return importlib.import_module(f"femu.cli.{name}")
+    """The module of command `name` (a Python keyword's with a trailing _: import_.py)."""
+    return importlib.import_module(f"femu.cli.{name}{'_' if keyword.iskeyword(name) else ''}")
 
 
 class HelpFormatter(argparse.RawDescriptionHelpFormatter):
