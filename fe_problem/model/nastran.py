@@ -152,8 +152,34 @@ def _has_begin_bulk(path: Path) -> bool:
         return False
 
 
-def _refuse_unknown(path: Path, bdf) -> None:
-    counts = {k: v for k, v in bdf.card_count.items() if k not in CARDS}
+def _scanned(path: Path) -> dict[str, int]:
+    """{card name: count} of the bulk data of `path` itself (before pyNastran parses the cards:
+    a card femu does not read is refused as such, not by what pyNastran makes of it)."""
+    try:
+        lines = path.read_text(errors="replace").splitlines()
+    except OSError:
+        return {}
+    begin = [k for k, line in enumerate(lines) if line.upper().startswith("BEGIN")]
+    counts: dict[str, int] = {}
+    for line in lines[begin[0] + 1 if begin else 0:]:
+        if not line.strip() or line[0] in "$+* \t,":
+            continue
+        name = _fields(line)[0]
+        if name == "ENDDATA":
+            break
+        if name.isidentifier():
+            counts[name] = counts.get(name, 0) + 1
+    return counts
+
+
+def _refuse_unknown(path: Path, bdf=None) -> None:
+    """One line listing the card types femu does not read and their counts, if any."""
+    counts = {k: v for k, v in _scanned(path).items() if k not in CARDS and k != "INCLUDE"}
+    if bdf is None:
+        if counts:
+            _refuse_counts(path, counts)
+        return
+    counts.update({k: v for k, v in bdf.card_count.items() if k not in CARDS})
     rejects = {k: len(v) for k, v in bdf.reject_cards.items()} if isinstance(getattr(bdf, "reject_cards", None), dict) \
         else {}
     for card in getattr(bdf, "reject_cards", []) or []:
@@ -161,6 +187,11 @@ def _refuse_unknown(path: Path, bdf) -> None:
             name = str(card[0]).split(",")[0].strip().upper().rstrip("*")
             rejects[name] = rejects.get(name, 0) + 1
     counts.update({k: v for k, v in rejects.items() if k not in CARDS})
+    if counts:
+        _refuse_counts(path, counts)
+
+
+def _refuse_counts(path: Path, counts: dict) -> None:
     if counts:
         listed = ", ".join(f"{k} x{v}" for k, v in sorted(counts.items()))
         raise NastranFileError(f"{path}: cards femu's frames cannot represent: {listed}; give such a structure as "
@@ -579,6 +610,7 @@ def read_bdf(path: str | Path, units: str = "SI", mass: str = "deck", name: str 
         raise NastranFileError(f"units {units!r}: expected one of {', '.join(UNITS)}")
     if mass not in ("deck", "lumped", "consistent"):
         raise NastranFileError(f"mass {mass!r}: expected deck, lumped or consistent")
+    _refuse_unknown(path)
     bdf = _read(path)
     _refuse_unknown(path, bdf)
     _check_refs(path, bdf)
@@ -691,3 +723,182 @@ def write_bdf(model: FrameModel, path: str | Path, units: str = "SI") -> Path:
     spc = "SPC = 1\n" if model.supports else ""
     path.write_text(_EXECUTIVE.format(title=model.name[:60], spc=spc) + buf.getvalue())
     return path
+
+
+def _same(a: float, b: float) -> bool:
+    return a == b or abs(a - b) <= 1e-13 * max(abs(a), abs(b))
+
+
+def write_like(model: FrameModel, source: str | Path, out_path: str | Path) -> Path:
+    """Write the deck `source` again as `out_path` with `model`'s values, every other card as
+    it was: `model` is `read_bdf(source)` with changed values (an updated model; its
+    ``meta["import"]`` gives the units, WTMASS and which card each name stands for).
+
+    Written back: MAT1 E, G, RHO (a material whose elements now have different moduli is
+    copied, one MAT1 and one property per modulus, and their CBAR/CBEAM point to the copies);
+    PBAR A, I1, I2, J and PBEAM A, I1, I2, J (every station); CONM2 mass and inertias (a node's
+    mass from one CONM2); CELAS2 K, PELAS K. A change with no card to hold it (a moved node, an
+    added element, a changed PBARL, support or rod) is refused naming it."""
+    source = Path(source)
+    rec = model.meta.get("import", {})
+    if rec.get("format") != "nastran":
+        raise NastranFileError(f"{model.source}: the model was not imported from a Nastran deck (meta 'import')")
+    units = UNITS[rec.get("units", "SI")]
+    original = read_bdf(source, units=rec.get("units", "SI"), mass=rec.get("mass", "deck"))
+    bdf = _read(source)
+    names = rec.get("names", {})
+    where = f"{model.source}: written like {source}"
+
+    def refuse(what):
+        raise NastranFileError(f"{where}: {what} has no card to hold the change; write the model with "
+                               "`femu export --to bdf` without --like")
+
+    if original.layout != model.layout or [(n.id, n.x, n.y, n.z) for n in original.nodes] != \
+            [(n.id, n.x, n.y, n.z) for n in model.nodes]:
+        refuse("the nodes differ from the deck's: a moved, added or removed node")
+    if [(e.id, e.node_i, e.node_j, e.formulation, e.orientation, model.end_releases(e)) for e in model.elements] != \
+            [(e.id, e.node_i, e.node_j, e.formulation, e.orientation, original.end_releases(e))
+             for e in original.elements]:
+        refuse("the elements (ids, nodes, formulation, orientation, releases) differ from the deck's")
+    if any(e.crack_position is not None or e.weak_zone is not None for e in model.elements):
+        refuse("a crack or weak zone")
+    if set(map(tuple, [(s.node, s.directions) for s in model.supports])) != \
+            set(map(tuple, [(s.node, s.directions) for s in original.supports])):
+        refuse("the supports")
+    P, D = units.scale("pressure"), units.scale("density") * rec.get("wtmass", 1.0)
+    # materials: E, G, RHO; an element's own modulus moves its MAT1 (all its elements alike) or a copy
+    for name, mat in model.materials.items():
+        ref = names.get("materials", {}).get(name)
+        old = original.materials.get(name)
+        if ref is None or old is None:
+            refuse(f"material {name!r}")
+        if old != mat:
+            card = bdf.materials[ref["id"]]
+            card.e, card.g = mat.youngs_modulus_pa / P, mat.shear_modulus / P
+            card.nu, card.rho = mat.poisson_ratio, mat.density_kg_m3 / D
+    _write_moduli(model, bdf, names, P, refuse)
+    A_, I4 = units.scale("area"), units.scale("inertia")
+    for name, sec in model.sections.items():
+        ref, old = names.get("sections", {}).get(name), original.sections.get(name)
+        if ref is None or old is None:
+            refuse(f"section {name!r}")
+        if old == sec:
+            continue
+        card = bdf.properties[ref["id"]]
+        if card.type not in ("PBAR", "PBEAM"):
+            refuse(f"section {name!r} ({card.type} {card.pid}: its dimensions, not its properties)")
+        if model.layout is PLANAR_FRAME:
+            values = {"A": sec.area_m2 / A_, ("i1" if ref["inertia"] == "I1" else "i2"): sec.inertia_m4 / I4}
+        else:
+            values = {"A": sec.area_m2 / A_, "i1": sec.iz_m4 / I4, "i2": sec.iy_m4 / I4, "j": sec.j_m4 / I4}
+        if sec.shear_coefficient != old.shear_coefficient:
+            refuse(f"section {name!r}'s shear coefficient")
+        for key, value in values.items():
+            if card.type == "PBEAM":
+                setattr(card, key, [value] * len(getattr(card, key)))
+            else:
+                setattr(card, key, value)
+    _write_masses(model, original, bdf, rec, units, refuse)
+    old_springs = {s.id: s for s in original.springs}
+    for s in model.springs:
+        o = old_springs.get(s.id)
+        if o is None or (o.dof_a, o.dof_b) != (s.dof_a, s.dof_b):
+            refuse(f"spring {s.id} (added or moved)")
+        if _same(o.stiffness, s.stiffness):
+            continue
+        ref = names["springs"][str(s.id)]
+        value = s.stiffness / units.scale("rotational_spring" if s.dof_a[1].startswith("r") else "spring")
+        if ref["card"] == "CELAS2":
+            bdf.elements[ref["id"]].k = value
+        elif ref["card"] == "CELAS1":
+            users = [r["id"] for r in names["springs"].values() if r.get("pid") == ref["pid"]]
+            if len({model_spring.stiffness for model_spring in model.springs if model_spring.id in users}) > 1:
+                refuse(f"spring {s.id} (its PELAS {ref['pid']} is shared by springs now of different stiffness)")
+            bdf.properties[ref["pid"]].k = value
+        else:
+            refuse(f"spring {s.id} (from a rod)")
+    if len(model.springs) != len(original.springs):
+        refuse("the springs (one removed)")
+    out_path = Path(out_path)
+    with contextlib.redirect_stdout(io.StringIO()):
+        bdf.write_bdf(str(out_path), size=16, is_double=True, enddata=True)
+    return out_path
+
+
+def _write_moduli(model, bdf, names, P, refuse) -> None:
+    """Elements with their own modulus: their MAT1 takes it when every element of the material
+    has the same one (G scaled alike), else a copy of MAT1 and property per modulus."""
+    by_material: dict[str, dict[float, list]] = {}
+    for e in model.elements:
+        by_material.setdefault(e.material, {}).setdefault(model.element_modulus_pa(e.id), []).append(e)
+    rods = {r["id"] for r in names.get("springs", {}).values() if r["card"] in ("CROD", "CONROD")}
+    next_mid = max(bdf.materials) + 1
+    next_pid = max(bdf.properties) + 1
+    for name, groups in by_material.items():
+        mat = model.materials[name]
+        if list(groups) == [mat.youngs_modulus_pa]:
+            continue
+        mid = names["materials"][name]["id"]
+        card = bdf.materials[mid]
+        ratio = card.g / card.e if card.g else None
+        if len(groups) == 1 and not rods:
+            (modulus,) = groups
+            card.e = modulus / P
+            if ratio is not None:
+                card.g = ratio * card.e
+            continue
+        for modulus, elements in groups.items():
+            if modulus == mat.youngs_modulus_pa:
+                continue
+            copy = _copy_card(bdf, card, next_mid)
+            copy.e = modulus / P
+            if ratio is not None:
+                copy.g = ratio * copy.e
+            props: dict[int, int] = {}
+            for e in elements:
+                nastran = bdf.elements[e.id]
+                if nastran.pid not in props:
+                    prop = _copy_card(bdf, bdf.properties[nastran.pid], next_pid)
+                    prop.mid = next_mid
+                    props[nastran.pid] = next_pid
+                    next_pid += 1
+                nastran.pid = props[nastran.pid]
+            next_mid += 1
+
+
+def _copy_card(bdf, card, new_id):
+    """A copy of a MAT1 or property card under `new_id`, added to the deck."""
+    import copy as _copy
+    new = _copy.deepcopy(card)
+    if card.type == "MAT1":
+        new.mid = new_id
+        bdf.materials[new_id] = new
+    else:
+        new.pid = new_id
+        bdf.properties[new_id] = new
+    new.comment = ""
+    return new
+
+
+def _write_masses(model, original, bdf, rec, units, refuse) -> None:
+    old = {m.node: m for m in original.masses}
+    new = {m.node: m for m in model.masses}
+    if set(old) != set(new):
+        refuse("the lumped masses (one added or removed)")
+    w = rec.get("wtmass", 1.0)
+    for node, m in new.items():
+        o = old[node]
+        if _same(o.mass_kg, m.mass_kg) and _same(o.inertia_kg_m2, m.inertia_kg_m2):
+            continue
+        cards = rec.get("masses", {}).get(str(node), [])
+        if len(cards) != 1 or cards[0][0] != "CONM2":
+            refuse(f"the mass at node {node} (not one CONM2)")
+        card = bdf.masses[cards[0][1]]
+        card.mass = m.mass_kg / (w * units.scale("mass"))
+        i = m.inertia_kg_m2 / (w * units.scale("rotary_inertia"))
+        inertia = np.asarray(card.I, dtype=float).copy()
+        if model.layout is PLANAR_FRAME:
+            inertia[5] = i
+        else:
+            inertia[[0, 2, 5]] = i
+        card.I = inertia

@@ -1,0 +1,279 @@
+"""`femu import` and `femu export` of Nastran decks (fe_problem/model/nastran.py).
+
+The reference for the decks' physics is OpenSeesPy: the same structure built by calling
+openseespy directly, with the textbook conventions of both programs written out here (a
+CBAR's element z = x cross v, plane 1 its x-y plane, I1 resisting bending in it; OpenSees'
+vecxz lies in the element's x-z plane and Iz resists bending in its x-y plane). The decks are
+written by pyNastran's own writer (BDF.add_* then write_bdf), not by the project's.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import openseespy.opensees as ops
+import pytest
+
+import fe_problem as fp
+from fe_problem.model import load_model, save_model
+from fe_problem.model.nastran import _new_bdf, read_bdf
+
+N_MODES = 8
+
+
+def femu(*args, cwd=None):
+    """`python -m femu ARGS`: (exit code, stdout, stderr)."""
+    p = subprocess.run([sys.executable, "-m", "femu", *map(str, args)], capture_output=True, text=True, cwd=cwd,
+                       timeout=120)
+    return p.returncode, p.stdout, p.stderr.replace("Process 0 Terminating\n", "")
+
+
+def frequencies(model, n=N_MODES):
+    return fp.modal_analysis(model, n).frequencies_hz
+
+
+@pytest.mark.parametrize("name", ["hframe", "frame3d"])
+def test_shipped_models_exported_and_imported_back(tmp_path, name):
+    code, out, err = femu("export", name, "--to", "bdf", "--out", tmp_path / "m.bdf")
+    assert code == 0, err
+    code, out, err = femu("import", tmp_path / "m.bdf", "--out", tmp_path / "m.json")
+    assert code == 0, err
+    assert "consistent mass, from nastran (SI)" in out
+    back, model = load_model(tmp_path / "m.json"), load_model(name)
+    assert back.layout == model.layout and len(back.elements) == len(model.elements)
+    np.testing.assert_allclose(frequencies(back, 10), frequencies(model, 10), rtol=1e-10, atol=0)
+    assert back.meta["import"]["path"] == str((tmp_path / "m.bdf").resolve())
+
+
+# -- a space frame with an asymmetric section, by pyNastran's writer and by openseespy -------
+E, NU, RHO = 2.0e11, 0.29, 7850.0
+G = E / (2 * (1 + NU))
+A, I1, I2, J = 1.2e-3, 3.1e-6, 0.7e-6, 4.0e-8  # I1 (plane 1) 4.4 times I2
+NODES = {1: (0.0, 0.0, 0.0), 2: (0.0, 0.0, 1.5), 3: (1.2, 0.0, 1.5), 4: (1.2, 0.9, 1.7), 5: (2.0, 0.9, 1.7)}
+# (eid, ga, gb, v or None, g0 or None)
+BARS = [(1, 1, 2, (1.0, 0.3, 0.0), None), (2, 2, 3, None, 4), (3, 3, 4, (0.2, -0.4, 1.0), None),
+        (4, 4, 5, (0.0, 1.0, 0.3), None)]
+CONM2 = {2: (4.0, 0.02), 3: (2.5, 0.015), 4: (3.0, 0.01), 5: (1.5, 0.012)}  # node: (kg, kg m^2)
+K_SPRING = 3.0e5  # a CELAS2 to ground at node 5, y
+
+
+def _pynastran_deck(path):
+    """The frame by pyNastran's own writer: lumped mass (no COUPMASS), rotary inertia at every free node."""
+    bdf = _new_bdf()
+    for nid, xyz in NODES.items():
+        bdf.add_grid(nid, list(xyz))
+    bdf.add_mat1(1, E, None, NU, rho=RHO)
+    bdf.add_pbar(1, 1, A=A, i1=I1, i2=I2, j=J)
+    for eid, ga, gb, v, g0 in BARS:
+        bdf.add_cbar(eid, 1, [ga, gb], list(v) if v else None, g0)
+    for k, (nid, (m, i)) in enumerate(CONM2.items()):
+        bdf.add_conm2(100 + k, nid, m, I=[i, 0.0, i, 0.0, 0.0, i])
+    bdf.add_celas2(200, K_SPRING, [5, 0], 2, 0)
+    bdf.add_spc1(7, "123456", [1])
+    bdf.write_bdf(str(path))
+
+
+def _opensees_frequencies():
+    """The same frame in OpenSees (lumped mass: elasticBeamColumn -mass rho A, no -cMass)."""
+    ops.wipe()
+    ops.model("basic", "-ndm", 3, "-ndf", 6)
+    for nid, xyz in NODES.items():
+        ops.node(nid, *xyz)
+    ops.node(99, *NODES[5])
+    ops.fix(1, 1, 1, 1, 1, 1, 1)
+    ops.fix(99, 1, 1, 1, 1, 1, 1)
+    for nid, (m, i) in CONM2.items():
+        ops.mass(nid, m, m, m, i, i, i)
+    for eid, ga, gb, v, g0 in BARS:
+        x = np.subtract(NODES[gb], NODES[ga])
+        v = np.subtract(NODES[g0], NODES[ga]) if g0 else np.asarray(v)
+        vecxz = np.cross(x, v)  # Nastran's element z: in OpenSees' x-z plane
+        ops.geomTransf("Linear", eid, *vecxz)
+        # Nastran I1 resists bending in plane 1 (element x-y): OpenSees' Iz; I2: Iy
+        ops.element("elasticBeamColumn", eid, ga, gb, A, E, G, J, I2, I1, eid, "-mass", RHO * A)
+    ops.uniaxialMaterial("Elastic", 1, K_SPRING)
+    ops.element("zeroLength", 300, 99, 5, "-mat", 1, "-dir", 2)
+    w = np.array(ops.eigen("-fullGenLapack", N_MODES))
+    ops.wipe()
+    return np.sqrt(w) / (2 * np.pi)
+
+
+@pytest.fixture(scope="module")
+def reference():
+    return _opensees_frequencies()
+
+
+def test_pynastran_deck_matches_opensees(tmp_path, reference):
+    _pynastran_deck(tmp_path / "frame.bdf")
+    code, out, err = femu("import", tmp_path / "frame.bdf", "--out", tmp_path / "frame.json")
+    assert code == 0, err
+    assert "space frame, lumped mass" in out
+    model = load_model(tmp_path / "frame.json")
+    assert {e.formulation for e in model.elements} == {"euler-bernoulli-lumped"}
+    assert model.meta["import"]["mass"] == "lumped"
+    np.testing.assert_allclose(frequencies(model), reference, rtol=1e-8, atol=0)
+    # the sections' axes matter: I1 and I2 swapped is another structure
+    swapped = model.replace(sections={k: s.__class__(s.area_m2, iy_m4=s.iz_m4, iz_m4=s.iy_m4, j_m4=s.j_m4)
+                                      for k, s in model.sections.items()})
+    assert np.max(np.abs(frequencies(swapped) / reference - 1)) > 1e-2
+
+
+def test_consistent_mass_planar_deck_matches_opensees(tmp_path):
+    """COUPMASS: a planar portal (GRID PS 345) with consistent mass, against OpenSees 2-D -cMass;
+    its beam's plane 2 is the frame's plane (v normal to it), so I2 is the in-plane inertia."""
+    bdf = _new_bdf()
+    pts = {1: (0.0, 0.0), 2: (0.0, 1.0), 3: (1.5, 1.0), 4: (1.5, 0.0)}
+    for nid, (x, y) in pts.items():
+        bdf.add_grid(nid, [x, y, 0.0], ps="345")
+    bdf.add_param("COUPMASS", [1])
+    bdf.add_mat1(1, E, None, NU, rho=RHO)
+    bdf.add_pbar(1, 1, A=A, i1=I1, i2=I2, j=J)
+    bdf.add_cbar(1, 1, [1, 2], [1.0, 0.0, 0.0], None)  # plane 1 in the frame's plane: I1
+    bdf.add_cbar(2, 1, [2, 3], [0.0, 0.0, 1.0], None)  # plane 1 normal to it: I2 in the plane
+    bdf.add_cbar(3, 1, [3, 4], [1.0, 0.0, 0.0], None)
+    bdf.add_conm2(10, 3, 2.0)
+    bdf.add_spc1(1, "123456", [1, 4])
+    bdf.write_bdf(str(tmp_path / "portal.bdf"))
+    model = read_bdf(tmp_path / "portal.bdf")
+    assert model.layout.dimension == 2 and model.meta["import"]["mass"] == "consistent"
+    ops.wipe()
+    ops.model("basic", "-ndm", 2, "-ndf", 3)
+    for nid, (x, y) in pts.items():
+        ops.node(nid, x, y)
+    ops.fix(1, 1, 1, 1)
+    ops.fix(4, 1, 1, 1)
+    ops.mass(3, 2.0, 2.0, 0.0)
+    ops.geomTransf("Linear", 1)
+    for eid, (i, j), inertia in ((1, (1, 2), I1), (2, (2, 3), I2), (3, (3, 4), I1)):
+        ops.element("elasticBeamColumn", eid, i, j, A, E, inertia, 1, "-mass", RHO * A, "-cMass")
+    w = np.array(ops.eigen("-fullGenLapack", 6))
+    ops.wipe()
+    np.testing.assert_allclose(frequencies(model, 6), np.sqrt(w) / (2 * np.pi), rtol=1e-8, atol=0)
+
+
+def test_units_mm_n_t(tmp_path, reference):
+    """The frame in mm, N, tonne: the same model in SI."""
+    bdf = _new_bdf()
+    for nid, xyz in NODES.items():
+        bdf.add_grid(nid, [c * 1e3 for c in xyz])
+    bdf.add_mat1(1, E * 1e-6, None, NU, rho=RHO * 1e-12)
+    bdf.add_pbar(1, 1, A=A * 1e6, i1=I1 * 1e12, i2=I2 * 1e12, j=J * 1e12)
+    for eid, ga, gb, v, g0 in BARS:
+        bdf.add_cbar(eid, 1, [ga, gb], list(v) if v else None, g0)
+    for k, (nid, (m, i)) in enumerate(CONM2.items()):
+        bdf.add_conm2(100 + k, nid, m * 1e-3, I=[i * 1e3, 0.0, i * 1e3, 0.0, 0.0, i * 1e3])
+    bdf.add_celas2(200, K_SPRING * 1e-3, [5, 0], 2, 0)
+    bdf.add_spc1(7, "123456", [1])
+    bdf.write_bdf(str(tmp_path / "mm.bdf"), size=16, is_double=True)
+    model = read_bdf(tmp_path / "mm.bdf", units="mm-N-t")
+    assert model.meta["import"]["units"] == "mm-N-t"
+    np.testing.assert_allclose(frequencies(model), reference, rtol=1e-8, atol=0)
+
+
+# -- malformed decks -------------------------------------------------------------------------
+GOOD = """SOL 103
+CEND
+SPC = 1
+BEGIN BULK
+PARAM,COUPMASS,1
+GRID    1               0.      0.      0.
+GRID    2               1.      0.      0.
+CBAR    1       1       1       2       0.      1.      0.
+PBAR    1       1       .001    2.-6    1.-6    3.-6
+MAT1    1       2.+11           .3      7850.
+SPC1    1       123456  1
+ENDDATA
+"""
+BAD = {
+    "missing": (GOOD.replace("CBAR    1       1       1       2 ", "CBAR    1       1       1         "),
+                "line 8: CBAR 1", "gb"),
+    "duplicate": (GOOD.replace("GRID    2               1.      0.      0.\n",
+                               "GRID    2               1.      0.      0.\nGRID    2               2.      0.      0.\n"),
+                  "line 8: GRID 2", "a second GRID"),
+    "nomaterial": (GOOD.replace("MAT1    1 ", "MAT1    7 "), "line 9: PBAR 1", "MAT1 1 is not defined"),
+    "nocoord": (GOOD.replace("GRID    2       ", "GRID    2       5"), "line 7: GRID 2",
+                "coordinate system 5 is not defined"),
+    "shell": (GOOD.replace("ENDDATA", "CQUAD4  9       1       1       2       2       1\nENDDATA"),
+              "CQUAD4 x1", "matrices"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD))
+def test_malformed_decks_are_refused_in_one_line(tmp_path, case):
+    text, where, what = BAD[case]
+    deck = tmp_path / f"{case}.bdf"
+    deck.write_text(text)
+    code, out, err = femu("import", deck, "--out", tmp_path / "m.json")
+    assert code == 2 and out == ""
+    assert len(err.strip().splitlines()) == 1, err
+    assert str(deck) in err and where in err and what in err, err
+    assert not (tmp_path / "m.json").exists()
+
+
+def test_good_deck_of_the_malformed_ones_reads(tmp_path):
+    (tmp_path / "good.bdf").write_text(GOOD)
+    code, out, err = femu("import", tmp_path / "good.bdf", "--out", tmp_path / "m.json")
+    assert code == 0, err
+
+
+def test_lumped_mass_without_rotary_inertia_is_refused(tmp_path):
+    (tmp_path / "lumped.bdf").write_text(GOOD.replace("PARAM,COUPMASS,1\n", ""))
+    code, out, err = femu("import", tmp_path / "lumped.bdf", "--out", tmp_path / "m.json")
+    assert code == 2 and "GRID 2" in err and "--mass consistent" in err and len(err.strip().splitlines()) == 1
+    code, out, err = femu("import", tmp_path / "lumped.bdf", "--mass", "consistent", "--out", tmp_path / "m.json")
+    assert code == 0 and "consistent mass" in out
+
+
+# -- an updated model written back like its deck ---------------------------------------------
+def test_updated_model_written_like_its_deck(tmp_path):
+    _pynastran_deck(tmp_path / "frame.bdf")
+    code, _, err = femu("import", tmp_path / "frame.bdf", "--out", tmp_path / "frame.json")
+    assert code == 0, err
+    model = load_model(tmp_path / "frame.json")
+    (sec_name,) = model.sections
+    sec = model.sections[sec_name]
+    updated = model.with_element_moduli({1: 1.8e11, 2: 1.8e11, 3: 1.8e11, 4: 1.8e11}).replace(
+        sections={sec_name: sec.__class__(sec.area_m2 * 1.1, iy_m4=sec.iy_m4, iz_m4=sec.iz_m4 * 0.9, j_m4=sec.j_m4)},
+        masses=tuple(m.__class__(m.node, m.mass_kg * 1.5, m.inertia_kg_m2) if m.node == 3 else m
+                     for m in model.masses),
+        springs=tuple(s.__class__(s.id, s.dof_a, s.dof_b, 2.0e5) for s in model.springs))
+    save_model(updated, tmp_path / "updated.json")
+    code, out, err = femu("export", tmp_path / "updated.json", "--to", "bdf", "--like", "source",
+                          "--out", tmp_path / "updated.bdf")
+    assert code == 0, err
+    old, new = _new_bdf(), _new_bdf()
+    old.read_bdf(str(tmp_path / "frame.bdf"), xref=False)
+    new.read_bdf(str(tmp_path / "updated.bdf"), xref=False)
+    assert new.materials[1].e == pytest.approx(1.8e11, rel=1e-15)
+    assert new.materials[1].g == pytest.approx(old.materials[1].g * 0.9, rel=1e-14)
+    assert new.properties[1].A == pytest.approx(A * 1.1, rel=1e-15)
+    assert new.properties[1].i1 == pytest.approx(I1 * 0.9, rel=1e-15)
+    assert new.properties[1].i2 == old.properties[1].i2 and new.properties[1].j == old.properties[1].j
+    assert new.masses[101].mass == pytest.approx(2.5 * 1.5, rel=1e-15)
+    assert new.elements[200].k == pytest.approx(2.0e5, rel=1e-15)
+    # every other card as it was
+    for table in ("nodes", "elements", "masses", "properties", "materials"):
+        a, b = getattr(old, table), getattr(new, table)
+        assert set(a) == set(b)
+        changed = {"elements": {200}, "masses": {101}, "properties": {1}, "materials": {1}}.get(table, set())
+        for key in set(a) - changed:
+            assert a[key].raw_fields() == b[key].raw_fields(), (table, key)
+    assert {k: [c.raw_fields() for c in v] for k, v in old.spcs.items()} == \
+        {k: [c.raw_fields() for c in v] for k, v in new.spcs.items()}
+    # and the deck read back is the updated model
+    np.testing.assert_allclose(frequencies(read_bdf(tmp_path / "updated.bdf")), frequencies(updated), rtol=1e-10)
+
+
+def test_element_moduli_that_split_a_material_get_their_own_cards(tmp_path):
+    _pynastran_deck(tmp_path / "frame.bdf")
+    model = read_bdf(tmp_path / "frame.bdf")
+    updated = model.with_element_moduli({2: 1.5e11})
+    from fe_problem.model.nastran import write_like
+    write_like(updated, tmp_path / "frame.bdf", tmp_path / "split.bdf")
+    new = _new_bdf()
+    new.read_bdf(str(tmp_path / "split.bdf"), xref=False)
+    assert new.materials[1].e == E and new.materials[2].e == pytest.approx(1.5e11, rel=1e-15)
+    assert new.properties[new.elements[2].pid].mid == 2 and new.elements[1].pid == 1
+    np.testing.assert_allclose(frequencies(read_bdf(tmp_path / "split.bdf")), frequencies(updated), rtol=1e-10)
