@@ -15,8 +15,10 @@ fixed node that nothing else touches is a spring to ground); anything else is re
 from __future__ import annotations
 
 import contextlib
+import os
 import runpy
 import sys
+import tempfile
 import traceback
 from pathlib import Path
 
@@ -67,21 +69,46 @@ def _run(path: Path, ops) -> list[tuple]:
         setattr(ops, name, wrap(name, func))
     ops.wipe()
     calls.clear()
-    try:
-        with contextlib.redirect_stdout(sys.stderr):
-            runpy.run_path(str(path), run_name="__main__")
-    except SystemExit as exc:
-        if exc.code not in (None, 0):
-            raise OpenSeesScriptError(f"{path}: the script exited with {exc.code!r}") from None
-    except Exception as exc:
-        line = [f.lineno for f in traceback.extract_tb(exc.__traceback__) if Path(f.filename) == path]
-        at = f" line {line[-1]}:" if line else ""
-        raise OpenSeesScriptError(f"{path}:{at} the script failed: {type(exc).__name__}: "
-                                  f"{' '.join(str(exc).split())[:200]}") from None
-    finally:
-        for name, func in saved.items():
-            setattr(ops, name, func)
+    with tempfile.TemporaryFile(mode="w+b") as captured:
+        try:
+            with _output_to(captured):
+                runpy.run_path(str(path), run_name="__main__")
+        except SystemExit as exc:
+            if exc.code not in (None, 0):
+                raise OpenSeesScriptError(f"{path}: the script exited with {exc.code!r}") from None
+        except Exception as exc:
+            line = [f.lineno for f in traceback.extract_tb(exc.__traceback__) if Path(f.filename) == path]
+            at = f" line {line[-1]}:" if line else ""
+            said = _last_lines(captured)
+            raise OpenSeesScriptError(f"{path}:{at} the script failed: {type(exc).__name__}: "
+                                      f"{' '.join(str(exc).split())[:200]}" + (f" ({said})" if said else "")) from None
+        finally:
+            for name, func in saved.items():
+                setattr(ops, name, func)
+        captured.seek(0)
+        sys.stderr.write(captured.read().decode(errors="replace"))  # what the script printed, on stderr
     return calls
+
+
+@contextlib.contextmanager
+def _output_to(file):
+    """The process's stdout and stderr (OpenSees writes to them from C++) into `file`."""
+    sys.stdout.flush(), sys.stderr.flush()
+    saved = os.dup(1), os.dup(2)
+    try:
+        os.dup2(file.fileno(), 1), os.dup2(file.fileno(), 2)
+        yield
+    finally:
+        sys.stdout.flush(), sys.stderr.flush()
+        os.dup2(saved[0], 1), os.dup2(saved[1], 2)
+        os.close(saved[0]), os.close(saved[1])
+
+
+def _last_lines(file, n: int = 2) -> str:
+    """The last `n` non-empty lines `file` holds, joined: what OpenSees said before failing."""
+    file.seek(0)
+    lines = [line.strip() for line in file.read().decode(errors="replace").splitlines() if line.strip()]
+    return " / ".join(lines[-n:])[:300]
 
 
 def _options(args: tuple, flags: dict, where: str) -> tuple[list, dict]:
