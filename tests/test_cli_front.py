@@ -46,7 +46,7 @@ def test_report_help_says_out_or_json_is_required_and_the_command_says_it_too(tm
 
 
 @pytest.mark.parametrize("command", ["model", "suite", "study", "results", "report", "reproduce", "diagnose",
-                                     "identify"])
+                                     "identify", "import", "export"])
 def test_help_texts_carry_no_developer_text(command):
     out = femu(command, "--help").stdout
     assert out.startswith(f"usage: femu {command}")

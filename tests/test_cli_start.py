@@ -26,7 +26,7 @@ def test_building_every_commands_parser_loads_no_numpy_and_no_physics():
 
 
 @pytest.mark.parametrize("command", ["model", "suite", "study", "results", "report", "reproduce", "diagnose",
-                                     "identify"])
+                                     "identify", "import", "export"])
 def test_each_commands_help_answers_without_the_physics(command):
     code = f"import contextlib, io\nfrom femu.cli import main\ntry:\n    with contextlib.redirect_stdout(io.StringIO()):\n" \
            f"        main([{command!r}, '--help'])\nexcept SystemExit as e:\n    assert e.code == 0"

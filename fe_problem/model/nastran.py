@@ -77,7 +77,7 @@ def _pynastran():
                 del numpy.in1d
     except ImportError:
         raise NastranFileError("reading or writing a Nastran deck needs the 'import' extra: "
-                               "pip install 'femu-bench[import]'") from None
+                               "pip install 'femu-bench[import]' && pip install --no-deps 'pyNastran==1.4.1'") from None
     return BDF
 
 
