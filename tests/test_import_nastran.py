@@ -277,3 +277,48 @@ def test_element_moduli_that_split_a_material_get_their_own_cards(tmp_path):
     assert new.materials[1].e == E and new.materials[2].e == pytest.approx(1.5e11, rel=1e-15)
     assert new.properties[new.elements[2].pid].mid == 2 and new.elements[1].pid == 1
     np.testing.assert_allclose(frequencies(read_bdf(tmp_path / "split.bdf")), frequencies(updated), rtol=1e-10)
+
+
+def test_cbeam_pbeam_pbarl_celas1_cmass2_against_opensees(tmp_path):
+    """COUPMASS: a CBEAM with a constant PBEAM (J = I1 + I2, so that OpenSees' torsional
+    inertia rho J is femu's rho (I1 + I2)), a CBAR with a PBARL ROD (pyNastran's A, I, J), a
+    CELAS1 with its PELAS to ground and CMASS2s on a node's three translations."""
+    bdf = _new_bdf()
+    pts = {1: (0.0, 0.0, 0.0), 2: (0.0, 0.0, 1.0), 3: (1.0, 0.0, 1.0), 4: (2.0, 0.3, 1.0)}
+    for nid, xyz in pts.items():
+        bdf.add_grid(nid, list(xyz))
+    bdf.add_param("COUPMASS", [1])
+    bdf.add_mat1(1, E, None, NU, rho=RHO)
+    bdf.add_pbeam(1, 1, [0.0], ["C"], [A], [I1], [I2], [0.0], [I1 + I2], k1=0.0, k2=0.0)
+    bdf.add_cbeam(1, 1, [1, 2], [1.0, 0.2, 0.0], None)
+    bdf.add_cbeam(2, 1, [2, 3], [0.0, 0.3, 1.0], None)
+    radius = 0.012
+    bdf.add_pbarl(2, 1, "ROD", [radius])
+    bdf.add_cbar(3, 2, [3, 4], [0.0, 0.0, 1.0], None)
+    bdf.add_pelas(7, 1.0e4)
+    bdf.add_celas1(8, 7, [4, 0], 3, 0)
+    for k, c in enumerate((1, 2, 3)):
+        bdf.add_cmass2(20 + k, 0.5, [4, 0], c, 0)
+    bdf.add_spc1(1, "123456", [1])
+    bdf.write_bdf(str(tmp_path / "beams.bdf"))
+    model = read_bdf(tmp_path / "beams.bdf")
+    assert set(model.sections) == {"PBEAM 1", "PBARL 2"}
+    ops.wipe()
+    ops.model("basic", "-ndm", 3, "-ndf", 6)
+    for nid, xyz in pts.items():
+        ops.node(nid, *xyz)
+    ops.node(9, *pts[4])
+    ops.fix(1, 1, 1, 1, 1, 1, 1)
+    ops.fix(9, 1, 1, 1, 1, 1, 1)
+    ops.mass(4, 0.5, 0.5, 0.5, 0.0, 0.0, 0.0)
+    a_rod, i_rod = np.pi * radius**2, np.pi * radius**4 / 4
+    for eid, (i, j), v, (a, iy, iz, jt) in ((1, (1, 2), (1.0, 0.2, 0.0), (A, I2, I1, I1 + I2)),
+                                            (2, (2, 3), (0.0, 0.3, 1.0), (A, I2, I1, I1 + I2)),
+                                            (3, (3, 4), (0.0, 0.0, 1.0), (a_rod, i_rod, i_rod, 2 * i_rod))):
+        ops.geomTransf("Linear", eid, *np.cross(np.subtract(pts[j], pts[i]), v))
+        ops.element("elasticBeamColumn", eid, i, j, a, E, G, jt, iy, iz, eid, "-mass", RHO * a, "-cMass")
+    ops.uniaxialMaterial("Elastic", 1, 1.0e4)
+    ops.element("zeroLength", 10, 9, 4, "-mat", 1, "-dir", 3)
+    w = np.array(ops.eigen("-fullGenLapack", N_MODES))
+    ops.wipe()
+    np.testing.assert_allclose(frequencies(model), np.sqrt(w) / (2 * np.pi), rtol=1e-8, atol=0)

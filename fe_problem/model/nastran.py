@@ -60,6 +60,8 @@ CARDS = frozenset({"GRID", "CORD2R", "CORD1R", "CBAR", "CBEAM", "PBAR", "PBARL",
                    "SPCADD", "PARAM", "EIGRL", "EIGR", "ENDDATA"})
 
 _DIRS = ("x", "y", "z", "rx", "ry", "rz")
+#: PBARL shapes whose torsion constant pyNastran computes exactly (circular: the polar moment).
+_PBARL_TORSION = ("ROD", "TUBE", "TUBE2")
 _TOL = 1e-9
 
 
@@ -350,6 +352,9 @@ class _Reader:
             except Exception as exc:
                 self.fail(*where, f"pyNastran computes no properties of a {p.beam_type} section ({exc})")
             nsm, k = p.nsm, (None, None)
+            if self.layout is SPACE_FRAME and p.beam_type not in _PBARL_TORSION:
+                self.fail(*where, f"a {p.beam_type} section in a space frame: pyNastran's torsion constant is exact "
+                                  f"only for {', '.join(_PBARL_TORSION)} (J = I1 + I2); give a PBAR with J")
         elif p.type == "PBEAM":
             stations = {(a, b, c, d, e) for a, b, c, d, e in zip(p.A, p.i1, p.i2, p.i12, p.j)}
             if len(stations) > 1:
@@ -357,11 +362,13 @@ class _Reader:
                                   "femu's beams have a constant section")
             area, i1, i2, i12, j = stations.pop()
             nsm = max(abs(x) for x in p.nsm)
-            if any(abs(x) > 0 for x in [*p.cw, *p.m1, *p.m2, *p.n1, *p.n2, p.s1, p.s2, p.nsia, p.nsib or 0]):
+            if any(abs(getattr(p, k) or 0.0) > 0 for k in ("cwa", "cwb", "m1a", "m2a", "m1b", "m2b", "n1a", "n2a",
+                                                            "n1b", "n2b", "s1", "s2", "nsia", "nsib")):
                 self.fail(*where, "warping, offsets of the neutral or mass axis are not read")
             k = (p.k1, p.k2)
         else:
             self.fail(etype, eid, f"property {p.pid} is a {p.type}: a {etype} takes a PBAR, PBARL or PBEAM")
+        area, i1, i2, i12, j = (float(x) for x in (area, i1, i2, i12, j or 0.0))
         if i12:
             self.fail(*where, f"I12 = {i12:g}: femu's sections have principal axes along the element's y and z")
         if nsm:
