@@ -19,12 +19,12 @@ import contextlib
 import io
 import math
 import re
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ..dofs import PLANAR_FRAME, SPACE_FRAME
+from ..units import UNITS, Units
 from .types import Element, FrameModel, LumpedMass, Material, Node, Section, Spring, Support
 from .validate import ModelFileError
 
@@ -32,26 +32,6 @@ from .validate import ModelFileError
 class NastranFileError(ModelFileError):
     """A deck femu cannot read or represent; the message names the file, the line and the card."""
 
-
-@dataclass(frozen=True)
-class Units:
-    """A consistent unit system: the SI value of its unit of length (m), mass (kg) and force (N)."""
-
-    length: float
-    mass: float
-    force: float
-
-    def scale(self, kind: str) -> float:
-        """The factor from this system to SI of a quantity `kind`."""
-        L, M, F = self.length, self.mass, self.force
-        return {"length": L, "mass": M, "pressure": F / L**2, "density": M / L**3, "area": L**2,
-                "inertia": L**4, "spring": F / L, "rotational_spring": F * L, "rotary_inertia": M * L**2}[kind]
-
-
-#: The unit systems a deck may be written in (`--units`): SI (m, kg, N, s); mm-N-t (mm, tonne,
-#: N, s: MPa, t/mm^3); in-lbf-s (inch, lbf s^2/in, lbf, s: psi).
-UNITS = {"SI": Units(1.0, 1.0, 1.0), "mm-N-t": Units(1e-3, 1e3, 1.0),
-         "in-lbf-s": Units(0.0254, 4.4482216152605 / 0.0254, 4.4482216152605)}
 
 #: The bulk-data cards read (with the deck's executive and case control, which are ignored
 #: save SPC = n); PARAM other than WTMASS and COUPMASS and the eigenvalue requests are ignored.

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from ..dofs import PLANAR_FRAME, SPACE_FRAME
-from .nastran import UNITS
+from ..units import UNITS
 from .types import Element, FrameModel, LumpedMass, Material, Node, Section, Spring, Support
 from .validate import ModelFileError
 
@@ -338,7 +338,7 @@ class _Reader:
 
 def read_script(path: str | Path, units: str = "SI", name: str | None = None) -> FrameModel:
     """The model an OpenSeesPy script builds. RUNS the script. `units`: its consistent unit
-    system (nastran.UNITS); the model is in SI. OpenSeesScriptError (a ValueError) naming the
+    system (fe_problem.units.UNITS); the model is in SI. OpenSeesScriptError (a ValueError) naming the
     script and the element or call femu cannot represent."""
     path = Path(path)
     if units not in UNITS:

@@ -14,15 +14,17 @@ Examples:
 
 from __future__ import annotations
 
+from fe_problem.units import UNITS
+
 
 def add_arguments(p) -> None:
     p.add_argument("model", metavar="MODEL", help="a shipped model name (hframe, frame3d) or a model file")
     p.add_argument("--to", required=True, choices=("bdf", "opensees"), help="the file's kind")
     p.add_argument("--out", required=True, metavar="FILE", help="the file to write")
     p.add_argument("--like", default=None, metavar="SOURCE.bdf",
-                   help="(bdf) write this deck again with the model's values; default: the deck an imported "
-                        "model records, only when this option is given as 'source'")
-    p.add_argument("--units", default=None, choices=("SI", "mm-N-t", "in-lbf-s"),
+                   help="(bdf) write this deck again with the model's values; 'source': the deck the imported "
+                        "model records")
+    p.add_argument("--units", default=None, choices=tuple(UNITS),
                    help="the deck's or script's unit system (default: the units the model was imported in, else SI)")
 
 

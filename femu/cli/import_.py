@@ -18,6 +18,8 @@ Examples:
 
 from __future__ import annotations
 
+from fe_problem.units import UNITS
+
 from pathlib import Path
 
 #: File suffixes read as Nastran decks; .py is an OpenSeesPy script.
@@ -29,11 +31,12 @@ def add_arguments(p) -> None:
     p.add_argument("--out", required=True, metavar="MODEL.json", help="the model file to write")
     p.add_argument("--from", dest="kind", choices=("nastran", "opensees"), default=None,
                    help="the file's kind (default: from its suffix)")
-    p.add_argument("--units", default="SI", choices=("SI", "mm-N-t", "in-lbf-s"),
+    p.add_argument("--units", default="SI", choices=tuple(UNITS),
                    help="a deck's consistent unit system (SI: m kg N s; mm-N-t: mm tonne N s; in-lbf-s: inch "
                         "lbf-s^2/in lbf s); an OpenSees script's likewise")
     p.add_argument("--mass", default="deck", choices=("deck", "lumped", "consistent"),
-                   help="the beams' mass: as the deck says (lumped unless PARAM COUPMASS), or forced")
+                   help="(Nastran) the beams' mass: as the deck says (lumped unless PARAM COUPMASS), or forced; "
+                        "an OpenSees script's elements say theirs (-cMass)")
     p.add_argument("--name", default=None, help="the model's name (default: the file's stem)")
 
 
@@ -59,6 +62,9 @@ def run(args) -> int:
         from fe_problem.model.nastran import read_bdf
         model = read_bdf(path, units=args.units, mass=args.mass, name=args.name)
     else:
+        if args.mass != "deck":
+            raise ValueError(f"--mass {args.mass}: an OpenSees script's elements say their mass (-cMass or not); "
+                             "--mass is for Nastran decks")
         from fe_problem.model.opensees import read_script
         model = read_script(path, units=args.units, name=args.name)
     out = save_model(model, args.out)
