@@ -322,3 +322,78 @@ def test_cbeam_pbeam_pbarl_celas1_cmass2_against_opensees(tmp_path):
     w = np.array(ops.eigen("-fullGenLapack", N_MODES))
     ops.wipe()
     np.testing.assert_allclose(frequencies(model), np.sqrt(w) / (2 * np.pi), rtol=1e-8, atol=0)
+
+
+def test_crod_along_an_axis_is_a_spring_with_lumped_mass_as_opensees_truss(tmp_path, reference):
+    """A CROD along x from the frame's node 5 to a fixed GRID: an axial spring and rho A L / 2 at
+    each end, against OpenSees' Truss (lumped mass) on the same frame."""
+    _pynastran_deck(tmp_path / "frame.bdf")
+    bdf = _new_bdf()
+    bdf.read_bdf(str(tmp_path / "frame.bdf"))
+    bdf.add_grid(6, [3.0, 0.9, 1.7])
+    bdf.add_spc1(7, "123456", [6])
+    bdf.add_prod(9, 1, 2.0e-5)
+    bdf.add_crod(30, 9, [5, 6])
+    bdf.write_bdf(str(tmp_path / "rod.bdf"))
+    model = read_bdf(tmp_path / "rod.bdf")
+    assert [(s.dof_a, s.dof_b) for s in model.springs if s.id == 30] == [((5, "x"), (6, "x"))]
+    ops.wipe()
+    ops.model("basic", "-ndm", 3, "-ndf", 6)
+    for nid, xyz in {**NODES, 6: (3.0, 0.9, 1.7)}.items():
+        ops.node(nid, *xyz)
+    ops.node(99, *NODES[5])
+    for nid in (1, 6, 99):
+        ops.fix(nid, 1, 1, 1, 1, 1, 1)
+    for nid, (m, i) in CONM2.items():
+        ops.mass(nid, m, m, m, i, i, i)
+    for eid, ga, gb, v, g0 in BARS:
+        v = np.subtract(NODES[g0], NODES[ga]) if g0 else np.asarray(v)
+        ops.geomTransf("Linear", eid, *np.cross(np.subtract(NODES[gb], NODES[ga]), v))
+        ops.element("elasticBeamColumn", eid, ga, gb, A, E, G, J, I2, I1, eid, "-mass", RHO * A)
+    ops.uniaxialMaterial("Elastic", 1, K_SPRING)
+    ops.uniaxialMaterial("Elastic", 2, E)
+    ops.element("zeroLength", 300, 99, 5, "-mat", 1, "-dir", 2)
+    ops.element("Truss", 301, 5, 6, 2.0e-5, 2, "-rho", RHO * 2.0e-5)
+    w = np.array(ops.eigen("-fullGenLapack", N_MODES))
+    ops.wipe()
+    expected = np.sqrt(w) / (2 * np.pi)
+    np.testing.assert_allclose(frequencies(model), expected, rtol=1e-8, atol=0)
+    assert np.max(np.abs(expected / reference - 1)) > 1e-3  # the rod changes the frame
+
+
+REFUSED = [
+    (lambda b: b.add_conm2(50, 4, 1.0, X=[0.1, 0.0, 0.0]), "CONM2 50", "offset"),
+    (lambda b: b.add_conm2(50, 4, 1.0, I=[0.1, 0.0, 0.2, 0.0, 0.0, 0.1]), "CONM2 50", "I11 = I22 = I33"),
+    (lambda b: b.add_pbar(1, 1, A=A, i1=I1, i2=I2, i12=1e-7, j=J), "PBAR 1", "I12"),
+    (lambda b: b.add_pbar(1, 1, A=A, i1=I1, i2=I2, j=J, nsm=0.5), "PBAR 1", "NSM"),
+    (lambda b: b.add_pbar(1, 1, A=A, i1=I1, i2=I2, j=J, k1=0.8, k2=0.6), "PBAR 1", "one shear factor"),
+    (lambda b: (b.elements.pop(1), b.add_cbar(1, 1, [1, 2], [1.0, 0.3, 0.0], None, pa=1)), "CBAR 1",
+     "rotations only"),
+    (lambda b: (b.elements.pop(1), b.add_cbar(1, 1, [1, 2], [1.0, 0.3, 0.0], None, wa=[0.0, 0.1, 0.0])), "CBAR 1",
+     "offsets"),
+    (lambda b: (b.add_prod(9, 1, 1e-5), b.add_crod(30, 9, [2, 4])), "CROD 30", "no global axis"),
+    (lambda b: b.add_cmass2(60, 1.0, [4, 0], 1, 0), "CMASS2 60", "differ between directions"),
+    (lambda b: b.add_celas2(61, 1.0, [4, 5], 1, 4), "CELAS2 61", "a translation and a rotation"),
+]
+
+
+@pytest.mark.parametrize("edit, card, said", REFUSED, ids=[r[1] + " " + r[2] for r in REFUSED])
+def test_what_a_frame_cannot_hold_is_refused_by_name(tmp_path, edit, card, said):
+    bdf = _new_bdf()
+    for nid, xyz in NODES.items():
+        bdf.add_grid(nid, list(xyz))
+    bdf.add_mat1(1, E, None, NU, rho=RHO)
+    for eid, ga, gb, v, g0 in BARS:
+        bdf.add_cbar(eid, 1, [ga, gb], list(v) if v else None, g0)
+    edit(bdf)
+    if 1 not in bdf.properties:
+        bdf.add_pbar(1, 1, A=A, i1=I1, i2=I2, j=J)
+    for k, (nid, (m, i)) in enumerate(CONM2.items()):
+        bdf.add_conm2(100 + k, nid, m, I=[i, 0.0, i, 0.0, 0.0, i])
+    bdf.add_spc1(7, "123456", [1])
+    bdf.write_bdf(str(tmp_path / "bad.bdf"))
+    with pytest.raises(ValueError) as err:
+        read_bdf(tmp_path / "bad.bdf")
+    message = str(err.value)
+    assert message.startswith(f"{tmp_path / 'bad.bdf'}: line ") and f": {card}: " in message and said in message, \
+        message

@@ -162,15 +162,12 @@ def _refuse_unknown(path: Path, bdf=None) -> None:
             _refuse_counts(path, counts)
         return
     counts.update({k: v for k, v in bdf.card_count.items() if k not in CARDS})
-    rejects = {k: len(v) for k, v in bdf.reject_cards.items()} if isinstance(getattr(bdf, "reject_cards", None), dict) \
-        else {}
-    for card in getattr(bdf, "reject_cards", []) or []:
+    for card in getattr(bdf, "reject_cards", None) or []:  # cards pyNastran does not know (an INCLUDEd file's)
         if isinstance(card, list) and card:
             name = str(card[0]).split(",")[0].strip().upper().rstrip("*")
-            rejects[name] = rejects.get(name, 0) + 1
-    counts.update({k: v for k, v in rejects.items() if k not in CARDS})
-    if counts:
-        _refuse_counts(path, counts)
+            if name not in CARDS:
+                counts[name] = counts.get(name, 0) + 1
+    _refuse_counts(path, counts)
 
 
 def _refuse_counts(path: Path, counts: dict) -> None:
@@ -197,9 +194,9 @@ def _check_refs(path: Path, bdf) -> None:
     for cid, c in bdf.coords.items():
         if cid and c.type not in ("CORD2R", "CORD1R"):
             _fail(path, c.type, cid, "only rectangular coordinate systems (CORD2R, CORD1R) are read")
-        for ref in (getattr(c, "rid", 0), ):
-            if ref and ref not in bdf.coords:
-                _fail(path, c.type, cid, f"field RID: coordinate system {ref} is not defined in the deck")
+        ref = getattr(c, "rid", 0)
+        if ref and ref not in bdf.coords:
+            _fail(path, c.type, cid, f"field RID: coordinate system {ref} is not defined in the deck")
     for eid, e in {**bdf.elements, **bdf.masses}.items():
         for nid in [n for n in e.node_ids if n]:
             if nid not in bdf.nodes:
