@@ -397,3 +397,22 @@ def test_what_a_frame_cannot_hold_is_refused_by_name(tmp_path, edit, card, said)
     message = str(err.value)
     assert message.startswith(f"{tmp_path / 'bad.bdf'}: line ") and f": {card}: " in message and said in message, \
         message
+
+
+def test_without_pynastran_the_command_says_which_extra(tmp_path):
+    """In a Python without pyNastran, `femu import` says how to install it, in one line."""
+    (tmp_path / "good.bdf").write_text(GOOD)
+    code = f"""
+import sys
+class _Block:
+    def find_spec(self, name, path=None, target=None):
+        if name.split(".")[0] == "pyNastran":
+            raise ModuleNotFoundError(f"No module named {{name!r}}", name=name)
+sys.meta_path.insert(0, _Block())
+from femu.cli import main
+sys.exit(main(["import", {str(tmp_path / "good.bdf")!r}, "--out", {str(tmp_path / "m.json")!r}]))
+"""
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    err = p.stderr.replace("Process 0 Terminating\n", "")
+    assert p.returncode == 2 and len(err.strip().splitlines()) == 1, err
+    assert "needs the 'import' extra: pip install 'femu-bench[import]'" in err and "--no-deps" in err

@@ -64,8 +64,10 @@ def _pynastran():
 
 
 def _new_bdf():
-    from cpylog import SimpleLogger
-    return _pynastran()(log=SimpleLogger(level="critical"), mode="msc")
+    """An empty pyNastran BDF (MSC dialect) that logs nothing below critical."""
+    bdf = _pynastran()
+    from cpylog import SimpleLogger  # pyNastran's own dependency: there when it imported
+    return bdf(log=SimpleLogger(level="critical"), mode="msc")
 
 
 # -- where a card is in the file ------------------------------------------------------------
