@@ -23,7 +23,8 @@ def load_any_model(name_or_path) -> FrameModel | MatrixModel:
     if not path.exists():
         return load_model(name_or_path)  # its FileNotFoundError names the shipped models
     d = read_json_file(path, ModelFileError)
-    if isinstance(d, dict) and d.get("format") == MATRIX_FORMAT:
+    # any version of the matrix format goes to its reader, which names the version it reads
+    if isinstance(d, dict) and str(d.get("format", "")).startswith(MATRIX_FORMAT.split("/")[0] + "/"):
         return matrix_model_from_dict(d, source=str(path))
     return model_from_dict(d, source=str(path))
 

@@ -288,14 +288,15 @@ def check_definite(model: MatrixModel) -> None:
     k, m = model.total("stiffness"), model.total("mass")
     for family, a in (("stiffness", k), ("mass", m)):
         d = a.diagonal()
-        what = "K" if family == "stiffness" else "M"
-        names = ", ".join(t.name for t in (model.stiffness if family == "stiffness" else model.mass))
+        terms = [repr(t.name) for t in (model.stiffness if family == "stiffness" else model.mass)]
+        what = ("K" if family == "stiffness" else "M") + f" ({'term' if len(terms) == 1 else 'the sum of terms'} " \
+            f"{', '.join(terms)})"
         if np.any(d < 0):
             i = int(np.argmin(d))
-            raise _fail(model.source, f"{what} ({family} terms {names}) at the initial values is not positive "
+            raise _fail(model.source, f"{what} at the initial values is not positive "
                                       f"semi-definite: diagonal entry {i + 1} ({_label(model, i)}) is {d[i]:.6g} < 0")
         if not _semi_definite(a, PSD_TOL * max(d.max(), 0.0)):
-            raise _fail(model.source, f"{what} ({family} terms {names}) at the initial values is not positive "
+            raise _fail(model.source, f"{what} at the initial values is not positive "
                                       f"semi-definite (an eigenvalue below -{PSD_TOL:g} of its largest diagonal entry)")
     empty = np.flatnonzero((k.diagonal() == 0) & (m.diagonal() == 0))
     if empty.size:
