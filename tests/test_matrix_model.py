@@ -499,8 +499,24 @@ def test_good_manifest_of_the_malformed_cases_loads(tmp_path):
     assert model.n_dof == 4 and [p.name for p in model.parameters] == ["k"]
 
 
-@pytest.mark.parametrize("case", ["nan", "not symmetric", "missing variable", "dofs direction"])
-def test_malformed_manifest_through_the_cli(tmp_path, case):
+@pytest.mark.parametrize("case", list(BAD))
+def test_malformed_manifest_through_femu_model(tmp_path, capsys, case):
+    """`femu model bad.json`: exit 2, one line on stderr naming the manifest, the term, the problem."""
+    from femu.cli import main
+
+    change, term, problem = BAD[case]
+    path = tmp_path / "bad.json"
+    path.write_text(json.dumps(change(_good(tmp_path))))
+    assert main(["model", str(path)]) == 2
+    out, err = capsys.readouterr()
+    lines = err.strip().splitlines()
+    assert out == "" and len(lines) == 1 and str(path) in lines[0] and problem in lines[0], err
+    if term is not None:
+        assert f"term {term!r}" in lines[0]
+
+
+@pytest.mark.parametrize("case", ["not symmetric", "missing variable"])
+def test_malformed_manifest_through_python_m_femu(tmp_path, case):
     change, term, problem = BAD[case]
     path = tmp_path / "bad.json"
     path.write_text(json.dumps(change(_good(tmp_path))))
