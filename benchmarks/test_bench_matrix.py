@@ -55,7 +55,8 @@ def export(n: int, folder) -> str:
     e0 = 2.1e11
     params = tuple(fp.Parameter("modulus", tuple(ids), 0.5 * e0, 1.5 * e0, e0, name=g) for g, ids in groups.items())
     system = fp.AffineModel(model, params, solver="sparse")
-    labels = [model.dofs[i] for i in system.dofmap.free]
+    every = model.dofs  # (a property that builds the tuple: read once)
+    labels = [every[i] for i in system.dofmap.free]
     assert len(labels) == 3 * (bays + 1) * storeys
     terms = []
     for i, g in enumerate(groups):

@@ -578,3 +578,16 @@ def test_parameter_subset_and_fixed_terms(planar_case, tmp_path):
     np.testing.assert_allclose(a, condensed_hz(2 * k, m, 4), rtol=1e-10)
     with pytest.raises(MatrixModelError, match="'mass' is not a parameter of the model"):
         fp.MatrixSystem(fp.load_matrix_model(path), parameters=["mass"])
+
+
+def test_op4_without_pynastran_names_the_extra(tmp_path, monkeypatch):
+    """Without pyNastran a .op4 term is one line naming the 'import' extra."""
+    np.savez(tmp_path / "k.npz", np.eye(3))
+    (tmp_path / "m.op4").write_text("not read\n")
+    doc = {"format": FORMAT, "dofs": 3, "stiffness": [{"name": "k", "file": "k.npz"}],
+           "mass": [{"name": "m", "file": "m.op4", "variable": "MAA"}]}
+    (tmp_path / "x.json").write_text(json.dumps(doc))
+    monkeypatch.setitem(sys.modules, "pyNastran.op4.op4", None)
+    with pytest.raises(MatrixModelError, match=r"x.json: term 'm' \(mass\[0\]\): reading a .op4 file needs the "
+                                               r"'import' extra: pip install 'femu-bench\[import\]'"):
+        fp.load_matrix_model(tmp_path / "x.json")
