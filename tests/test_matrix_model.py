@@ -591,3 +591,20 @@ def test_op4_without_pynastran_names_the_extra(tmp_path, monkeypatch):
     with pytest.raises(MatrixModelError, match=r"x.json: term 'm' \(mass\[0\]\): reading a .op4 file needs the "
                                                r"'import' extra: pip install 'femu-bench\[import\]'"):
         fp.load_matrix_model(tmp_path / "x.json")
+
+
+def test_row_number_data_refused_as_uff(tmp_path):
+    data = ModalData("m.json", (1, 2, 3), np.array([1.0, 2.0]), np.ones((3, 2)))
+    with pytest.raises(ValueError, match=r"d.uff: the DOFs are row numbers of a model given as matrices; UFF dataset "
+                                         r"55 holds \[node, direction\] coordinates: write JSON instead"):
+        save_modal_data(data, tmp_path / "d.uff")
+
+
+def test_diagnose_refuses_a_matrix_model_in_one_line(frame3d_pair, tmp_path, capsys):
+    from femu.cli import main
+
+    _, _, _, path, data = frame3d_pair
+    save_modal_data(ModalData(str(path), data.dofs, data.frequencies_hz, data.shapes), tmp_path / "d.json")
+    assert main(["diagnose", str(tmp_path / "d.json")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"{path}: the diagnosis needs a frame model" in err[0]
