@@ -608,3 +608,15 @@ def test_diagnose_refuses_a_matrix_model_in_one_line(frame3d_pair, tmp_path, cap
     assert main(["diagnose", str(tmp_path / "d.json")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and f"{path}: the diagnosis needs a frame model" in err[0]
+
+
+def test_synthetic_measurement_of_a_matrix_model(planar_case):
+    """Synthetic data of a matrix model at other multipliers: named by the manifest's path, the
+    problem built from them alone finds those multipliers at J = 0."""
+    _, _, _, k, m, labels, path = planar_case
+    dofs = [lab for lab in labels if lab[1] == "x"][:6]
+    data = fp.synthetic_measurement(path, 5, dofs=dofs, parameters=("frame",), theta=np.array([1.3]), seed=2)
+    assert data.model == str(path) and data.dofs == tuple(dofs)
+    np.testing.assert_allclose(data.frequencies_hz, condensed_hz(1.3 * k, m, 5), rtol=1e-10)
+    problem = fp.UpdatingProblem(data=data, shape_weight=1.0)
+    assert problem.evaluate(np.array([1.3]))[0] < 1e-20 < problem.evaluate(np.array([1.2]))[0]
