@@ -620,3 +620,15 @@ def test_synthetic_measurement_of_a_matrix_model(planar_case):
     np.testing.assert_allclose(data.frequencies_hz, condensed_hz(1.3 * k, m, 5), rtol=1e-10)
     problem = fp.UpdatingProblem(data=data, shape_weight=1.0)
     assert problem.evaluate(np.array([1.3]))[0] < 1e-20 < problem.evaluate(np.array([1.2]))[0]
+
+
+def test_femu_model_save_writes_the_manifest(planar_case, tmp_path, capsys):
+    from femu.cli import main
+
+    path = planar_case[-1]
+    assert main(["model", str(path), "--modes", "3", "--json", "--save", str(tmp_path / "saved.json")]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["saved"] == str(tmp_path / "saved.json") and summary["n_massless_dofs"] == len(planar_case[5]) // 3
+    again = fp.load_any_model(tmp_path / "saved.json")
+    assert again.dofs == fp.load_matrix_model(path).dofs
+    np.testing.assert_allclose(fp.modal_analysis(again, 3).frequencies_hz, summary["frequencies_hz"], rtol=1e-12)
