@@ -632,3 +632,15 @@ def test_femu_model_save_writes_the_manifest(planar_case, tmp_path, capsys):
     again = fp.load_any_model(tmp_path / "saved.json")
     assert again.dofs == fp.load_matrix_model(path).dofs
     np.testing.assert_allclose(fp.modal_analysis(again, 3).frequencies_hz, summary["frequencies_hz"], rtol=1e-12)
+
+
+def test_row_numbers_for_a_frame_model_refused(tmp_path):
+    doc = {"format": "femu.modal-data/1", "model": "hframe", "dofs": [1, 2],
+           "modes": [{"frequency_hz": 50.0, "shape": [1.0, 0.5]}]}
+    (tmp_path / "rows.json").write_text(json.dumps(doc))
+    with pytest.raises(ValueError, match=r"rows.json: field 'dofs': row numbers are for a model given as matrices"):
+        load_modal_data(tmp_path / "rows.json")
+    doc["dofs"] = [1, [2, "x"]]
+    (tmp_path / "mixed.json").write_text(json.dumps(doc))
+    with pytest.raises(ValueError, match=r"mixed.json: field 'dofs'\[1\]: expected a row number >= 1 \(as entry 0 is\)"):
+        load_modal_data(tmp_path / "mixed.json")
