@@ -92,7 +92,7 @@ class UpdatingProblem:
     """
 
     @blas_pinned  # the pairing and initial modes: the same on any thread count
-    def __init__(self, model: FrameModel | str | None = None, data: ModalData | str = "paper",
+    def __init__(self, model: FrameModel | MatrixModel | str | None = None, data: ModalData | str = "paper",
                  parameters: tuple[Parameter, ...] | None = None, weights="gamma",
                  shape_weight: float = 0.0, n_model_modes: int | None = None, name: str | None = None,
                  solver: str = "auto"):
