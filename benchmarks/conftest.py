@@ -46,6 +46,11 @@ RATIOS = (
      1 / 1.2),
     ("evaluate, 30,000 DOFs: speed / the bare Cholesky + ARPACK floor's", "floor_scale:30000",
      "evaluate_scale:30000", 1 / 1.2),
+    # issue 35: a model given as matrices (a third of its DOFs massless) within 1.3x of the same floor
+    ("matrix model evaluate, 10,000 DOFs: speed / the bare Cholesky + ARPACK floor's", "matrix_floor:10000",
+     "matrix_eval:10000", 1 / 1.3),
+    ("matrix model evaluate, 100,000 DOFs: speed / the bare Cholesky + ARPACK floor's", "matrix_floor:100000",
+     "matrix_eval:100000", 1 / 1.3),
     ("batch of 4 at 3,000 DOFs: 2 worker processes over 1", "batch_scale:3000:w1", "batch_scale:3000:w2", 1.0),
     ("diagnosis screen per candidate, 1,092 DOFs: first-order over one exact step", "screen_step:1092",
      "screen_first:1092", 1.0),

@@ -46,6 +46,10 @@ _WHERE = {
                      "regular_frame_3d", "release_element_end", "save_model", "split_element", "split_elements", "with_formulation"),
                     "model"),
     "AffineModel": "assembly",
+    # models given as matrices (issue 35): the manifest, its solver interface, one loader for any model
+    **dict.fromkeys(("MatrixModel", "MatrixModelError", "MatrixSystem", "load_matrix_model", "save_matrix_model"),
+                    "matrix_model"),
+    "load_any_model": "any_model",
     **dict.fromkeys(("Parameter", "element_moduli"), "parameters"),
     **dict.fromkeys(("CorrelationReport", "UpdatingProblem"), "problem"),
     **dict.fromkeys(("Diagnosis", "diagnose"), "diagnosis"),

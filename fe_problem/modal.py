@@ -10,8 +10,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .model import FrameModel, load_model
+from .model import FrameModel
+from .any_model import load_any_model
 from .assembly import AffineModel
+from .matrix_model import MatrixModel, MatrixSystem
 from .parameters import Parameter
 
 
@@ -21,7 +23,8 @@ class ModalResult:
 
     frequencies_hz: (n_modes,) ascending; shapes: (n_dof, n_modes) on the nodal DOFs, mass-
     normalised (phi^T M phi = I over all DOFs), zero at supported DOFs; dofs: one
-    (node id, direction) per row of `shapes`; n_rigid: zero-energy modes that were dropped;
+    (node id, direction) per row of `shapes` (for a matrix model, its DOF labels: the row
+    numbers 1..n where it gave a count); n_rigid: zero-energy modes that were dropped;
     mechanism: None, or which of those are mechanism motions rather than rigid-body motions;
     path: the solver path that computed them ("dense" or "sparse", `AffineModel.path`).
     """
@@ -41,10 +44,11 @@ class ModalResult:
     def at(self, dofs) -> np.ndarray:
         """Shape rows at the listed (node, direction) DOFs, (len(dofs), n_modes)."""
         index = {d: i for i, d in enumerate(self.dofs)}
-        missing = [d for d in dofs if tuple(d) not in index]
+        keys = [tuple(d) if isinstance(d, (list, tuple)) else d for d in dofs]
+        missing = [d for d in keys if d not in index]
         if missing:
             raise KeyError(f"no such DOF(s) in this model: {missing}")
-        return self.shapes[[index[tuple(d)] for d in dofs]]
+        return self.shapes[[index[d] for d in keys]]
 
 
 def frequencies_hz(eigenvalues: np.ndarray) -> np.ndarray:
@@ -52,20 +56,24 @@ def frequencies_hz(eigenvalues: np.ndarray) -> np.ndarray:
     return np.sqrt(np.clip(eigenvalues, 0.0, None)) / (2.0 * np.pi)
 
 
-def modal_analysis(model: FrameModel | str, n_modes: int = 8, parameters: tuple[Parameter, ...] = (),
+def modal_analysis(model: FrameModel | MatrixModel | str, n_modes: int = 8, parameters: tuple[Parameter, ...] = (),
                    theta=None, at_most: bool = False, solver: str = "auto") -> ModalResult:
-    """The `n_modes` lowest elastic modes of `model` (a FrameModel, a shipped model name or a
-    model file path).
+    """The `n_modes` lowest elastic modes of `model` (a FrameModel, a MatrixModel, a shipped model
+    name, a model file or a matrix manifest path; a matrix model at its terms' `initial` values,
+    or with `parameters` None or its parameter names and `theta` their multipliers).
 
     With `parameters` and `theta`, the modes of the model updated to those values. A model
     with fewer elastic modes raises ValueError, unless `at_most`: then all it has are returned
     (compare ``len(result.frequencies_hz)`` with `n_modes`). `solver`: ``"auto"``, ``"dense"`` or
     ``"sparse"`` (`AffineModel`).
     """
-    model = load_model(model)
+    model = load_any_model(model)
     if n_modes < 1:
         raise ValueError(f"n_modes must be >= 1, got {n_modes}")
-    system = AffineModel(model, tuple(parameters), solver=solver)
+    if isinstance(model, MatrixModel):
+        system = MatrixSystem(model, tuple(parameters) if theta is not None else (), solver=solver)
+    else:
+        system = AffineModel(model, tuple(parameters), solver=solver)
     theta = system.x0 if theta is None else np.asarray(theta, dtype=float)
     if theta.shape != (system.n_params,):
         raise ValueError(f"theta must have shape ({system.n_params},), got {theta.shape}")

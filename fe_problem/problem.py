@@ -18,8 +18,10 @@ import numpy as np
 from .correlation import Pairing, correlate, pair_modes, pow2_scaled
 from .modal_data import ModalData, load_modal_data
 from .modal import ModalResult, frequencies_hz
-from .model import FrameModel, load_model
+from .model import FrameModel
 from .assembly import AffineModel
+from .any_model import load_any_model
+from .matrix_model import MatrixModel, MatrixSystem
 from ._threads import blas_pinned, one_blas_thread
 from .parameters import Parameter, element_moduli
 
@@ -73,9 +75,11 @@ class UpdatingProblem:
 
     Parameters
     ----------
-    model: FrameModel, shipped model name or model file path (default: the data's model).
+    model: FrameModel, MatrixModel, shipped model name, model file or matrix manifest path
+        (default: the data's model).
     data: ModalData, shipped dataset name (``"paper"``) or a data file path.
-    parameters: the updating parameters (default: every element modulus in [6e10, 8e10] Pa).
+    parameters: the updating parameters (default: every element modulus in [6e10, 8e10] Pa; for
+        a MatrixModel, the multipliers of its terms with bounds, or a subset of them by name).
     weights: ``"gamma"`` (the paper's eq. 4), ``"unit"``, or an array of one weight per mode.
     shape_weight: weight of the sum of (1 - MAC) over paired modes with measured shapes
         (0 leaves the objective frequency-only; needs shapes in the data).
@@ -88,17 +92,24 @@ class UpdatingProblem:
     """
 
     @blas_pinned  # the pairing and initial modes: the same on any thread count
-    def __init__(self, model: FrameModel | str | None = None, data: ModalData | str = "paper",
+    def __init__(self, model: FrameModel | MatrixModel | str | None = None, data: ModalData | str = "paper",
                  parameters: tuple[Parameter, ...] | None = None, weights="gamma",
                  shape_weight: float = 0.0, n_model_modes: int | None = None, name: str | None = None,
                  solver: str = "auto"):
         self.data = load_modal_data(data)
-        self.model = self.data.load_model() if model is None else load_model(model)
+        self.model = self.data.load_model() if model is None else load_any_model(model)
         self.data.check_model(self.model)
-        self.parameters = element_moduli(self.model) if parameters is None else tuple(parameters)
-        if not self.parameters:
-            raise ValueError("UpdatingProblem needs at least one parameter")
-        self.system = AffineModel(self.model, self.parameters, solver=solver)
+        if isinstance(self.model, MatrixModel):
+            self.system = MatrixSystem(self.model, parameters, solver=solver)
+            self.parameters = self.system.parameters
+            if not self.parameters:
+                raise ValueError(f"{self.model.source or self.model.name}: UpdatingProblem needs at least one parameter "
+                                 "(a term with 'lower' and 'upper')")
+        else:
+            self.parameters = element_moduli(self.model) if parameters is None else tuple(parameters)
+            if not self.parameters:
+                raise ValueError("UpdatingProblem needs at least one parameter")
+            self.system = AffineModel(self.model, self.parameters, solver=solver)
         m = self.data.n_modes
         if n_model_modes is not None and n_model_modes < m:
             raise ValueError(f"n_model_modes={n_model_modes} is fewer than the {m} measured modes of "
@@ -320,9 +331,12 @@ class UpdatingProblem:
         return CorrelationReport(x, c.measured_hz, c.model_hz, c.error_pct, c.mac, c.mac_matrix, c.comac,
                                  self.pairing, obj)
 
-    def updated_model(self, x) -> FrameModel:
-        """The model with modulus parameters set to x (other kinds are not written back)."""
+    def updated_model(self, x) -> FrameModel | MatrixModel:
+        """The model with modulus parameters set to x (other kinds are not written back); a
+        MatrixModel with its parameters' `initial` multipliers set to x."""
         x = self.check_x(x, "x")[0]
+        if isinstance(self.model, MatrixModel):
+            return self.model.with_initials({p.name: float(v) for p, v in zip(self.parameters, x)})
         moduli = {}
         for p, v in zip(self.parameters, x):
             if p.kind != "modulus":

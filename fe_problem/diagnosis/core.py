@@ -45,6 +45,7 @@ from scipy.stats import chi2 as chi2_dist
 from ..assembly import AffineModel, solver_path
 from ..correlation import correlate
 from ..modal_data import DataFileError, ModalData, load_modal_data
+from ..matrix_model import MatrixModel
 from ..model import FrameModel, load_model
 from ..parameters import Parameter
 from .candidates import Candidate, Setting, all_candidates, scale_stiffness, solve
@@ -92,7 +93,11 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
     if evidence == "nested":
         require_dynesty()  # before the work: a missing dependency fails at once
     data = load_modal_data(data)
-    model = data.load_model() if model is None else load_model(model)
+    model = data.load_model() if model is None else model
+    if isinstance(model, MatrixModel):  # a data file may name a matrix manifest (docs/matrix-model.md)
+        raise ValueError(f"{model.source or model.name}: the diagnosis needs a frame model (its candidates are members, "
+                         "joints and supports); a model given as matrices is updated through UpdatingProblem")
+    model = load_model(model)
     _check(model, data)
     noise = Noise(DEFAULT_FREQ_NOISE if freq_noise is None else float(freq_noise),
                   DEFAULT_SHAPE_NOISE if shape_noise is None else float(shape_noise),

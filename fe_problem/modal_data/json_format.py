@@ -23,6 +23,10 @@ DATA_KEYS = ("format", "model", "dofs", "modes", "meta")
 MODE_KEYS = ("frequency_hz", "shape")
 
 
+def _is_int(x) -> bool:
+    return isinstance(x, int) and not isinstance(x, bool)
+
+
 def _err(source: str, msg: str) -> DataFileError:
     return DataFileError(f"{source}: {msg}")
 
@@ -41,10 +45,17 @@ def modal_data_from_dict(d: Any, source: str = "<memory>") -> ModalData:
         raise _err(source, "field 'model' must be a model name or a path")
     dofs = []
     if not isinstance(d["dofs"], list) or not d["dofs"]:
-        raise _err(source, "field 'dofs' must be a non-empty list of [node id, direction]")
+        raise _err(source, "field 'dofs' must be a non-empty list of [node id, direction] (or of row numbers, for "
+                           "a model given as matrices with a count of DOFs)")
     if len(d["dofs"]) > MAX_DOFS:
         raise _err(source, f"field 'dofs': {len(d['dofs'])} coordinates are more than the {MAX_DOFS} a data file may hold")
+    rows = _is_int(d["dofs"][0])  # row numbers of a matrix model (matrix-model.md), else labels
     for i, x in enumerate(d["dofs"]):
+        if rows:
+            if not _is_int(x) or x < 1:
+                raise _err(source, f"field 'dofs'[{i}]: expected a row number >= 1 (as entry 0 is), got {shown(x)}")
+            dofs.append(x)
+            continue
         if not (isinstance(x, list) and len(x) == 2 and isinstance(x[0], int) and not isinstance(x[0], bool)):
             raise _err(source, f"field 'dofs'[{i}]: expected [node id, direction], got {shown(x)}")
         if not isinstance(x[1], str) or x[1] not in SPATIAL:
@@ -105,5 +116,6 @@ def modal_data_to_dict(data: ModalData) -> dict:
         col = data.shapes[:, k]
         modes.append({"frequency_hz": float(data.frequencies_hz[k]),
                       "shape": None if np.isnan(col).any() else [float(v) for v in col]})
-    return {"format": DATA_FORMAT, "model": data.model, "dofs": [list(x) for x in data.dofs],
+    return {"format": DATA_FORMAT, "model": data.model,
+            "dofs": [list(x) if isinstance(x, tuple) else int(x) for x in data.dofs],
             "modes": modes, "meta": data.meta}

@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..any_model import load_any_model
+from ..matrix_model import MatrixModel
 from ..modal import modal_analysis
-from ..model import FrameModel, load_model
+from ..model import FrameModel
 from .types import ModalData
 
 
-def synthetic_measurement(model: FrameModel | str, n_modes: int = 8, dofs=None, freq_noise: float = 0.0,
+def synthetic_measurement(model: FrameModel | MatrixModel | str, n_modes: int = 8, dofs=None, freq_noise: float = 0.0,
                           shape_noise: float = 0.0, seed: int | None = 0, random_sign_scale: bool = True,
                           model_name: str | None = None, with_shapes: bool = True,
                           parameters=(), theta=None) -> ModalData:
@@ -21,11 +23,15 @@ def synthetic_measurement(model: FrameModel | str, n_modes: int = 8, dofs=None, 
     in: `shape_noise=0.02` here is `--shape-noise 0.02` there); each shape then gets a random
     sign and a log-uniform scale in [0.1, 10]. Modes are re-sorted by frequency after the
     noise. `model_name` is what the data says it belongs to (default: the model's name; a
-    truth model with a hidden effect names the nominal model).
+    truth model with a hidden effect names the nominal model). A matrix model (MatrixModel or
+    manifest path) needs `dofs` (its labels, or row numbers where it gave a count), takes
+    `parameters` as term names and `theta` as their multipliers, and its data name the
+    manifest's path by default.
     """
-    model = load_model(model)
+    model = load_any_model(model)
     rng = np.random.default_rng(seed)
-    dofs = tuple(model.measured_dofs if dofs is None else (tuple(d) for d in dofs))
+    given = getattr(model, "measured_dofs", ()) if dofs is None else dofs
+    dofs = tuple(tuple(d) if isinstance(d, (list, tuple)) else int(d) for d in given)
     if not dofs:
         raise ValueError(f"model {model.name!r} lists no measured DOFs: pass dofs=")
     res = modal_analysis(model, n_modes, parameters=parameters, theta=theta)
@@ -40,4 +46,6 @@ def synthetic_measurement(model: FrameModel | str, n_modes: int = 8, dofs=None, 
         shapes[:] = np.nan
     meta = {"source": "synthetic", "truth_model": model.name, "freq_noise": freq_noise,
             "shape_noise": shape_noise, "seed": seed}
+    if model_name is None and isinstance(model, MatrixModel) and model.source:
+        model_name = model.source  # a matrix model is found by its manifest's path
     return ModalData(model_name or model.name, dofs, freqs[order], shapes[:, order], meta)

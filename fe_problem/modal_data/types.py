@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..any_model import load_any_model
 from ..model import FrameModel, load_model, shipped_models
 from ..model.validate import shown
 
@@ -19,23 +20,25 @@ class DataFileError(ValueError):
     """A measured-data file that breaks its format; the message names the file and field."""
 
 
-def model_named(model: str, source: str) -> FrameModel:
-    """The model a data file names: a shipped model, or a model file path relative to the data
-    file `source` (FileNotFoundError / ModelFileError as `load_model`)."""
+def model_named(model: str, source: str):
+    """The model a data file names: a shipped model, or a model file or matrix manifest path
+    relative to the data file `source` (a FrameModel or a MatrixModel, `load_any_model`;
+    FileNotFoundError / ModelFileError / MatrixModelError as it gives them)."""
     if model in shipped_models():
         return load_model(model)
     path = Path(model)
     if not path.is_absolute() and source not in ("<memory>", ""):
         path = Path(source).parent / path
-    return load_model(path)
+    return load_any_model(path)
 
 
 @dataclass(frozen=True, eq=False)
 class ModalData:
     """Measured modes of one structure.
 
-    model: a shipped model name or a model file path; dofs: the measured coordinates
-    (node id, direction); frequencies_hz: (m,) ascending; shapes: (len(dofs), m), a column of
+    model: a shipped model name, a model file or matrix manifest path; dofs: the measured
+    coordinates (node id, direction), or 1-based row numbers (int) for a matrix model whose DOFs
+    are a count; frequencies_hz: (m,) ascending; shapes: (len(dofs), m), a column of
     NaN where only the frequency is known. A shape's sign and scale carry no meaning.
     """
 
@@ -86,8 +89,15 @@ class ModalData:
         except OSError:
             return False
 
-    def check_model(self, model: FrameModel) -> None:
-        """Raise DataFileError if a measured DOF does not exist in `model`."""
+    def check_model(self, model) -> None:
+        """Raise DataFileError if a measured DOF does not exist in `model` (a FrameModel or a
+        MatrixModel: row numbers 1..n for a counted one, its [node, direction] labels else)."""
+        if not isinstance(model, FrameModel):
+            self._check_matrix_model(model)
+            return
+        if self.dofs and not isinstance(self.dofs[0], tuple):
+            raise DataFileError(f"{self.source}: field 'dofs': row numbers are for a model given as matrices with a "
+                                f"count of DOFs; model {model.name!r} is a frame: give [node id, direction]")
         ids = set(model.node_ids)
         for i, (node, d) in enumerate(self.dofs):
             if node not in ids:
@@ -95,3 +105,16 @@ class ModalData:
             if d not in model.layout.names:
                 raise DataFileError(f"{self.source}: field 'dofs'[{i}]: unknown direction {d!r}; the nodes of model "
                                     f"{model.name!r} have {list(model.layout.names)}")
+
+    def _check_matrix_model(self, model) -> None:
+        for i, d in enumerate(self.dofs):
+            if model.row_of(d) is not None:
+                continue
+            if model.labelled and not isinstance(d, tuple):
+                raise DataFileError(f"{self.source}: field 'dofs'[{i}]: {shown(d)} is a row number, but the DOFs of model "
+                                    f"{model.name!r} are labelled: give [node, direction]")
+            if not model.labelled and isinstance(d, tuple):
+                raise DataFileError(f"{self.source}: field 'dofs'[{i}]: model {model.name!r} numbers its DOFs 1.."
+                                    f"{model.n_dof}: give row numbers, not {list(d)}")
+            what = f"row {d} (1..{model.n_dof})" if not model.labelled else f"DOF {list(d)}"
+            raise DataFileError(f"{self.source}: field 'dofs'[{i}]: model {model.name!r} has no {what}")

@@ -56,6 +56,9 @@ def write_uff55(data: ModalData, path: str | Path) -> Path:
             f"{path}: mode(s) {listed} have no measured shape, and UFF dataset 55 holds one shape per "
             "mode: write JSON instead, or only the modes with shapes "
             "(data.subset(np.flatnonzero(data.has_shape)))")
+    if any(not isinstance(d, tuple) for d in data.dofs):
+        raise DataFileError(f"{path}: the DOFs are row numbers of a model given as matrices; UFF dataset 55 "
+                            "holds [node, direction] coordinates: write JSON instead")
     bad = [d for d in data.dofs if d[1] not in SPATIAL]
     if bad:
         raise DataFileError(f"{path}: DOF(s) {bad} have a direction other than {', '.join(SPATIAL)}")

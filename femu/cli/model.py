@@ -1,10 +1,12 @@
 """summary and first frequencies of a model: its size, the solver path and the time taken
 
-A model is a shipped name (hframe, frame3d), a model file, or a regular frame generated with
+A model is a shipped name (hframe, frame3d), a model file, a model given as matrices (a
+femu.matrix-model/1 manifest, docs/matrix-model.md), or a regular frame generated with
 --frame BAYSxSTOREYS (planar) or --frame BAYSxBAYSxSTOREYS (a space frame); --split N splits
 every element of it into N equal parts, and --save writes the result as a model file. Examples:
 
   femu model hframe
+  femu model bridge.matrix.json
   femu model hframe --split 64
   femu model --frame 10x50 --split 3 --save big.model.json
   femu model --frame 2x2x4 --floor-mass 5000
@@ -53,7 +55,8 @@ def non_negative_float(text: str) -> float:
 
 def add_arguments(p) -> None:
     """The arguments of `femu model`."""
-    p.add_argument("model", nargs="?", help="a shipped model name (hframe) or a model file (or give --frame)")
+    p.add_argument("model", nargs="?", help="a shipped model name (hframe), a model file or a matrix-model manifest "
+                                            "(or give --frame)")
     g = p.add_argument_group("generated frames")
     g.add_argument("--frame", type=frame_size, metavar="BAYSxSTOREYS",
                    help="a regular steel frame instead of MODEL: planar BAYSxSTOREYS (fe_problem.regular_frame, "
@@ -95,7 +98,11 @@ def build_model(args):
         given = next(k for k, v in frame_options.items() if v is not None)
         raise ValueError(f"{given} describes a generated frame: give --frame BAYSxSTOREYS with it, or leave it out")
     else:
-        model = fp.load_model(args.model)
+        model = fp.load_any_model(args.model)
+    if isinstance(model, fp.MatrixModel):
+        if args.split > 1:
+            raise ValueError(f"{model.source}: --split splits a frame's elements; a model given as matrices has none")
+        return model
     if args.split > 1:
         model = fp.split_elements(model, args.split).replace(
             name=f"{model.name}-split{args.split}",
@@ -105,12 +112,15 @@ def build_model(args):
 
 def run(args) -> int:
     """`femu model`: the model's summary, size, solver path, timings and first frequencies."""
+    import fe_problem as fp
     from fe_problem import AffineModel, save_model
     from fe_problem.modal import frequencies_hz
 
     t0 = time.perf_counter()
     model = build_model(args)
     t1 = time.perf_counter()
+    if isinstance(model, fp.MatrixModel):
+        return _run_matrix(args, model, t0, t1)
     system = AffineModel(model, solver=args.solver)
     t2 = time.perf_counter()
     if system.n_elastic == 0:
@@ -166,3 +176,50 @@ def _print(s: dict, model, asked: int) -> None:
     print("  mode  frequency (Hz)")
     for i, f in enumerate(s["frequencies_hz"], 1):
         print(f"  {i:4d}  {f:14.3f}")
+
+
+def _run_matrix(args, model, t0: float, t1: float) -> int:
+    """`femu model MANIFEST`: a matrix model's summary, its solve and first frequencies."""
+    from fe_problem import MatrixSystem, save_matrix_model
+    from fe_problem.modal import frequencies_hz
+
+    system = MatrixSystem(model, solver=args.solver)
+    t2 = time.perf_counter()
+    if system.n_elastic == 0:
+        raise ValueError(f"{model.source or model.name}: the model has no elastic mode")
+    lam, _ = system.eigen(system.x0[None, :], min(args.modes, system.n_elastic), vectors=True)
+    t3 = time.perf_counter()
+    saved = str(save_matrix_model(model, args.save)) if args.save else None
+    summary = {
+        "name": model.name, "source": model.source, "description": model.description, "kind": "matrix",
+        "n_dofs": model.n_dof, "labelled_dofs": model.labelled, "n_massless_dofs": system.n_massless,
+        "stiffness_terms": [t.name for t in model.stiffness], "mass_terms": [t.name for t in model.mass],
+        "parameters": [{"name": p.name, "kind": p.kind, "initial": p.initial, "lower": p.lower, "upper": p.upper}
+                       for p in system.parameters],
+        "nnz": int(system.k0.nnz), "solver_path": system.path,
+        "build_s": t1 - t0, "assemble_s": t2 - t1, "solve_s": t3 - t2,
+        "n_rigid_modes": system.n_rigid, "frequencies_hz": frequencies_hz(lam[0]).tolist(), "saved": saved,
+    }
+    if args.json:
+        print_json(summary)
+        return 0
+    s = summary
+    print(f"model {s['name']}  ({s['source']})")
+    if s["description"]:
+        print(f"  {s['description']}")
+    print(f"  given as matrices: {s['n_dofs']} DOFs ({'labelled [node, direction]' if s['labelled_dofs'] else 'rows 1..n'}), "
+          f"{s['n_massless_dofs']} without mass, {s['nnz']} stored entries")
+    print(f"  stiffness terms: {', '.join(s['stiffness_terms'])}; mass terms: {', '.join(s['mass_terms'])}")
+    params = ", ".join(f"{p['name']} [{p['lower']:g}, {p['upper']:g}]" for p in s["parameters"]) or "none"
+    print(f"  parameters (multipliers): {params}")
+    print(f"  {s['n_rigid_modes']} rigid-body modes dropped")
+    print(f"  {s['solver_path']} solver; read in {s['build_s']:.3f} s, assembled in {s['assemble_s']:.3f} s, "
+          f"{len(s['frequencies_hz'])} modes in {s['solve_s']:.3f} s")
+    if s["saved"]:
+        print(f"  saved to {s['saved']}")
+    if len(s["frequencies_hz"]) < args.modes:
+        print(f"  the model has only {len(s['frequencies_hz'])} elastic modes (asked for {args.modes})")
+    print("  mode  frequency (Hz)")
+    for i, f in enumerate(s["frequencies_hz"], 1):
+        print(f"  {i:4d}  {f:14.3f}")
+    return 0
