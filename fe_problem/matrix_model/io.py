@@ -220,8 +220,8 @@ def _read_op4(path: Path, variable, where: str):
     try:
         from pyNastran.op4.op4 import read_op4
     except ImportError:
-        raise MatrixModelError(f"{where}: reading a .op4 file needs the 'import' extra: "
-                               "pip install 'femu-bench[import]'") from None
+        from ..model.nastran import PYNASTRAN_INSTALL
+        raise MatrixModelError(f"{where}: reading a .op4 file needs the 'import' extra: {PYNASTRAN_INSTALL}") from None
     matrices = read_op4(str(path), log=_quiet_log())
     if variable not in matrices:
         raise MatrixModelError(f"{where}: file {path.name!r} has no matrix {variable!r} (it has "

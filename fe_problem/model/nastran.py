@@ -45,6 +45,10 @@ _PBARL_TORSION = ("ROD", "TUBE", "TUBE2")
 _TOL = 1e-9
 
 
+#: How to install pyNastran (its 1.4.1 release pins numpy<2 but runs on numpy 2: without its pins).
+PYNASTRAN_INSTALL = "pip install 'femu-bench[import]' && pip install --no-deps 'pyNastran==1.4.1'"
+
+
 def _pynastran():
     """pyNastran's BDF class, imported when needed (the 'import' extra)."""
     try:
@@ -58,8 +62,7 @@ def _pynastran():
             if shim:
                 del numpy.in1d
     except ImportError:
-        raise NastranFileError("reading or writing a Nastran deck needs the 'import' extra: "
-                               "pip install 'femu-bench[import]' && pip install --no-deps 'pyNastran==1.4.1'") from None
+        raise NastranFileError(f"reading or writing a Nastran deck needs the 'import' extra: {PYNASTRAN_INSTALL}") from None
     return BDF
 
 
