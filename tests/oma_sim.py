@@ -33,9 +33,9 @@ def truth(M, K):
 
 
 def ambient_response(seed: int, duration_s: float = 120.0, fs: float = 100.0, noise: float = 0.1,
-                     damping: float = 0.01, n_storeys: int = 3):
+                     damping: float = 0.01, n_storeys: int = 3, storey_stiffness: float = STOREY_STIFFNESS):
     """(acc (n_samples, n_storeys) m/s^2, frequencies Hz, shapes) of one ambient record."""
-    M, K = shear_building(n_storeys)
+    M, K = shear_building(n_storeys, storey_stiffness)
     f, V = truth(M, K)
     w = 2 * np.pi * f
     C = M @ V @ np.diag(2 * damping * w) @ V.T @ M  # modal damping: V^T C V = diag(2 zeta w)

@@ -51,11 +51,17 @@ MAX_ORDER_LIMIT = 160
 #: The fewest cycles of the band's lowest frequency a record must hold (and samples in any case)
 MIN_CYCLES = 100
 MIN_SAMPLES = 500
-#: Decimate when the band's top is below fs / DECIMATE_ABOVE (down to about that rate)
-DECIMATE_ABOVE = 5.0
+#: Decimate when the band's top is below fs / DECIMATE_ABOVE, down to about that rate: the modes
+#: between the band and the Nyquist frequency would take model orders (at 5, the benchmark's
+#: building lost its first mode at order 40)
+DECIMATE_ABOVE = 3.0
 #: Blocks over which SSI-cov's Hankel covariance is estimated (pyOMA2's nb)
 UNC_BLOCKS = 20
-#: Block rows of the SSI Hankel matrix: at least this, and enough for the highest order
+#: The most reference (projection) channels of SSI-cov (`projection_channels`)
+MAX_PROJECTION_CHANNELS = 6
+#: Block rows of the SSI Hankel matrix: at least this, and enough for the highest order (more, for
+#: lags over a period of a low mode, lost that mode on the benchmark's building and tripled the
+#: time: the uncertainty propagation grows with the square of the block rows)
 MIN_BLOCK_ROWS = 15
 #: Spectral density: segments of this many samples at most (Welch, 50 % overlap)
 NXSEG = 1024
@@ -67,6 +73,8 @@ FDD_MAX_MAC = 0.9
 MIN_MPC = 0.8
 #: The feature transform of the clustering's pre-split (pyOMA2's 'Neu')
 CLUSTER_TRANSFORM = "box-cox"
+#: A cluster smaller than this fraction of the largest is dropped (pyOMA2's 'Neu': 0.5)
+MIN_CLUSTER_FRACTION = 0.3
 #: Largest physical damping ratio
 MAX_DAMPING = 0.2
 
@@ -188,6 +196,21 @@ def _mode_record(f, f_std, z, z_std, phi, phi_std, n_poles, gen):
             "n_poles": int(n_poles)}
 
 
+def projection_channels(acc: np.ndarray) -> list[int]:
+    """The channels SSI-cov projects on (its reference outputs, pyOMA2's ref_ind): every channel up
+    to MAX_PROJECTION_CHANNELS, else the most independent ones by a pivoted QR (scipy) of the
+    channels' correlation matrix. The Hankel covariance and its uncertainty propagation grow with
+    the square of the channels x references: 30 references of 30 channels would need gigabytes."""
+    n = acc.shape[1]
+    if n <= MAX_PROJECTION_CHANNELS:
+        return list(range(n))
+    from scipy.linalg import qr
+
+    x = acc / np.maximum(acc.std(0), 1e-300)
+    _, _, piv = qr(x.T @ x / x.shape[0], pivoting=True, mode="economic")
+    return sorted(int(i) for i in piv[:MAX_PROJECTION_CHANNELS])
+
+
 def _clustering(lib, band):
     """pyOMA2's 'Neu' clustering (Neu et al. 2017), its damping limit ours, cut to the band. (Without
     its Box-Cox transform, half a second faster, it lost modes on the tests' shear building.)"""
@@ -198,16 +221,17 @@ def _clustering(lib, band):
                   sc=False, pre_cluster=True, pre_clus_typ="kmeans",
                   pre_clus_dist=["dfn", "dxi", "dlambda", "dMAC", "dMPD"], transform=CLUSTER_TRANSFORM)
     step2 = Step2(algo="hierarc", dc="95weib", linkage="average")
-    step3 = Step3(post_proc=["min_size_pctg", "MTT"], min_pctg=0.5, select="avg", freqlim=tuple(band))
+    step3 = Step3(post_proc=["min_size_pctg", "MTT"], min_pctg=MIN_CLUSTER_FRACTION, select="avg", freqlim=tuple(band))
     return Clustering(name="auto", steps=(step1, step2, step3))
 
 
 def _ssi(acc, fs, band, order, lib):
     SingleSetup, SSI, _, _, _, Clustering, gen = lib
-    n_ch = acc.shape[1]
-    br = max(MIN_BLOCK_ROWS, math.ceil(order / n_ch) + 1)
+    refs = projection_channels(acc)
+    br = max(MIN_BLOCK_ROWS, math.ceil(order / len(refs)) + 1)
     setup = SingleSetup(acc, fs=fs)
     alg = SSI(name="ssi", method="cov", br=br, ordmax=order, calc_unc=True, nb=UNC_BLOCKS,
+              ref_ind=None if len(refs) == acc.shape[1] else refs,
               hc={"xi_max": MAX_DAMPING, "mpc_lim": None, "mpd_lim": None, "CoV_max": None})
     setup.add_algorithms(alg)
     setup.run_by_name("ssi")
