@@ -256,11 +256,18 @@ def _ssi(acc, fs, band, order, lib):
     phis = np.atleast_2d(c.Phi.T) if np.ndim(c.Phi) == 1 else c.Phi.T
     fstd, xstd = np.atleast_1d(c.Fn_std), np.atleast_1d(c.Xi_std)
     pstd = np.atleast_2d(c.Phi_std.T) if np.ndim(c.Phi_std) == 1 else c.Phi_std.T
+    names = np.unique(labels[labels >= 0])
+    centres = np.array([fl[labels == lab].mean() for lab in names])
     for k in range(fn.size):
-        members = np.flatnonzero(np.isclose(fl, fn[k], rtol=0.05) & (labels >= 0))
-        lab = int(np.bincount(labels[members]).argmax()) if members.size else -1
+        lab = int(names[np.argmin(np.abs(centres - fn[k]))])  # the cluster whose mean is this mode's
         chosen.append(lab)
-        modes.append(_mode_record(fn[k], fstd[k], xi[k], xstd[k], phis[k], pstd[k], (cluster == lab).sum(), gen))
+        rec = _mode_record(fn[k], fstd[k], xi[k], xstd[k], phis[k], pstd[k], (cluster == lab).sum(), gen)
+        # the clustering's averaged shape is real: the complexity is the members' (complex poles)
+        members = chart.residues[cluster == lab]
+        if members.size:
+            rec["mpc"] = float(np.mean([gen.MPC(p) for p in members]))
+            rec["mpd_deg"] = float(np.degrees(np.mean([gen.MPD(p) for p in members])))
+        modes.append(rec)
     from dataclasses import replace
     chart = replace(chart, cluster=cluster, chosen=tuple(chosen))
     return modes, chart
