@@ -97,6 +97,20 @@ def test_bad_records_one_line_exit_2(tmp_path, record, capsys):
         assert not (tmp_path / "o" / "modal-data.json").exists()
 
 
+def test_model_band_and_fs_checked(tmp_path, record, capsys):
+    csv = write_csv(tmp_path / "a.csv", record, FS, ("2:x", "99:x", "4:x"))
+    good = write_csv(tmp_path / "b.csv", record, FS, LABELS)
+    cases = [([csv, "--model", "hframe"], f"{csv}: column 3 (99:x): node 99 is not in model 'hframe'"),
+             ([good, "--model", "hframe", "--band", "1", "60"], "above the Nyquist frequency 50 Hz"),
+             ([good, "--model", "hframe", "--fs", "200"], f"{good}: column 1 (time_s) gives 100 Hz but --fs is 200 Hz"),
+             ([good], "--oma: name the model"),
+             ([tmp_path / "none.csv", "--model", "hframe"], "none.csv")]
+    for argv, words in cases:
+        code = main(["identify", *map(str, argv), "--oma", "--out", str(tmp_path / "o")])
+        out, err = capsys.readouterr()
+        assert code == 2 and len(err.strip().splitlines()) == 1 and words in err, (argv, err)
+
+
 def test_bad_record_through_python_m_femu(tmp_path, record):
     """The real command line: `python -m femu identify --oma` on a NaN: one line, exit 2, no traceback."""
     lines = write_csv(tmp_path / "good.csv", record, FS, LABELS).read_text().splitlines()

@@ -351,19 +351,21 @@ def _fdd(acc, fs, band, lib):
     return modes, chart
 
 
-def _check_model(labels, model) -> None:
-    """Every channel label names a node and DOF of `model` (or a DOF number of a matrix model)."""
+def _check_model(recording: Recording, model) -> None:
+    """Every channel label names a node and a DOF of `model`; TimeSeriesError naming the file and column."""
     names = model.layout.names
     ids = set(model.node_ids)
-    for lab in labels:
-        if isinstance(lab, int):
-            raise TimeSeriesError(f"channel {lab}: a DOF number, but model {model.name!r} is a frame: label channels "
-                                  "NODE:DIRECTION")
-        if lab[0] not in ids:
-            raise TimeSeriesError(f"channel {label_text(lab)}: node {lab[0]} is not in model {model.name!r}")
-        if lab[1] not in names:
-            raise TimeSeriesError(f"channel {label_text(lab)}: direction {lab[1]!r} is not a DOF of model "
-                                  f"{model.name!r} (its nodes have {', '.join(names)})")
+    for s in recording.setups:
+        for k, lab in enumerate(s.channels):
+            if isinstance(lab, int):
+                raise TimeSeriesError(f"{s.channel_label(k)}: a DOF number, but model {model.name!r} is a frame: "
+                                      "label the channels NODE:DIRECTION")
+            if lab[0] not in ids:
+                raise TimeSeriesError(f"{s.channel_label(k)}: node {lab[0]} is not in model {model.name!r} "
+                                      f"(its nodes: {min(ids)}..{max(ids)})")
+            if lab[1] not in names:
+                raise TimeSeriesError(f"{s.channel_label(k)}: direction {lab[1]!r} is not a DOF of model "
+                                      f"{model.name!r} (its nodes have {', '.join(names)})")
 
 
 def identify_ambient(recording: Recording, model=None, method: str = "ssi-cov", band_hz=None,
@@ -390,7 +392,7 @@ def identify_ambient(recording: Recording, model=None, method: str = "ssi-cov", 
     if model is not None:
         model_ref = model if isinstance(model, str) else model.name
         model = load_model(model)
-        _check_model(recording.channels, model)
+        _check_model(recording, model)
     lib = _pyoma()
     warn: list[str] = []
     results, charts, dropped, psd = [], [], [], None
