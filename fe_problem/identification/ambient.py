@@ -78,6 +78,8 @@ MIN_MPC = 0.8
 CLUSTER_TRANSFORM = "box-cox"
 #: A cluster smaller than this fraction of the largest is dropped (pyOMA2's 'Neu': 0.5)
 MIN_CLUSTER_FRACTION = 0.3
+#: A mode whose damping exceeds this multiple of the median over the modes found is a noise mode
+DAMPING_OUTLIER = 2.5
 #: Largest physical damping ratio
 MAX_DAMPING = 0.2
 
@@ -419,6 +421,7 @@ def identify_ambient(recording: Recording, model=None, method: str = "ssi-cov", 
         results.append((s, kept, modes))
         charts.append(chart)
     labels, modes = _merge(results, recording, lib[-1], warn)
+    modes = _damping_outliers(modes, warn)
     if not modes:
         raise ValueError(f"{', '.join(recording.sources)}: no stable physical mode found in {lo:g}-{hi:g} Hz "
                          f"({method}, orders up to {order}): the records hold no resonance there, or the band is wrong")
@@ -446,6 +449,24 @@ def identify_ambient(recording: Recording, model=None, method: str = "ssi-cov", 
     data = ModalData(model_ref or "", tuple(labels), freqs, shapes, meta, source=recording.sources[0])
     return AmbientIdentification(data, tuple(charts), psd, tuple(modes), method, uncertainty,
                                  tuple(dropped), tuple(warn))
+
+
+def _damping_outliers(modes, warn):
+    """The modes without those whose damping exceeds DAMPING_OUTLIER times the median of the
+    modes found (each named in a warning): on the H-frame's simulated records with 15 channels,
+    noise modes clustered at 2.8-5.4 % damping beside physical ones at 0.9-1.2 %."""
+    if len(modes) < 3:
+        return modes
+    median = float(np.median([m["damping_ratio"] for m in modes]))
+    keep = []
+    for m in modes:
+        if m["damping_ratio"] > DAMPING_OUTLIER * median:
+            warn.append(f"a cluster at {m['frequency_hz']:.4g} Hz with damping {100 * m['damping_ratio']:.2g} % "
+                        f"({m['damping_ratio'] / median:.1f} times the median {100 * median:.2g} %) was rejected "
+                        "as a noise mode")
+        else:
+            keep.append(m)
+    return keep
 
 
 def _merge(results, recording: Recording, gen, warn):
