@@ -10,7 +10,8 @@ then one method of pyOMA2 (Pasca, Aloisio, Rosso, Sotiropoulos, pyOMA2, Software
   Doehler & Mevel 2013, over `UNC_BLOCKS` blocks), poles chosen unattended by pyOMA2's
   clustering ``Neu`` (Neu et al. 2017: k-means split of stable and noise poles, hierarchical
   clustering on frequency, damping, eigenvalue and MAC distances, a 95 % Weibull cut, clusters
-  smaller than half the largest and outliers (modified Thompson tau) removed). A mode's values
+  smaller than MIN_CLUSTER_FRACTION of the largest and outliers (modified Thompson tau) removed),
+  and a mode damped more than DAMPING_OUTLIER times the median rejected as noise. A mode's values
   are its cluster's means; its standard deviations are the propagated ones averaged over the
   cluster (SSI-cov's own uncertainty, not the scatter over orders). Frequency and damping std
   cover the truth at their nominal rate on simulated records (tests/test_oma.py); the shape std
