@@ -111,6 +111,15 @@ def test_model_band_and_fs_checked(tmp_path, record, capsys):
         assert code == 2 and len(err.strip().splitlines()) == 1 and words in err, (argv, err)
 
 
+def test_missing_pyoma2_is_one_line(tmp_path, record, capsys, monkeypatch):
+    good = write_csv(tmp_path / "b.csv", record, FS, LABELS)
+    monkeypatch.setitem(sys.modules, "pyoma2", None)  # import pyoma2 raises ImportError
+    code = main(["identify", str(good), "--oma", "--model", "hframe", "--out", str(tmp_path / "o")])
+    out, err = capsys.readouterr()
+    assert code == 2 and err.strip() == ("femu identify: error: femu identify --oma needs the 'oma' extra: "
+                                         "pip install 'femu-bench[oma]'")
+
+
 def test_bad_record_through_python_m_femu(tmp_path, record):
     """The real command line: `python -m femu identify --oma` on a NaN: one line, exit 2, no traceback."""
     lines = write_csv(tmp_path / "good.csv", record, FS, LABELS).read_text().splitlines()

@@ -108,14 +108,16 @@ def _pyoma():
     try:
         import pyoma2  # noqa: F401
     except ImportError:
-        raise ImportError("femu identify --oma needs the 'oma' extra: pip install 'femu-bench[oma]'") from None
-    for name in list(logging.root.manager.loggerDict):  # pyOMA2 logs every step at INFO
-        if name.startswith("pyoma2"):
-            logging.getLogger(name).setLevel(logging.WARNING)
+        # a ValueError, as the other optional dependencies': the command line's one line, exit 2
+        raise ValueError("femu identify --oma needs the 'oma' extra: pip install 'femu-bench[oma]'") from None
     from pyoma2.algorithms import EFDD, FDD, SSI, pLSCF
     from pyoma2.algorithms.data.run_params import Clustering
     from pyoma2.functions import gen
     from pyoma2.setup import SingleSetup
+
+    for name in list(logging.root.manager.loggerDict):  # pyOMA2 logs every step at INFO
+        if name.startswith("pyoma2"):
+            logging.getLogger(name).setLevel(logging.WARNING)
     return SingleSetup, SSI, pLSCF, FDD, EFDD, Clustering, gen
 
 

@@ -34,7 +34,8 @@ def _stderr(msg: str, end: str = "\n") -> None:
 def add_arguments(p) -> None:
     p.add_argument("frf_files", nargs="+", metavar="FILE",
                    help="UFF 58 (.uff/.unv), .npz or .csv FRF files; with --oma, .csv or .npz time series")
-    p.add_argument("--model", default=None, help="model name or file (default: the one the FRF file names)")
+    p.add_argument("--model", default=None,
+                   help="model name or file (default: the one the FRF file names; required with --oma)")
     p.add_argument("--band", nargs=2, type=float, metavar=("LO", "HI"), default=None,
                    help="frequency band in Hz (default: every line)")
     p.add_argument("--modes", type=positive_int, default=None, help="keep the lowest N modes (default: all found)")
