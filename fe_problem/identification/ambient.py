@@ -41,7 +41,7 @@ import io
 import logging
 import math
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -270,19 +270,18 @@ def _ssi(acc, fs, band, order, lib):
         lab = int(names[np.argmin(np.abs(centres - fn[k]))])  # the cluster whose mean is this mode's
         chosen.append(lab)
         rec = _mode_record(fn[k], fstd[k], xi[k], xstd[k], phis[k], pstd[k], (cluster == lab).sum(), gen)
+        rec["cluster"] = lab
         # the clustering's averaged shape is real: the complexity is the members' (complex poles)
         members = chart.residues[cluster == lab]
         if members.size:
             rec["mpc"] = float(np.mean([gen.MPC(p) for p in members]))
             rec["mpd_deg"] = float(np.degrees(np.mean([gen.MPD(p) for p in members])))
         modes.append(rec)
-    from dataclasses import replace
     chart = replace(chart, cluster=cluster, chosen=tuple(chosen))
     return modes, chart
 
 
 def _subset(chart: P.Chart, mask) -> P.Chart:
-    from dataclasses import replace
     return replace(chart, order=chart.order[mask], frequency_hz=chart.frequency_hz[mask], damping=chart.damping[mask],
                    mpc=chart.mpc[mask], residues=chart.residues[mask], stable=chart.stable[mask],
                    cluster=chart.cluster[mask])
@@ -307,6 +306,7 @@ def _plscf(acc, fs, band, order, lib):
         real = np.array([real_shape(s)[0] for s in shapes])
         real *= np.sign(real @ real_shape(ref)[0])[:, None]
         rec = _mode_record(f.mean(), f.std(ddof=1), z.mean(), z.std(ddof=1), ref, None, m.sum(), gen)
+        rec["cluster"] = lab
         rec["shape"] = real.mean(0) / np.abs(real.mean(0)).max()
         rec["shape_std"] = positive_std(real.std(0, ddof=1))
         modes.append(rec)
@@ -420,11 +420,12 @@ def identify_ambient(recording: Recording, model=None, method: str = "ssi-cov", 
             sv = np.array([sv[i, i, :] for i in range(min(sv.shape[0], 4))]).real
             m = (f >= lo) & (f <= band[1])
             psd = (f[m], sv[:, m])
-        modes = sorted(modes, key=lambda r: r["frequency_hz"])
+        modes = _damping_outliers(sorted(modes, key=lambda r: r["frequency_hz"]), warn)
+        real = {m.get("cluster") for m in modes}  # the noise modes' clusters no longer marked chosen
+        chart = replace(chart, chosen=tuple(lab for lab in chart.chosen if lab in real))
         results.append((s, kept, modes))
         charts.append(chart)
     labels, modes = _merge(results, recording, lib[-1], warn)
-    modes = _damping_outliers(modes, warn)
     if not modes:
         raise ValueError(f"{', '.join(recording.sources)}: no stable physical mode found in {lo:g}-{hi:g} Hz "
                          f"({method}, orders up to {order}): the records hold no resonance there, or the band is wrong")
