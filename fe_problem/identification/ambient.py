@@ -170,8 +170,7 @@ def _prepare(setup: Setup, band, warn: list):
             dropped.append((label_text(setup.channels[k]), kind))
             warn.append(f"{msg}; dropped from the identification")
         else:
-            warn.append(f"{msg}; kept (SSI-cov skips lag 0, where white noise sits; its shape entries carry the "
-                        "larger scatter)")
+            warn.append(f"{msg}; kept (SSI-cov's output covariances skip lag 0, where white sensor noise sits)")
     if keep.sum() < 1:
         raise TimeSeriesError(f"{setup.source}: no usable channel (every one is dead or clipped)")
     acc = setup.acc[:, keep]
