@@ -57,6 +57,8 @@ _WHERE = {
     # From FRFs to modal data (issue 12): the synthetic test rig, FRF files, identification
     **dict.fromkeys(("FRFFileError", "FRFSet", "Identification", "identify", "read_frf", "synthetic_frf"),
                     "identification"),
+    # From ambient records to modal data (issue 37)
+    **dict.fromkeys(("TimeSeriesError", "identify_ambient", "read_timeseries"), "identification"),
 }
 
 __all__ = sorted(_WHERE)

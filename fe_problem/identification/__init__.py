@@ -5,5 +5,8 @@ LSFD residues, real normal modes at the measured coordinates)."""
 from .frf_io import FRFFileError, FRFSet, read_frf, write_csv, write_npz, write_uff58
 from .synthetic import synthetic_frf
 from .core import Identification, identify
+from .timeseries_io import Recording, Setup, TimeSeriesError, read_timeseries
+from .ambient import AmbientIdentification, identify_ambient
 
-__all__ = ["FRFFileError", "FRFSet", "Identification", "identify", "read_frf", "synthetic_frf", "write_csv", "write_npz", "write_uff58"]
+__all__ = ["FRFFileError", "FRFSet", "Identification", "identify", "read_frf", "synthetic_frf", "write_csv", "write_npz", "write_uff58",
+           "AmbientIdentification", "Recording", "Setup", "TimeSeriesError", "identify_ambient", "read_timeseries"]

@@ -1,4 +1,4 @@
-"""identify modes (frequencies, damping, shapes) from frequency response functions
+"""identify modes (frequencies, damping, shapes) from frequency responses or ambient records
 
 `femu identify FRF_FILE [FRF_FILE...] [--model M] [--band LO HI] [--modes N] [--out DIR] [--json]`
 reads FRFs (UFF dataset 58, `.npz` or CSV: docs/identify.md), finds the stable physical poles
@@ -7,6 +7,12 @@ over LSCF model orders (sdypy-EMA), fits the residues and writes DIR/modal-data.
 the stabilisation chart, the FRF fit and the shapes. --json prints the modal-data document as
 the only thing on stdout. Progress (a TTY, or --progress) and warnings go to stderr; bad input
 is one line on stderr and exit code 2.
+
+`femu identify FILE [FILE...] --oma --model M [--method ssi-cov|plscf|fdd] [--fs HZ] [--band LO HI]
+[--order MAX] [--units g] --out DIR` reads response time series of an ambient test (CSV or .npz,
+several setups merged through their reference channels: docs/identify.md, "Ambient vibration") and
+identifies the modes by operational modal analysis (pyOMA2): DIR/modal-data.json with each
+mode's frequency_std_hz and shape_std, identification.json and report.md.
 """
 
 from __future__ import annotations
@@ -26,8 +32,10 @@ def _stderr(msg: str, end: str = "\n") -> None:
 
 
 def add_arguments(p) -> None:
-    p.add_argument("frf_files", nargs="+", metavar="FRF_FILE", help="UFF 58 (.uff/.unv), .npz or .csv FRF files")
-    p.add_argument("--model", default=None, help="model name or file (default: the one the FRF file names)")
+    p.add_argument("frf_files", nargs="+", metavar="FILE",
+                   help="UFF 58 (.uff/.unv), .npz or .csv FRF files; with --oma, .csv or .npz time series")
+    p.add_argument("--model", default=None,
+                   help="model name or file (default: the one the FRF file names; required with --oma)")
     p.add_argument("--band", nargs=2, type=float, metavar=("LO", "HI"), default=None,
                    help="frequency band in Hz (default: every line)")
     p.add_argument("--modes", type=positive_int, default=None, help="keep the lowest N modes (default: all found)")
@@ -36,6 +44,14 @@ def add_arguments(p) -> None:
     p.add_argument("--max-damping", type=float, default=0.10, help="largest physical damping ratio (default 0.10)")
     p.add_argument("--progress", action="store_true", help="show progress on stderr even when it is not a terminal")
     p.add_argument("--json", action="store_true", help="print the modal-data document on stdout")
+    oma = p.add_argument_group("ambient vibration (--oma)")
+    oma.add_argument("--oma", action="store_true", help="the files are response time series of an ambient test")
+    oma.add_argument("--method", choices=("ssi-cov", "plscf", "fdd"), default="ssi-cov",
+                     help="operational modal analysis method (pyOMA2)")
+    oma.add_argument("--fs", type=float, default=None, help="sampling frequency in Hz (for CSV files without time_s)")
+    oma.add_argument("--order", type=positive_int, default=None,
+                     help="highest model order (SSI: state dimension, default 40; pLSCF: default 30)")
+    oma.add_argument("--units", choices=("m/s^2", "g"), default="m/s^2", help="units of the accelerations")
 
 
 def _model_reference(name: str, out: Path) -> str:
@@ -55,6 +71,9 @@ def run(args) -> int:
     from femu.reports.identify import summary_record, write_report
     from femu.reports.render import make_out_dir
 
+    if args.oma:
+        from ._oma import run_oma
+        return run_oma(args)
     if not (math.isfinite(args.max_damping) and 0 < args.max_damping < 1):
         raise ValueError(f"--max-damping must lie in (0, 1), got {args.max_damping}")
     out = Path(args.out)
