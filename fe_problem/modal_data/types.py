@@ -13,6 +13,10 @@ from ..model.validate import shown
 
 #: The format tag of a JSON modal-data file.
 DATA_FORMAT = "femu.modal-data/1"
+#: The noise assumed where a mode states no deviation (the diagnosis' convention,
+#: diagnosis/residuals.py): a frequency's std as a fraction of it, a shape entry's std as a
+#: fraction of the largest |entry| of its shape.
+DEFAULT_FREQ_NOISE, DEFAULT_SHAPE_NOISE = 0.002, 0.02
 
 
 class DataFileError(ValueError):
@@ -81,6 +85,17 @@ class ModalData:
     def has_shape(self) -> np.ndarray:
         """(m,) True where the mode's shape was measured."""
         return ~np.isnan(self.shapes).any(axis=0)
+
+    def noise(self, freq_noise: float = DEFAULT_FREQ_NOISE,
+              shape_noise: float = DEFAULT_SHAPE_NOISE) -> tuple[np.ndarray, np.ndarray]:
+        """The standard deviations (m,) of the frequencies (Hz) and (len(dofs), m) of the shape
+        entries (units of `shapes`): the stated ones, else `freq_noise` x the frequency and
+        `shape_noise` x the largest |entry| of the mode's shape (NaN where no shape)."""
+        sf = np.where(self.has_frequency_std, self.frequency_std_hz, freq_noise * self.frequencies_hz)
+        with np.errstate(invalid="ignore"):
+            peak = np.nanmax(np.abs(self.shapes), axis=0, initial=0.0)
+        ss = np.where(np.isnan(self.shape_std), shape_noise * peak[None, :], self.shape_std)
+        return sf, np.where(np.isnan(self.shapes), np.nan, ss)
 
     def subset(self, modes) -> "ModalData":
         """The data restricted to some modes (indices), e.g. to hold modes out."""

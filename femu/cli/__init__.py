@@ -16,7 +16,8 @@ import sys
 import warnings
 
 #: The commands, in the order `femu --help` lists them: each is the module femu.cli.<name>.
-COMMANDS = ("model", "suite", "optimizers", "study", "results", "report", "reproduce", "diagnose", "identify")
+COMMANDS = ("model", "suite", "optimizers", "study", "results", "report", "reproduce", "diagnose", "identify",
+            "update")
 
 
 def _module(name: str):
