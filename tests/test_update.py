@@ -311,3 +311,116 @@ def test_the_weighted_objective_is_unchanged():
     f, _ = pr._solve(pr.check_x(x), shapes=False)
     fm = pr.data.frequencies_hz
     assert pr.evaluate(x)[0] == pytest.approx(np.sum(pr.weights * ((fm - f[0]) / fm) ** 2), rel=1e-13)
+
+
+# -- bad parameter and data files: one line through the CLI -----------------------------------
+
+GOOD = {"name": "cols", "kind": "modulus", "targets": [1, 2], "lower": 5e10, "upper": 9e10}
+
+PARAMETER_CASES = [
+    ({"format": "femu.parameters/2", "parameters": [GOOD]}, "field 'format' must be 'femu.parameters/1'"),
+    ({"format": "femu.parameters/1"}, "missing field 'parameters'"),
+    ({"format": "femu.parameters/1", "parameters": []}, "field 'parameters' must be a non-empty list"),
+    ({"format": "femu.parameters/1", "parameters": [GOOD], "extra": 1}, "unknown key 'extra'"),
+    ([dict(GOOD, colour="red")], "parameter 'cols': unknown key 'colour'"),
+    ([dict(GOOD, kind="stiffness")], "parameter 'cols': field 'kind' must be one of"),
+    ([dict(GOOD, targets=[1, 99])], "parameter 'cols': model 'hframe' has no element 99"),
+    ([dict(GOOD, targets=[])], "parameter 'cols': field 'targets' must be a non-empty list"),
+    ([dict(GOOD, targets=[1, 1])], "parameter 'cols': field 'targets' lists an id twice"),
+    ([dict(GOOD, targets=["1"])], "parameter 'cols': field 'targets'[0] must be an integer id"),
+    ([GOOD, dict(GOOD, name="other", targets=[2, 3])], "parameter 'other': element 2 is already in parameter 'cols'"),
+    ([GOOD, dict(GOOD, targets=[5])], "parameter 'cols': the name is given to two parameters"),
+    ([dict(GOOD, lower=9e10, upper=5e10)], "parameter 'cols': field 'lower' (9e+10) must be less than 'upper'"),
+    ([dict(GOOD, upper="big")], "parameter 'cols': field 'upper' must be a finite number"),
+    ([dict(GOOD, lower=0.0)], "parameter 'cols': field 'lower' must be > 0 for a modulus"),
+    ([dict(GOOD, initial=1e11)], "parameter 'cols': field 'initial' (1e+11) is outside [lower, upper]"),
+    ([dict(GOOD, lower=8e10)], "parameter 'cols': the model's own value 7e+10 (the default 'initial') is outside"),
+    ([{k: v for k, v in GOOD.items() if k != "upper"}], "parameter 'cols': missing field 'upper'"),
+    ([dict(GOOD, name="")], "parameters[0]: field 'name' must be a non-empty string"),
+    ([dict(GOOD, kind="mass", targets=[77], lower=0.0, upper=1.0)], "parameter 'cols': model 'hframe' has no node 77"),
+    ([dict(GOOD, kind="spring", targets=[1])], "parameter 'cols': model 'hframe' has no spring 1"),
+    ([dict(GOOD, kind="release", targets=[1, 2], lower=0.0, upper=1e4)],
+     "parameter 'cols': the end of element 1 at node 2 is not released in the model"),
+    ([dict(GOOD, kind="release", targets=[1, 5], lower=0.0, upper=1e4)], "parameter 'cols': element 1 does not end at node 5"),
+    ("[", "not valid JSON"),
+]
+
+
+@pytest.mark.parametrize("content,says", PARAMETER_CASES, ids=[s[:40] for _, s in PARAMETER_CASES])
+def test_a_bad_parameter_file_is_one_line(tmp_path, capsys, content, says):
+    if isinstance(content, list):
+        content = {"format": "femu.parameters/1", "parameters": content}
+    f = tmp_path / "p.json"
+    f.write_text(content if isinstance(content, str) else json.dumps(content))
+    code = main(["update", "hframe", "paper", "--out", str(tmp_path / "o"), "--parameters", str(f), "--budget", "20"])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err and str(f) in err and says in err, err
+    assert not (tmp_path / "o" / "update.json").exists()
+
+
+DATA_CASES = [
+    (lambda m: m.update(frequency_std_hz=0), "field 'modes'[0].frequency_std_hz: must be a finite number > 0, got 0"),
+    (lambda m: m.update(frequency_std_hz="0.1"), "field 'modes'[0].frequency_std_hz: must be a finite number > 0"),
+    (lambda m: m.update(shape_std=-0.1), "field 'modes'[0].shape_std: must be a finite number > 0"),
+    (lambda m: m.update(shape_std=[0.1]), "field 'modes'[0].shape_std: needs one number or"),
+    (lambda m: m.update(shape_std=[0.1] * (len(m["shape"]) - 1) + [None]), "field 'modes'[0].shape_std["),
+    (lambda m: m.update(shape=None, shape_std=0.1), "field 'modes'[0].shape_std: given for a mode without a shape"),
+    (lambda m: m.update(shape_sd=0.1), "field 'modes'[0]: unknown key 'shape_sd'; did you mean 'shape_std'?"),
+]
+
+
+@pytest.mark.parametrize("edit,says", DATA_CASES, ids=[s[:50] for _, s in DATA_CASES])
+def test_a_bad_deviation_in_a_data_file_is_one_line(tmp_path, capsys, edit, says):
+    from fe_problem.modal_data import modal_data_to_dict
+    d = modal_data_to_dict(fp.synthetic_measurement("hframe", n_modes=4, seed=0, model_name="hframe"))
+    edit(d["modes"][0])
+    f = tmp_path / "d.json"
+    f.write_text(json.dumps(d))
+    code = main(["update", "hframe", str(f), "--out", str(tmp_path / "o"), "--budget", "20"])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err and str(f) in err and says in err, err
+
+
+@pytest.mark.parametrize("args,says", [
+    (["--hold-out", "6"], "--hold-out 6: must be between 0 and 4"),
+    (["--hold-out", "-1"], "--hold-out -1: must be between 0 and 4"),
+    (["--option", "cma-es.sigma0=0.2"], "the optimizer is 'sensitivity'"),
+    (["--optimizer", "nosuch"], "nosuch"),
+    (["--seed", "-3"], "seed must be an integer >= 0"),
+])
+def test_bad_update_arguments_are_one_line(tmp_path, capsys, args, says):
+    code = main(["update", "hframe", "paper", "--out", str(tmp_path / "o"), "--budget", "20", *args])
+    err = capsys.readouterr().err
+    assert code == 2 and len(err.strip().splitlines()) == 1 and says in err, err
+
+
+# -- the updated model of every parameter kind --------------------------------------------------
+
+def test_model_with_gives_the_affine_models_modes():
+    """Writing the estimates into the model (each kind its own field) gives the modes the
+    affine model computes at those values."""
+    from fe_problem.assembly import AffineModel
+    from fe_problem.model import LumpedMass, Spring
+    from fe_problem.model.edits import release_element_end
+    from fe_problem.parameters import model_value, model_with
+
+    base = fp.load_model("hframe")
+    base = release_element_end(base, 5, 3, 2.0e3)
+    base = base.replace(masses=(LumpedMass(10, 0.2, 1e-5),), springs=(Spring(1, (1, "x"), None, 5.0e3),))
+    params = (fp.Parameter("modulus", (1, 2), 5e10, 9e10, 7e10, name="E"),
+              fp.Parameter("density", (5, 6, 7), 2000.0, 3500.0, 2700.0, name="rho"),
+              fp.Parameter("mass", (10,), 0.0, 1.0, 0.2, name="m"),
+              fp.Parameter("spring", (1,), 1e3, 1e4, 5e3, name="k"),
+              fp.Parameter("release", (5, 3), 1e2, 1e4, 2e3, name="hinge"))
+    for p in params:
+        assert model_value(base, p.kind, p.targets) == pytest.approx(p.initial)
+    x = np.array([6.1e10, 3100.0, 0.45, 8.0e3, 6.5e2])
+    lam, _ = AffineModel(base, params).eigen(x[None], 8)
+    updated = model_with(base, params, x)
+    ours = fp.modal_analysis(updated, 8).frequencies_hz
+    np.testing.assert_allclose(ours, np.sqrt(lam[0]) / (2 * np.pi), rtol=1e-9)
+    for p, v in zip(params, x):
+        assert model_value(updated, p.kind, p.targets) == pytest.approx(v)
+    assert updated.masses[-1].inertia_kg_m2 == 1e-5  # the node's rotary inertia kept
