@@ -1,8 +1,8 @@
 """`femu update`: fit a model's parameters to measured modes and write the updated model, the
 record `update.json` (format ``femu.update/1``, shared/formats/update-result.md) and a report.
 
-The model is read through `load_update_model` and the updated model written through
-`write_updated_model`, each the one place that dispatches on the model's type (a frame model
+The model is read through `fe_problem.user_problem.load_update_model` and the updated model
+written through `write_updated_model`, each the one place that dispatches on the model's type (a frame model
 today, `femu.model/1` JSON), so that another model type is one branch in each. The objective
 is the balanced one (`UpdatingProblem(objective="balanced")`, docs/update.md); the optimizer
 runs through `adapters.run` (sandboxed as in studies) from the model's own parameters; the
@@ -11,27 +11,17 @@ statistics of the estimate come from `fe_problem.estimate`.
 
 from __future__ import annotations
 
-import hashlib
 import threading
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from fe_problem.user_problem import file_hash, load_update_model, user_problem
+
 #: The format tag of update.json.
 UPDATE_FORMAT = "femu.update/1"
 DEFAULT_OPTIMIZER, DEFAULT_BUDGET = "sensitivity", 1000
-#: The default parameters of a frame model without a parameter file: each element's modulus
-#: within +- this fraction of its own.
-DEFAULT_SPREAD = 0.3
-
-
-def load_update_model(path):
-    """The model at `path` (or a shipped model's name): the one place `femu update` and
-    `femu study --model` read a model (a frame model file today)."""
-    from fe_problem import load_model
-
-    return load_model(path)
 
 
 def write_updated_model(model, parameters, x, out_dir: Path) -> Path:
@@ -43,48 +33,6 @@ def write_updated_model(model, parameters, x, out_dir: Path) -> Path:
     if isinstance(model, FrameModel):
         return save_model(model_with(model, parameters, x), Path(out_dir) / "updated-model.json")
     raise TypeError(f"cannot write a model of type {type(model).__name__}")
-
-
-def default_parameters(model):
-    """The parameters used without a parameter file, and the sentence the report says of them."""
-    from fe_problem.model import FrameModel
-    from fe_problem.parameters import frame_default_parameters
-
-    if isinstance(model, FrameModel):
-        return (frame_default_parameters(model, DEFAULT_SPREAD),
-                f"no parameter file: each element's modulus within +-{DEFAULT_SPREAD:.0%} of the model's own")
-    raise ValueError(f"model {getattr(model, 'name', model)!r}: give its parameters with --parameters")
-
-
-def file_hash(path) -> str | None:
-    """The SHA-256 of a file's bytes (None for a shipped name that is not a path)."""
-    p = Path(path)
-    return hashlib.sha256(p.read_bytes()).hexdigest() if p.is_file() else None
-
-
-def user_problem(model_path, data_path, parameters_path=None, hold_out: int = 0, name: str | None = None):
-    """(problem, full data, held-out indices, the parameter note): the balanced updating problem
-    of a user's model and data, the last `hold_out` measured modes kept out of the fit."""
-    from fe_problem import UpdatingProblem
-    from fe_problem.modal_data import load_modal_data
-    from fe_problem.parameter_file import load_parameters
-
-    model = load_update_model(model_path)
-    data = load_modal_data(data_path)
-    if parameters_path is not None:
-        parameters, note = load_parameters(parameters_path, model), f"parameters from {parameters_path}"
-    else:
-        parameters, note = default_parameters(model)
-    m = data.n_modes
-    if not 0 <= hold_out < m:
-        raise ValueError(f"--hold-out {hold_out}: must be between 0 and {m - 1} (the data hold {m} modes; "
-                         "at least one is fitted)")
-    fitted = np.arange(m - hold_out)
-    held = np.arange(m - hold_out, m)
-    problem = UpdatingProblem(model, data.subset(fitted) if hold_out else data, parameters,
-                              objective="balanced", n_model_modes=m + 4 if m + 4 <= 10_000 else None,
-                              name=name or f"{Path(str(model_path)).stem}:{Path(str(data_path)).stem}")
-    return problem, data, held, note
 
 
 @dataclass(frozen=True, eq=False)
@@ -259,5 +207,5 @@ def verdict(est, data) -> str:
             "understated deviations).")
 
 
-__all__ = ["DEFAULT_BUDGET", "DEFAULT_OPTIMIZER", "UPDATE_FORMAT", "UpdateResult", "default_parameters",
-           "load_update_model", "update", "user_problem", "write_updated_model"]
+__all__ = ["DEFAULT_BUDGET", "DEFAULT_OPTIMIZER", "UPDATE_FORMAT", "UpdateResult", "file_hash", "load_update_model",
+           "update", "user_problem", "write_updated_model"]

@@ -424,3 +424,46 @@ def test_model_with_gives_the_affine_models_modes():
     for p, v in zip(params, x):
         assert model_value(updated, p.kind, p.targets) == pytest.approx(v)
     assert updated.masses[-1].inertia_kg_m2 == 1e-5  # the node's rotary inertia kept
+
+
+# -- a user's problem as a benchmark problem ---------------------------------------------------
+
+def test_femu_study_on_a_users_model_end_to_end(case, tmp_path):
+    """`femu study --model --data --parameters`: records that name the files and their SHA-256,
+    the report's f_opt the best J of the runs, marked best known and not certified."""
+    d, store, out = case["dir"], tmp_path / "S", tmp_path / "R"
+    args = ["study", "--model", str(d / "frame.json"), "--data", str(d / "data.json"), "--parameters",
+            str(d / "params.json"), "--optimizers", "sensitivity,random-search", "--seeds", "0", "--budget", "40",
+            "--store", str(store), "--workers", "0"]
+    assert main(args) == 0
+    records = [json.loads(p.read_text()) for p in sorted((store / "runs").glob("*.json"))]
+    assert len(records) == 2 and all(r["status"] == "ok" for r in records)
+    for r in records:
+        src = r["problem_source"]
+        assert src["model"] == str((d / "frame.json").resolve()) and src["parameters"] == str((d / "params.json").resolve())
+        assert src["data_sha256"] == __import__("hashlib").sha256((d / "data.json").read_bytes()).hexdigest()
+        assert r["variant"].startswith("user:") and r["f_opt"] is None and len(r["best_x"]) == 3
+    # the problem rebuilt from the record's variant is the one the runs evaluated
+    from adapters.variants import make_problem
+    p = make_problem(records[0]["variant"])
+    assert p.evaluate(records[0]["best_x"])[0] == pytest.approx(records[0]["best_f"], rel=1e-9)
+    assert main(["report", str(store), "--out", str(out)]) == 0
+    bench = (out / "benchmark.md").read_text()
+    best = min(r["best_f"] for r in records)
+    assert f"{best:.17g} | best known" in bench and "**not certified**" in bench
+    # a changed file is noticed: the study's runs are of another problem
+    changed = tmp_path / "frame.json"
+    changed.write_text((d / "frame.json").read_text())
+    src = json.loads(Path(records[0]["variant"][5:]).read_text())
+    src["model"] = str(changed)
+    changed.write_text(changed.read_text().replace('"hframe"', '"hframe2"', 1))
+    Path(tmp_path / "src.json").write_text(json.dumps(src))
+    with pytest.raises(ValueError, match="has changed since the study recorded it"):
+        make_problem("user:" + str(tmp_path / "src.json"))
+
+
+def test_femu_study_model_needs_data(tmp_path, capsys):
+    code = main(["study", "--model", "hframe", "--optimizers", "random-search", "--seeds", "0", "--budget", "10",
+                 "--store", str(tmp_path / "S")])
+    err = capsys.readouterr().err
+    assert code == 2 and "--model and --data go together" in err and len(err.strip().splitlines()) == 1
