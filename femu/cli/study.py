@@ -107,8 +107,7 @@ def run(args) -> int:
 
     options = parse_options(getattr(args, "option", []) or [])
 
-    warning = seeds_warning(args.optimizers, args.seeds, args.variants or ("paper" if not getattr(args, "model", None)
-                                                                            else None), args.suite)
+    warning = seeds_warning(args.optimizers, args.seeds, args.variants, args.suite)
     if warning:
         print(warning, file=sys.stderr)
 
