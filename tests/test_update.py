@@ -467,3 +467,49 @@ def test_femu_study_model_needs_data(tmp_path, capsys):
                  "--store", str(tmp_path / "S")])
     err = capsys.readouterr().err
     assert code == 2 and "--model and --data go together" in err and len(err.strip().splitlines()) == 1
+
+
+# -- identify states the deviations, the diagnosis weighs by them -------------------------------
+
+@pytest.fixture(scope="module")
+def identified():
+    """The H-frame's modes identified from simulated FRFs with 1 % noise (the truth known)."""
+    from fe_problem.identification import identify
+    truth = fp.load_model("hframe")
+    frfs = fp.synthetic_frf(truth, damping=(0.01, 0.02), noise=0.01, seed=3, model_name="hframe")
+    return truth, identify(frfs, n_modes=7).data
+
+
+def test_identify_writes_deviations_of_the_size_of_its_errors(identified, tmp_path):
+    truth, data = identified
+    assert np.all(data.frequency_std_hz > 0) and np.all(data.shape_std > 0)
+    save_modal_data(data, tmp_path / "m.json")
+    again = load_modal_data(tmp_path / "m.json")
+    np.testing.assert_allclose(again.shape_std, data.shape_std, rtol=1e-15)
+    # the shapes' errors against the truth are of the size of the stated deviations
+    modes = fp.modal_analysis(truth, data.n_modes)
+    b = modes.at(data.dofs)
+    a = data.shapes
+    e = (a - np.sum(a * b, axis=0) / np.sum(b * b, axis=0) * b) / data.shape_std
+    per_entry = np.mean(e**2, axis=0)
+    assert np.all((per_entry > 0.1) & (per_entry < 5.0)), per_entry
+
+
+def test_the_diagnosis_weighs_by_the_stated_deviations(identified):
+    """The residuals of the true model against identified data: with identify's deviations the
+    misfit is of the order of the noise (chi^2 per residual near 1); with the default noise
+    alone (the deviations dropped) it would be called far inside the noise (near 0.00)."""
+    from fe_problem.diagnosis.residuals import Observations
+    truth, data = identified
+    modes = fp.modal_analysis(truth, data.n_modes + 4)
+    shapes = modes.at(data.dofs)
+    stated = Observations.of(data)
+    r, _ = stated.residuals(modes.frequencies_hz, shapes)
+    bare = ModalData(data.model, data.dofs, data.frequencies_hz, data.shapes, data.meta, data.source)
+    r0, _ = Observations.of(bare).residuals(modes.frequencies_hz, shapes)
+    assert stated.n_stated == (data.n_modes, data.n_modes)
+    assert 0.2 < np.mean(r**2) < 5.0 and np.mean(r0**2) < 0.05, (np.mean(r**2), np.mean(r0**2))
+    # frequencies: exactly (f - f_meas) / std for each mode
+    pairing = stated.pair(modes.frequencies_hz, shapes)
+    np.testing.assert_allclose(r[:data.n_modes], (modes.frequencies_hz[pairing] - data.frequencies_hz)
+                               / data.frequency_std_hz, rtol=1e-12)
