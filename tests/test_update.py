@@ -547,3 +547,25 @@ def test_the_balancing_rule_keeps_shapes_from_swamping_frequencies():
     assert initial > 10
     assert err["plain"] > 0.5 * initial and at_bound["plain"] >= 3, (err, at_bound)
     assert err["balanced"] < 0.01 * initial, (err, at_bound)
+
+
+def test_any_optimizer_and_the_default_parameters(tmp_path, capsys):
+    """Another registered optimizer through the sandboxed harness, the default parameters
+    (each modulus +-30 %) said in the report, frequency-only data, an option passed on."""
+    out = tmp_path / "o"
+    assert main(["update", "hframe", "paper", "--out", str(out), "--optimizer", "random-search", "--budget", "30",
+                 "--seed", "4"]) == 0
+    r = json.loads((out / "update.json").read_text())
+    assert r["optimizer"] == "random-search" and r["n_evals"] == 30 and r["seed"] == 4
+    assert [p["name"] for p in r["parameters"]] == [f"E{e}" for e in range(1, 13)]
+    assert all(p["lower"] == pytest.approx(0.7 * 7e10) and p["upper"] == pytest.approx(1.3 * 7e10) for p in r["parameters"])
+    assert r["modes"][0]["mac_initial"] is None and r["noise"]["n"] == {"frequencies": 5}
+    # 5 frequencies cannot pin 12 moduli down
+    assert not all(p["identifiable"] for p in r["parameters"])
+    report = (out / "report.md").read_text()
+    assert "no parameter file: each element's modulus within +-30% of the model's own" in report
+    assert "not identifiable" in report and not (out / "mac.png").exists()
+    assert main(["update", "hframe", "paper", "--out", str(tmp_path / "p"), "--budget", "40",
+                 "--option", "sensitivity.restarts=false"]) == 0
+    r = json.loads((tmp_path / "p" / "update.json").read_text())
+    assert r["options"] == {"restarts": False} and r["status"] in ("ok", "stopped")
