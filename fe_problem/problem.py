@@ -326,11 +326,14 @@ class UpdatingProblem:
 
     # -- least-squares form (for Gauss-Newton / sensitivity methods) ---------------------
     def residuals(self, X) -> np.ndarray:
-        """Weighted frequency residuals r (n, m) with J_freq = sum r^2; counts n evaluations."""
+        """Weighted frequency residuals r (n, m) with J_freq = sum r^2 (the balanced objective:
+        its frequency noise residuals, `noise_residuals`); counts n evaluations."""
         X = self.check_x(X)
         f, _ = self._solve(X, shapes=False)
         self.n_evals += X.shape[0]
         self._points += X.shape[0]
+        if self.objective == "balanced":
+            return self.noise_residuals(f, None)[0]
         fm = self.data.frequencies_hz
         return np.sqrt(self.weights) * (fm - f) / fm
 
