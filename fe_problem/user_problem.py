@@ -66,8 +66,9 @@ def user_problem(model_path, data_path, parameters_path=None, hold_out: int = 0,
         raise ValueError(f"--hold-out {hold_out}: must be between 0 and {m - 1} (the data hold {m} modes; "
                          "at least one is fitted)")
     held = np.arange(m - hold_out, m)
+    # room to pair the held-out modes too (`UpdatingProblem` caps it at the model's elastic modes)
     problem = UpdatingProblem(model, data.subset(np.arange(m - hold_out)) if hold_out else data, parameters,
-                              objective="balanced",
+                              objective="balanced", n_model_modes=m + 4,
                               name=name or f"{Path(str(model_path)).stem}:{Path(str(data_path)).stem}")
     return problem, data, held, note
 

@@ -115,7 +115,8 @@ def update(model_path, data_path, out, parameters_path=None, optimizer: str = DE
     with _progress(problem, budget, progress):
         run = run_optimizer(optimizer, problem, budget, seed, x0=x0_mode, **(options or {}))
     if run.status not in ("ok", "stopped") or not len(run.best_x):
-        raise RuntimeError(f"femu update: optimizer {optimizer!r} ended with status {run.status}: {run.error}")
+        why = (run.error or "no point evaluated").strip().splitlines()[-1]
+        raise ValueError(f"optimizer {optimizer!r} ended with status {run.status} ({why}); nothing was written")
     x0 = problem.x0
     x = np.asarray(run.best_x, dtype=float)
     j0, j1 = (float(v) for v in problem.objective_from_modes(*_paired(problem, np.vstack([x0, x]))))
