@@ -449,6 +449,7 @@ def test_femu_study_on_a_users_model_end_to_end(case, tmp_path):
     assert p.evaluate(records[0]["best_x"])[0] == pytest.approx(records[0]["best_f"], rel=1e-9)
     assert main(["report", str(store), "--out", str(out)]) == 0
     bench = (out / "benchmark.md").read_text()
+    assert "H-frame geometry is a reconstruction" not in (out / "report.md").read_text()
     best = min(r["best_f"] for r in records)
     assert f"{best:.17g} | best known" in bench and "**not certified**" in bench
     # a changed file is noticed: the study's runs are of another problem
