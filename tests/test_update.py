@@ -570,3 +570,17 @@ def test_any_optimizer_and_the_default_parameters(tmp_path, capsys):
                  "--option", "sensitivity.restarts=false"]) == 0
     r = json.loads((tmp_path / "p" / "update.json").read_text())
     assert r["options"] == {"restarts": False} and r["status"] in ("ok", "stopped")
+
+
+def test_the_diagnosis_says_which_deviations_it_used():
+    from types import SimpleNamespace
+    from fe_problem.diagnosis.record import Noise
+    from femu.reports.diagnosis_text import noise_text
+    plain = Noise(0.002, 0.02, "default")
+    assert "data_deviations" not in plain.to_dict()
+    stated = Noise(0.002, 0.02, "default", data_deviations=(8, 7, 8))
+    assert stated.to_dict()["data_deviations"] == {"frequencies": 8, "shapes": 7, "modes": 8}
+    diag = SimpleNamespace(selection=SimpleNamespace(freq_noise=0.002, shape_noise=0.02), noise=stated)
+    assert noise_text(diag).endswith("(default); the data's own deviations instead for 8 of 8 frequencies and 7 of 8 "
+                                     "shapes (docs/modal-data-format.md)")
+    assert "own deviations" not in noise_text(SimpleNamespace(selection=diag.selection, noise=plain))
