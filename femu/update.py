@@ -72,12 +72,13 @@ def _progress(problem, budget: int, enabled: bool):
 
     @contextlib.contextmanager
     def bar():
+        from rich.console import Console
         from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
         start = problem.points_evaluated
         stop = threading.Event()
         with Progress(TextColumn("evaluations"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                      transient=True) as p:
+                      transient=True, console=Console(stderr=True)) as p:  # stdout keeps the results
             task = p.add_task("update", total=budget)
 
             def poll():
