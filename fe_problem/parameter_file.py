@@ -11,8 +11,6 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from .jsonutil import check_keys, read_json_file
 from .model import FrameModel
 from .model.validate import is_number, shown

@@ -584,3 +584,16 @@ def test_the_diagnosis_says_which_deviations_it_used():
     assert noise_text(diag).endswith("(default); the data's own deviations instead for 8 of 8 frequencies and 7 of 8 "
                                      "shapes (docs/modal-data-format.md)")
     assert "own deviations" not in noise_text(SimpleNamespace(selection=diag.selection, noise=plain))
+
+
+def test_parameter_file_in_the_library_round_trips():
+    from fe_problem.parameter_file import parameters_to_dict
+    model = fp.load_model("hframe")
+    d = {"format": "femu.parameters/1", "parameters": [
+        dict(GOOD, initial=6.5e10), {"name": "E9", "kind": "modulus", "targets": [9], "lower": 6e10, "upper": 8e10}]}
+    params = parameters_from_dict(d, model, "p.json")
+    assert [p.initial for p in params] == [6.5e10, 7e10]  # E9's default: the model's own modulus
+    assert parameters_from_dict(parameters_to_dict(params), model) == params
+    with pytest.raises(ParameterFileError, match=r"^p\.json: parameter 'E9': model 'hframe' has no element 99$"):
+        parameters_from_dict({"format": "femu.parameters/1", "parameters": [dict(d["parameters"][1], targets=[99])]},
+                             model, "p.json")
