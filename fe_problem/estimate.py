@@ -33,6 +33,7 @@ class Estimate:
 
     interval_95 (n, 2), NaN where not identifiable; identifiable, at_bound (n,) bool;
     std (n,) (NaN where not identifiable); correlation (n, n) (NaN rows where not identifiable);
+    covariance (n, n) in the parameters' units (NaN rows and columns where not identifiable);
     per kind (`KINDS`, a kind without entries left out): chi2, n, scale (s_k = sqrt(max(1,
     chi2 / n))); chi2_total, dof = N - p, reduced_chi2 = chi2_total / dof (NaN when dof < 1),
     p_value of chi2_total under the stated noise, fits_noise = p_value >= FIT_LEVEL."""
@@ -43,6 +44,7 @@ class Estimate:
     at_bound: np.ndarray
     std: np.ndarray
     correlation: np.ndarray
+    covariance: np.ndarray
     chi2: dict
     n: dict
     scale: dict
@@ -83,14 +85,30 @@ def estimate_of(problem, x) -> Estimate:
     corr = cov_u / np.outer(d, d)
     corr[~identifiable] = np.nan
     corr[:, ~identifiable] = np.nan
+    cov = cov_u * np.outer(span, span)
+    cov[~identifiable] = np.nan
+    cov[:, ~identifiable] = np.nan
     tol = 1e-6 * span
     at_bound = (x <= problem.xl + tol) | (x >= problem.xu - tol)
     total = float(sum(chi2.values()))
     dof = int(sum(n.values())) - problem.n_var
     reduced = total / dof if dof >= 1 else float("nan")
     p_value = float(chi2_dist.sf(total, dof)) if dof >= 1 else float("nan")
-    return Estimate(x, interval, identifiable, at_bound, std, corr, chi2, n, scale, total, dof, reduced, p_value,
+    return Estimate(x, interval, identifiable, at_bound, std, corr, cov, chi2, n, scale, total, dof, reduced, p_value,
                     bool(dof >= 1 and p_value >= FIT_LEVEL))
 
 
-__all__ = ["Estimate", "FIT_LEVEL", "KINDS", "Z95", "estimate_of"]
+def frequency_ranges(problem, est: Estimate, n_modes: int) -> np.ndarray:
+    """The 95 % range (n_modes, 2) of the model's first `n_modes` frequencies (Hz) at the
+    estimate: f +- 1.96 sqrt(g^T C g), g the frequency's sensitivities, C the estimate's
+    covariance (linearised); NaN where a parameter is not identifiable."""
+    lam, _, dlam = problem.system.eigen_sensitivities(est.x[None], n_modes, rows=problem.rows)
+    from .modal import frequencies_hz
+
+    f = frequencies_hz(lam[0])
+    g = dlam[0] / (8.0 * np.pi**2 * f[:, None])                 # (n_modes, n_var) Hz per unit
+    sd = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", g, est.covariance, g), 0.0))
+    return np.column_stack([f - Z95 * sd, f + Z95 * sd])
+
+
+__all__ = ["Estimate", "FIT_LEVEL", "KINDS", "Z95", "estimate_of", "frequency_ranges"]

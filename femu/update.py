@@ -103,7 +103,7 @@ def update(model_path, data_path, out, parameters_path=None, optimizer: str = DE
     from adapters import run as run_optimizer
     from adapters.capabilities import capabilities
     from adapters.registry import get
-    from fe_problem.estimate import estimate_of
+    from fe_problem.estimate import estimate_of, frequency_ranges
     from fe_problem.jsonutil import dumps
     from fe_problem.safe_files import write_text
     from femu.reports.render import make_out_dir
@@ -127,6 +127,7 @@ def update(model_path, data_path, out, parameters_path=None, optimizer: str = DE
     n_modes = problem.n_model_modes
     f0, _, p0, mac0 = _modes_at(problem, x0, data, n_modes)
     f1, _, p1, mac1 = _modes_at(problem, x, data, n_modes)
+    ranges = frequency_ranges(problem, est, n_modes)
     modes, sigma_hz = [], data.noise()[0]
     for i in range(data.n_modes):
         def at(f, p, macs):
@@ -137,6 +138,8 @@ def update(model_path, data_path, out, parameters_path=None, optimizer: str = DE
         hz1, k1, m1 = at(f1, p1, mac1)
         modes.append({"measured_hz": float(data.frequencies_hz[i]), "initial_hz": hz0, "updated_hz": hz1,
                       "model_mode_initial": k0, "model_mode_updated": k1, "mac_initial": m0, "mac_updated": m1,
+                      "updated_hz_range_95": (None if k1 is None or np.isnan(ranges[k1 - 1]).any()
+                                              else [float(v) for v in ranges[k1 - 1]]),
                       "frequency_std_hz": float(sigma_hz[i]), "stated_std": bool(data.has_frequency_std[i]),
                       "held_out": bool(i in held)})
 

@@ -57,13 +57,22 @@ def report_lines(record: dict, figure_name: str | None) -> list[str]:
                              "updated Hz", "model mode", "error %", "MAC"], rows) + [""]
     if figure_name:
         lines += [f"![MAC matrices]({figure_name})", ""]
-    held = [m for m in r["modes"] if m["held_out"]]
+    held = [(i, m) for i, m in enumerate(r["modes"]) if m["held_out"]]
     if held:
         h = r["held_out_mean_abs_frequency_error_pct"]
         lines += ["## Held-out modes", "",
                   f"{len(held)} measured mode(s) kept out of the fit and predicted by the updated model: mean "
-                  f"|frequency error| {_num(h['initial'], '.2f')} % initial, {_num(h['updated'], '.2f')} % updated "
-                  "(rows marked held out above).", ""]
+                  f"|frequency error| {_num(h['initial'], '.2f')} % initial, {_num(h['updated'], '.2f')} % updated. "
+                  "The 95 % range of a prediction carries the parameters' covariance through the frequency's "
+                  "sensitivities (linearised; none where a parameter is not identifiable).", ""]
+        rows = []
+        for i, m in held:
+            rng = m["updated_hz_range_95"]
+            inside = "-" if rng is None else ("yes" if rng[0] <= m["measured_hz"] <= rng[1] else "no")
+            rows.append([i + 1, f"{m['measured_hz']:.4g}", _num(m["initial_hz"]), _num(m["updated_hz"]),
+                         "-" if rng is None else f"[{rng[0]:.4g}, {rng[1]:.4g}]", inside])
+        lines += markdown_table(["mode", "measured Hz", "initial Hz", "predicted Hz", "95 % range Hz",
+                                 "measured inside"], rows) + [""]
     lines += ["## Parameters", "",
               "95 % intervals from the Jacobian at the estimate, each kind of data weighed by its error scale "
               "(below); `not identifiable` where the data do not pin the parameter down within its bounds.", ""]
