@@ -69,7 +69,9 @@ class RunResult:
     installed package provides); effective_options: minimize's keyword defaults overridden by
     `options` (what the run ran with); capabilities: the optimizer's declared flags
     (adapters.capabilities: anytime, uses_gradients, batch, supports_x0). Records written before
-    these fields have them empty.
+    these fields have them empty. problem_source: for a user's problem (variant ``user:PATH``)
+    the paths and SHA-256 of its model, data and parameter files (fe_problem.user_problem),
+    set by studies; None otherwise.
     """
 
     optimizer: str
@@ -101,6 +103,7 @@ class RunResult:
     distribution_version: str | None = None
     effective_options: dict = field(default_factory=dict)
     capabilities: dict = field(default_factory=dict)
+    problem_source: dict | None = None
 
     @property
     def overhead_s(self) -> float:

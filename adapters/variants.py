@@ -6,6 +6,9 @@ process (no randomness outside a fixed seed).
   whose elements 3 and 5 lost stiffness (E = 6.3e10 and 6.5e10 Pa, inside the bounds, so the
   optimum is known), 0.2 % frequency and 2 % shape noise (seed 0); unit weights plus the
   (1 - MAC) shape term.
+- ``user:PATH``: a user's own model, data and parameters (PATH a problem source file that
+  `femu study --model` writes: the files' paths and SHA-256), the balanced objective of
+  `femu update` (fe_problem.user_problem).
 """
 
 from __future__ import annotations
@@ -34,4 +37,21 @@ def make_problem(variant: str = "paper") -> UpdatingProblem:
     if variant == "synthetic":
         return UpdatingProblem("hframe", _synthetic_data(), weights="unit", shape_weight=1.0,
                                name="hframe:synthetic")
+    if variant.startswith(USER_PREFIX):
+        return user_variant_problem(variant)
     raise ValueError(f"unknown problem variant {variant!r}; available: {', '.join(VARIANTS)}")
+
+
+#: A variant ``user:PATH`` is a user's own problem: PATH a problem source file
+#: (fe_problem.user_problem, format femu.user-problem/1) that `femu study --model` writes.
+USER_PREFIX = "user:"
+
+
+def user_variant_problem(variant: str) -> UpdatingProblem:
+    """The problem of a ``user:PATH`` variant, rebuilt from its source file (ValueError when the
+    file, or a file it names, is missing or has changed)."""
+    from fe_problem.jsonutil import read_json_file
+    from fe_problem.user_problem import problem_from_source, source_from_dict
+
+    path = variant[len(USER_PREFIX):]
+    return problem_from_source(source_from_dict(read_json_file(path), path))

@@ -104,18 +104,19 @@ def read_json_file(path: Path, error: type[Exception] = ValueError):
 def unknown_key(obj: dict, allowed, path: str = "") -> str | None:
     """What is wrong with the keys of `obj` (None if each is in `allowed`): the first unknown
     key, written as its path (`path` plus the key: ``history[0].seedz``), and the allowed key it
-    was probably meant to be (the closest the object lacks, else the closest) or, when none is
-    close, the allowed keys."""
+    was probably meant to be (the closest; among equally close ones a key the object lacks) or,
+    when none is close, the allowed keys."""
     import difflib
 
     allowed = tuple(allowed)
     for key in obj:
         if key not in allowed:
-            # a misspelt key stands for a key the object lacks: those first ('best_fx' beside a
-            # 'best_x' is 'best_f'), then any allowed key
-            missing = [k for k in allowed if k not in obj]
-            close = (difflib.get_close_matches(str(key), missing, n=1, cutoff=0.6)
-                     or difflib.get_close_matches(str(key), allowed, n=1, cutoff=0.6))
+            # a misspelt key stands for a key the object lacks: those first among equally close
+            # ones ('best_fx' beside a 'best_x' is 'best_f'), but a closer key wins ('frequency'
+            # beside a 'frequency_hz' is 'frequency_hz', not an optional 'frequency_std_hz')
+            ratio = {k: difflib.SequenceMatcher(None, str(key), k).ratio() for k in allowed}
+            ranked = sorted((k for k in allowed if ratio[k] >= 0.6), key=lambda k: (-ratio[k], k in obj))
+            close = ranked[:1]
             hint = f"; did you mean {close[0]!r}?" if close else f"; the known keys are {', '.join(sorted(allowed))}"
             return f"unknown key {path + str(key)!r}{hint}"
     return None

@@ -26,6 +26,19 @@ from ._threads import blas_pinned, one_blas_thread
 from .parameters import Parameter, element_moduli
 
 WEIGHTS = ("gamma", "unit")
+#: The objectives: ``weighted`` (the paper's J above, the suite's) and ``balanced`` (the
+#: measured noise within each kind of data, an error scale per kind: `balanced_objective`).
+OBJECTIVES = ("weighted", "balanced")
+
+
+def balanced_objective(rss: np.ndarray, n: int) -> np.ndarray:
+    """One kind's share of the balanced objective: -2 log of its Gaussian likelihood with the
+    error scale s^2 >= 1 (a multiple of the stated noise) profiled out, up to a constant:
+    rss where rss <= n (s = 1: the data fit within their noise), else n (1 + log(rss / n))
+    (s^2 = rss / n). Continuous with its first derivative at rss = n."""
+    rss = np.asarray(rss, dtype=float)
+    with np.errstate(divide="ignore"):
+        return np.where(rss <= n, rss, n * (1.0 + np.log(np.maximum(rss, n) / n)))
 
 
 @dataclass(frozen=True, eq=False)
@@ -86,6 +99,15 @@ class UpdatingProblem:
     n_model_modes: how many model modes to compute for pairing (default: measured + 4).
     solver: ``"auto"`` (dense batched for small models, sparse shift-invert above
         `fe_problem.assembly.SPARSE_MIN_DOFS` free DOFs), ``"dense"`` or ``"sparse"``.
+    objective: ``"weighted"`` (default: J above, with `weights` and `shape_weight`) or
+        ``"balanced"`` (what `femu update` minimises, docs/update.md): each frequency residual
+        divided by its standard deviation, each shape entry's residual (the measured shape minus
+        the model shape scaled to it by least squares) by its own; per kind of data (frequencies,
+        shapes) with sum of squares R_k over n_k entries, J = sum_k `balanced_objective`(R_k,
+        n_k): an error scale s_k^2 = max(1, R_k / n_k) estimated with the parameters, so each kind
+        weighs by its entries' misfit relative to its own scatter, not by its nominal noise.
+        Deviations a mode does not state are `ModalData.noise`'s defaults; `weights` and
+        `shape_weight` do not apply.
 
     `evaluate(X)` takes one point (n_var,) or a population (n, n_var) and returns (n,)
     objective values; every row counts as one FE evaluation in `n_evals`.
@@ -95,7 +117,13 @@ class UpdatingProblem:
     def __init__(self, model: FrameModel | MatrixModel | str | None = None, data: ModalData | str = "paper",
                  parameters: tuple[Parameter, ...] | None = None, weights="gamma",
                  shape_weight: float = 0.0, n_model_modes: int | None = None, name: str | None = None,
-                 solver: str = "auto"):
+                 solver: str = "auto", objective: str = "weighted"):
+        if objective not in OBJECTIVES:
+            raise ValueError(f"objective must be one of {OBJECTIVES}, got {objective!r}")
+        if objective == "balanced" and shape_weight:
+            raise ValueError("shape_weight applies to objective='weighted' only (the balanced objective "
+                             "weighs every measured shape by its noise)")
+        self.objective = objective
         self.data = load_modal_data(data)
         self.model = self.data.load_model() if model is None else load_any_model(model)
         self.data.check_model(self.model)
@@ -150,6 +178,9 @@ class UpdatingProblem:
                 raise ValueError(f"weights must be {m} finite numbers >= 0, got {weights!r}")
             self.weights_name = "custom"
         self.weights = w
+        self.sigma_hz, sigma_s = self.data.noise()
+        self.shape_modes = np.flatnonzero(self.has_shape) if objective == "balanced" else np.zeros(0, dtype=int)
+        self.sigma_shape = sigma_s[:, self.shape_modes]
         self.n_evals = 0
         self._points = 0  # never reset: what the budget harness cross-checks (points_evaluated)
         label = self.data.meta.get("source", "data") if self.data.source == "<memory>" else Path(self.data.source).stem
@@ -211,6 +242,10 @@ class UpdatingProblem:
     def objective_from_modes(self, f: np.ndarray, phi: np.ndarray | None) -> np.ndarray:
         """J for paired model frequencies f (b, m) and the model's shapes at the measured DOFs
         (b, n_measured_dofs, n_model_modes; `system.eigen(..., rows=self.rows)`), or None."""
+        if self.objective == "balanced":
+            e_f, e_s = self.noise_residuals(f, phi)
+            return (balanced_objective(np.sum(e_f**2, axis=1), e_f.shape[1])
+                    + (balanced_objective(np.sum(e_s**2, axis=1), e_s.shape[1]) if e_s.shape[1] else 0.0))
         fm = self.data.frequencies_hz
         j = np.sum(self.weights * ((fm - f) / fm) ** 2, axis=1)
         if self.shape_weight:
@@ -230,20 +265,86 @@ class UpdatingProblem:
     def evaluate(self, X) -> np.ndarray:
         """Objective values (n,) for X (n_var,) or (n, n_var); counts n FE evaluations."""
         X = self.check_x(X)
-        f, phi = self._solve(X, shapes=bool(self.shape_weight))
+        f, phi = self._solve(X, shapes=self._uses_shapes)
         self.n_evals += X.shape[0]
         self._points += X.shape[0]
         return self.objective_from_modes(f, phi)
 
     __call__ = evaluate
 
+    @property
+    def _uses_shapes(self) -> bool:
+        return bool(self.shape_weight) or bool(self.shape_modes.size)
+
+    def noise_residuals(self, f: np.ndarray, phi: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+        """The residuals of the balanced objective in units of the data's noise: frequencies
+        (b, m), (f_meas - f) / sigma_f, and the measured shapes' entries (b, n_shape_modes *
+        n_measured_dofs, mode by mode), (a - c b) / sigma_s for the measured shape a as given,
+        the model shape b at the measured DOFs and c = a.b / b.b (b scaled to a by least
+        squares: blind to b's sign and scale). sigma: `ModalData.noise`."""
+        e_f = (self.data.frequencies_hz - f) / self.sigma_hz
+        sel = self.shape_modes
+        if not sel.size or phi is None:
+            return e_f, np.zeros((f.shape[0], 0))
+        a = self.data.shapes[:, sel]
+        b = pow2_scaled(phi[:, :, self.model_index[sel]])  # exact scalings: no norm overflows
+        c = np.einsum("ik,bik->bk", a, b) / np.einsum("bik,bik->bk", b, b)
+        e_s = (a[None] - c[:, None, :] * b) / self.sigma_shape[None]
+        return e_f, e_s.transpose(0, 2, 1).reshape(e_s.shape[0], -1)
+
+    def noise_jacobian(self, x) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """`noise_residuals` at one point x and their Jacobians in the parameters' units:
+        e_f (m,), e_s (n_s,), de_f (m, n_var) analytic, de_s (n_s, n_var) by forward differences.
+        For intervals and reports: not counted as evaluations."""
+        X = self.check_x(x, "x")
+        lam, phi, dlam = self.system.eigen_sensitivities(X, self.n_model_modes, rows=self.rows)
+        f = frequencies_hz(lam)[:, self.model_index]
+        df = dlam[0, self.model_index, :] / (8.0 * np.pi**2 * f[0, :, None])
+        e_f, e_s = (v[0] for v in self.noise_residuals(f, phi))
+        de_s = (self._shape_jacobian(X[0], e_s, lambda p: self.noise_residuals(f, p)[1]) if e_s.size
+                else np.zeros((0, self.n_var)))
+        return e_f, e_s, -df / self.sigma_hz[:, None], de_s
+
+    def _balanced_least_squares(self, X, f, phi, df, charged):
+        """`least_squares` of the balanced objective: residuals rho whose squares sum to J, each
+        kind's noise residuals e times c = sqrt(balanced_objective(R) / R), and their exact
+        Jacobian c de + e (dc/dR) 2 e^T de (frequency rows analytic, shape rows by forward
+        differences)."""
+        e_f, e_s = (v[0] for v in self.noise_residuals(f, phi))
+        jac_f = -df / self.sigma_hz[:, None]
+        parts = [(e_f, jac_f)]
+        if e_s.size:
+            jac_s = None
+            if charged != 1:
+                jac_s = self._shape_jacobian(X[0], e_s, lambda p: self.noise_residuals(f, p)[1])
+                extra = self.n_var if charged is None else min(self.n_var, int(charged) - 1)
+                self.n_evals += extra
+                self._points += extra
+            parts.append((e_s, jac_s))
+        rho, jac = [], []
+        for e, de in parts:
+            n, rss = e.size, float(e @ e)
+            if rss <= n:
+                c, dc = 1.0, 0.0
+            else:
+                c = np.sqrt(balanced_objective(rss, n) / rss)
+                dc = -n * np.log(rss / n) / rss**2 / (2.0 * c)  # d c / d rss
+            rho.append(c * e)
+            jac.append(None if de is None else c * de + np.outer(e, dc * 2.0 * (e @ de)))
+        r = np.concatenate(rho)
+        J = None if any(j is None for j in jac) else np.vstack(jac)
+        return LeastSquares(float(self.objective_from_modes(f, phi)[0]), r, J)
+
     # -- least-squares form (for Gauss-Newton / sensitivity methods) ---------------------
     def residuals(self, X) -> np.ndarray:
-        """Weighted frequency residuals r (n, m) with J_freq = sum r^2; counts n evaluations."""
+        """Weighted frequency residuals r (n, m) with J_freq = sum r^2 (the balanced objective:
+        its frequency noise residuals, `noise_residuals`); counts n evaluations."""
         X = self.check_x(X)
         f, _ = self._solve(X, shapes=False)
         self.n_evals += X.shape[0]
         self._points += X.shape[0]
+        if self.objective == "balanced":
+            return self.noise_residuals(f, None)[0]
         fm = self.data.frequencies_hz
         return np.sqrt(self.weights) * (fm - f) / fm
 
@@ -282,6 +383,8 @@ class UpdatingProblem:
         self._points += self.jacobian_cost_evals
         f = frequencies_hz(lam)[:, self.model_index]
         df = dlam[0, self.model_index, :] / (8.0 * np.pi**2 * f[0, :, None])
+        if self.objective == "balanced":
+            return self._balanced_least_squares(X, f, phi, df, charged)
         fm = self.data.frequencies_hz
         sw = np.sqrt(self.weights)
         r = sw * (fm - f[0]) / fm
@@ -300,15 +403,16 @@ class UpdatingProblem:
                 self._points += extra
         return LeastSquares(float(self.objective_from_modes(f, phi)[0]), r, jac)
 
-    def _shape_jacobian(self, x: np.ndarray, r0: np.ndarray) -> np.ndarray:
+    def _shape_jacobian(self, x: np.ndarray, r0: np.ndarray, residuals=None) -> np.ndarray:
         """d shape_residuals / d theta at x by forward differences (a step of 1e-6 of each
-        parameter's range, taken backwards at the upper bound), one batched solve of n_var points."""
+        parameter's range, taken backwards at the upper bound), one batched solve of n_var points.
+        `residuals(phi)`: the shape residuals to differentiate (default `shape_residuals`)."""
         span = self.xu - self.xl
         h = 1e-6 * span
         h = np.where(x + h > self.xu, -h, h)
         X = x[None] + np.diag(h)
         _, phi = self._solve(X, shapes=True)
-        return ((self.shape_residuals(phi) - r0[None]) / h[:, None]).T
+        return (((residuals or self.shape_residuals)(phi) - r0[None]) / h[:, None]).T
 
     #: What one analytic Jacobian costs, in FE evaluations: one eigen-solve with vectors.
     jacobian_cost_evals = 1

@@ -300,7 +300,8 @@ def _truth_and_data(problem_id: str) -> tuple[np.ndarray, ModalData]:
                              data.has_shape)
         if np.array_equal(pairing.model_index, np.arange(N_MODES)):
             meta = dict(data.meta, source=problem_id, suite_id=problem_id)
-            return truth, ModalData(data.model, data.dofs, data.frequencies_hz, data.shapes, meta)
+            return truth, ModalData(data.model, data.dofs, data.frequencies_hz, data.shapes, meta,
+                                    frequency_std_hz=data.frequency_std_hz, shape_std=data.shape_std)
     raise RuntimeError(f"suite problem {problem_id}: no truth in {MAX_DRAWS} draws keeps the mode pairing of x0")
 
 

@@ -101,7 +101,8 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
     _check(model, data)
     noise = Noise(DEFAULT_FREQ_NOISE if freq_noise is None else float(freq_noise),
                   DEFAULT_SHAPE_NOISE if shape_noise is None else float(shape_noise),
-                  "default" if freq_noise is None and shape_noise is None else "stated")
+                  "default" if freq_noise is None and shape_noise is None else "stated",
+                  data_deviations=(int(data.has_frequency_std.sum()), int(data.has_shape_std.sum()), data.n_modes))
     cal = calibrate(model, data, noise.freq_noise, noise.shape_noise)
     checks = data_checks(cal)
     found = screen_and_fit(cal, kinds, n_fit)

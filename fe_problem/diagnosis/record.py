@@ -170,15 +170,21 @@ class Verdict:
 class Noise:
     """The noise model the residuals were weighted with: relative frequency std, shape std as a
     fraction of the largest |entry| of each mode (`shape_convention`), and where they came from
-    (`source`: "stated" by the caller or "default")."""
+    (`source`: "stated" by the caller or "default"). `data_deviations` (frequencies, shapes,
+    modes): how many of the data's modes state their own deviations, which replace this noise
+    model for them (`residuals.Observations`); left out of the record when none do."""
 
     freq_noise: float
     shape_noise: float
     source: str
     shape_convention: str = "fraction of the largest |entry| of each measured mode"
+    data_deviations: tuple[int, int, int] = (0, 0, 0)
 
     def to_dict(self) -> dict:
-        return {k: getattr(self, k) for k in self.__dataclass_fields__}
+        out = {k: getattr(self, k) for k in self.__dataclass_fields__ if k != "data_deviations"}
+        if any(self.data_deviations[:2]):
+            out["data_deviations"] = dict(zip(("frequencies", "shapes", "modes"), self.data_deviations))
+        return out
 
 
 @dataclass(frozen=True)

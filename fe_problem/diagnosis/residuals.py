@@ -1,5 +1,7 @@
 """Residuals between measured modes and a model's modes, weighted by a noise model.
 
+Where the data state a mode's deviations (`frequency_std_hz`, `shape_std`,
+docs/modal-data-format.md) they are that mode's noise; elsewhere the noise model applies.
 The noise model is the one a modal test states: relative frequency error `freq_noise`
 (std, e.g. 0.002 for 0.2 %) and shape error `shape_noise`: the std of each measured shape
 entry as a fraction of the largest |entry| of that mode at the measured coordinates (the
@@ -67,15 +69,37 @@ class Observations:
     has_shape: np.ndarray        # (m,)
     freq_noise: float
     shape_noise: float
+    #: (m,) each frequency's std relative to it: the mode's stated `frequency_std_hz` / f, else
+    #: `freq_noise`; (n_coord, m) each unit shape entry's std: the stated `shape_std` scaled
+    #: with the shape to unit length, else `shape_noise` x the largest |entry| (NaN: no shape)
+    freq_rel_std: np.ndarray | None = None
+    shape_std: np.ndarray | None = None
+    #: how many modes state a frequency / shape deviation (the rest take the noise model)
+    n_stated: tuple[int, int] = (0, 0)
 
     @classmethod
     def of(cls, data: ModalData, modes=None, freq_noise: float = 0.002, shape_noise: float = 0.02):
+        """The modes `modes` of `data` (default all), the noise each states where it does
+        (`ModalData.frequency_std_hz`, `shape_std`), `freq_noise`, `shape_noise` elsewhere."""
         modes = np.arange(data.n_modes) if modes is None else np.asarray(modes, dtype=int)
-        shapes = pow2_scaled(data.shapes[:, modes], axis=0)  # any finite scale: no overflow below
+        raw = data.shapes[:, modes]
+        shapes = pow2_scaled(raw, axis=0)  # any finite scale: no overflow below
         with np.errstate(invalid="ignore"):
             shapes = shapes / np.linalg.norm(shapes, axis=0)
-        return cls(data.frequencies_hz[modes], shapes, ~np.isnan(shapes).any(axis=0),
-                   float(freq_noise), float(shape_noise))
+        has = ~np.isnan(shapes).any(axis=0)
+        f = data.frequencies_hz[modes]
+        f_std = data.frequency_std_hz[modes]
+        rel = np.where(np.isnan(f_std), float(freq_noise), f_std / f)
+        s_std = data.shape_std[:, modes]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            peak = np.max(np.abs(shapes), axis=0)
+            to_unit = peak / np.max(np.abs(raw), axis=0)  # the unit shape over the shape as given
+        default = float(shape_noise) * peak[None, :] * np.ones_like(shapes)
+        stated = ~np.isnan(s_std) & has[None, :]
+        sh_std = np.where(stated, s_std * to_unit[None, :], default)
+        sh_std = np.where(has[None, :], sh_std, np.nan)
+        n_stated = (int(np.sum(~np.isnan(f_std))), int(np.sum(stated.all(axis=0) & has)))
+        return cls(f, shapes, has, float(freq_noise), float(shape_noise), rel, sh_std, n_stated)
 
     @property
     def n_modes(self) -> int:
@@ -121,7 +145,8 @@ class Observations:
         screening.py) calls it on whole batches."""
         idx, ok = pairing, pairing >= 0
         f = np.where(ok, model_hz[:, np.clip(idx, 0, None)], self.frequencies_hz * (1 + MAX_PAIR_FREQ))
-        r_f = (f - self.frequencies_hz) / (self.frequencies_hz * self.freq_noise)
+        rel = self.freq_noise if self.freq_rel_std is None else self.freq_rel_std
+        r_f = (f - self.frequencies_hz) / (self.frequencies_hz * rel)
         if not self.has_shape.any():
             return r_f
         sel = self.has_shape
@@ -146,7 +171,8 @@ class Observations:
                 u_a[b, :, col] = mixed
         u_a = u_a * np.where(np.sum(u_a * u_m, axis=1, keepdims=True) < 0, -1.0, 1.0)
         u_a = np.where(ok[sel][None, None, :], u_a, 0.0)
-        sigma = self.shape_noise * np.max(np.abs(u_m), axis=0)
+        sigma = (self.shape_noise * np.max(np.abs(u_m), axis=0) if self.shape_std is None
+                 else self.shape_std[:, sel])
         shape_r = (u_a - u_m) / sigma                                               # (b, n_coord, n_sel)
         # each model's block in `residuals`' order: mode by mode, the coordinates within (order F)
         return np.concatenate([r_f, shape_r.transpose(0, 2, 1).reshape(len(model_hz), -1)], axis=1)

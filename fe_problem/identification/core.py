@@ -6,7 +6,9 @@ the physical ones (poles.py); each mode's residues from a least-squares fit on a
 around its peak with the poles near it (shapes.py; the global LSFD with lower and upper
 residuals is the synthesised fit of the report); real normal modes from the complex residues (sdypy-EMA,
 Ahmadian-Gladwell-Ismail); mass-normalised through the driving point when the reference is
-measured. The spread of each mode over its stable orders is its uncertainty (in `meta`).
+measured. The spread of each mode over its stable orders is its uncertainty (in `meta`); its
+deviations (`frequency_std_hz`, `shape_std` of the modal data) are that spread for the
+frequency and the residue fit's own covariance for the shape (`deviations`).
 """
 
 from __future__ import annotations
@@ -115,6 +117,24 @@ def _uncertainty(chart: P.Chart, lab: int, shape: np.ndarray) -> dict:
             "orders": [int(chart.order[m].min()), int(chart.order[m].max())]}
 
 
+def deviations(chart: P.Chart, lab: int, residues: np.ndarray, residue_std: np.ndarray,
+               shape: np.ndarray) -> tuple[float, np.ndarray]:
+    """A mode's frequency and shape deviations as `femu identify` writes them. The frequency's:
+    the scatter (std, ddof 1, Hz) of its cluster's stable poles over the model orders. The
+    shape's: the residues' standard deviations from their least-squares fit (the FRF noise over
+    the mode's window, `windowed_residues(with_std=True)`), carried to the real shape by the
+    least-squares complex scale c = r^H s / r^H r that maps the residues r onto the shape s
+    (|c| std). NaN where fewer than two orders hold the mode or a deviation is zero or not
+    finite (nothing stated)."""
+    m = chart.cluster == lab
+    f_std = float(np.std(chart.frequency_hz[m], ddof=1)) if m.sum() >= 2 else float("nan")
+    c = (residues.conj() @ shape) / np.sum(np.abs(residues) ** 2)
+    s_std = np.abs(c) * residue_std
+    ok_f = np.isfinite(f_std) and f_std > 0
+    ok_s = bool(np.all(np.isfinite(s_std)) and np.all(s_std > 0))
+    return (f_std if ok_f else float("nan")), (s_std if ok_s else np.full(shape.shape, np.nan))
+
+
 def identify(frfs: FRFSet, model=None, band_hz=None, n_modes: int | None = None, max_order: int = P.MAX_ORDER,
              max_damping: float = P.MAX_DAMPING, progress=None) -> Identification:
     """Identify the modes in FRFs (an FRFSet from `read_frf` or `synthetic_frf`).
@@ -172,7 +192,7 @@ def identify(frfs: FRFSet, model=None, band_hz=None, n_modes: int | None = None,
     zr = np.array([np.median(chart.damping[chart.cluster == lab]) for lab in labels])
     modal_poles = P.complex_pole(fr, zr)
     fit = P.lsfd(modal_poles, freq, frf, frfs.form)[1] / scale
-    scaled_residues = windowed_residues(modal_poles, freq, frf, frfs.form)
+    scaled_residues, residue_std = windowed_residues(modal_poles, freq, frf, frfs.form, with_std=True)
     residues, frf = scaled_residues / scale, frf / scale
     driving = frfs.coordinates.index(frfs.reference) if frfs.reference in frfs.coordinates else None
     shapes, scaling = normal_shapes(scaled_residues, modal_poles, driving)
@@ -188,5 +208,9 @@ def identify(frfs: FRFSet, model=None, band_hz=None, n_modes: int | None = None,
             "form": frfs.form, "units": frfs.units, "n_lines": int(freq.size), "resolution_hz": float(df),
             "max_order": int(max_order), "damping_ratio": zr.tolist(), "mpc": P.mpc(scaled_residues.T).tolist(),
             "scaling": scaling, "uncertainty": unc, "warnings": warn}
-    data = ModalData(model_ref, frfs.coordinates, fr, shapes, meta, source=frfs.sources[0])
+    dev = [deviations(chart, lab, scaled_residues[:, k], residue_std[:, k], shapes[:, k])
+           for k, lab in enumerate(labels)]
+    data = ModalData(model_ref, frfs.coordinates, fr, shapes, meta, source=frfs.sources[0],
+                     frequency_std_hz=np.array([d[0] for d in dev]),
+                     shape_std=np.column_stack([d[1] for d in dev]))
     return Identification(data, chart, freq, frf, fit, residues, P.mpc(scaled_residues.T), tuple(warn))

@@ -28,13 +28,18 @@ def _basis(omega: np.ndarray, poles: np.ndarray, form: str) -> np.ndarray:
     return np.concatenate([factor * (a + b), factor * 1j * (a - b)], axis=1)
 
 
-def windowed_residues(poles: np.ndarray, frequency_hz: np.ndarray, frf: np.ndarray, form: str) -> np.ndarray:
+def windowed_residues(poles: np.ndarray, frequency_hz: np.ndarray, frf: np.ndarray, form: str,
+                      with_std: bool = False):
     """Complex residues (n_channels, n_poles) in receptance form (r = phi_j phi_ref / (2 i w_d) for a
-    proportionally damped mode with mass-normalised phi), each from its own window."""
+    proportionally damped mode with mass-normalised phi), each from its own window. With
+    `with_std`, also each residue's standard deviation (n_channels, n_poles): the least-squares
+    fit's covariance s^2 (M^T M)^-1 with s^2 the channel's residual variance over the window
+    (its degrees of freedom), sqrt of the mean of the real and imaginary parts' variances."""
     omega = 2 * np.pi * np.asarray(frequency_hz, float)
     df = frequency_hz[1] - frequency_hz[0]
     f0, zeta = np.abs(poles) / (2 * np.pi), -poles.real / np.abs(poles)
     out = np.empty((frf.shape[0], poles.size), complex)
+    std = np.full((frf.shape[0], poles.size), np.nan)
     for r in range(poles.size):  # one small least-squares problem per mode, all channels at once
         half = max(WINDOW_HALF_WIDTHS * zeta[r] * f0[r], MIN_WINDOW_LINES * df)
         w = np.abs(frequency_hz - f0[r]) <= half
@@ -48,10 +53,16 @@ def windowed_residues(poles: np.ndarray, frequency_hz: np.ndarray, frf: np.ndarr
         m = np.concatenate([real_cols.real, real_cols.imag])
         y = np.concatenate([frf[:, w].real, frf[:, w].imag], axis=1).T
         scale = np.maximum(np.linalg.norm(m, axis=0), 1e-300)
-        x = np.linalg.lstsq(m / scale, y, rcond=None)[0] / scale[:, None]
+        xs = np.linalg.lstsq(m / scale, y, rcond=None)[0]
+        x = xs / scale[:, None]
         i = int(np.flatnonzero(near == r)[0])
         out[:, r] = x[i] + 1j * x[k + i]
-    return out
+        dof = m.shape[0] - m.shape[1]
+        if with_std and dof > 0:
+            s2 = np.sum((y - (m / scale) @ xs) ** 2, axis=0) / dof                 # (n_channels,)
+            g = np.diag(np.linalg.pinv((m / scale).T @ (m / scale))) / scale**2     # (n_unknowns,)
+            std[:, r] = np.sqrt(s2 * (g[i] + g[k + i]) / 2)
+    return (out, std) if with_std else out
 
 
 def normal_shapes(residues: np.ndarray, modal_poles: np.ndarray, driving: int | None) -> tuple[np.ndarray, str]:

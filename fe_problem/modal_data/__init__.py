@@ -5,9 +5,9 @@ and the shipped datasets (files.py), and synthetic measurements (synthetic.py)."
 from .files import load_modal_data, paper_table, save_modal_data, shipped_datasets
 from .json_format import modal_data_from_dict, modal_data_to_dict
 from .synthetic import synthetic_measurement
-from .types import DATA_FORMAT, DataFileError, ModalData
+from .types import DATA_FORMAT, DEFAULT_FREQ_NOISE, DEFAULT_SHAPE_NOISE, DataFileError, ModalData
 from .uff import read_uff55, write_uff55
 
-__all__ = ["DATA_FORMAT", "DataFileError", "ModalData", "load_modal_data", "modal_data_from_dict",
+__all__ = ["DATA_FORMAT", "DEFAULT_FREQ_NOISE", "DEFAULT_SHAPE_NOISE", "DataFileError", "ModalData", "load_modal_data", "modal_data_from_dict",
            "modal_data_to_dict", "paper_table", "read_uff55", "save_modal_data", "shipped_datasets",
            "synthetic_measurement", "write_uff55"]

@@ -20,7 +20,7 @@ FREQUENCY_RANGE_HZ = (1e-6, 1e9)
 MAX_MODES, MAX_DOFS = 10_000, 100_000
 #: The keys of the file and of one mode (shared/formats/modal-data.md); any other is refused
 DATA_KEYS = ("format", "model", "dofs", "modes", "meta")
-MODE_KEYS = ("frequency_hz", "shape")
+MODE_KEYS = ("frequency_hz", "shape", "frequency_std_hz", "shape_std")
 
 
 def _is_int(x) -> bool:
@@ -70,6 +70,8 @@ def modal_data_from_dict(d: Any, source: str = "<memory>") -> ModalData:
         raise _err(source, f"field 'modes': {len(modes)} modes are more than the {MAX_MODES} a data file may hold")
     freqs = np.empty(len(modes))
     shapes = np.full((len(dofs), len(modes)), np.nan)
+    freq_std = np.full(len(modes), np.nan)
+    shape_std = np.full((len(dofs), len(modes)), np.nan)
     for k, mode in enumerate(modes):
         where = f"field 'modes'[{k}]"
         if not isinstance(mode, dict) or "frequency_hz" not in mode:
@@ -82,6 +84,7 @@ def modal_data_from_dict(d: Any, source: str = "<memory>") -> ModalData:
             raise _err(source, f"{where}.frequency_hz: {f:g} Hz is outside the range [{FREQUENCY_RANGE_HZ[0]:g}, "
                                f"{FREQUENCY_RANGE_HZ[1]:g}] Hz a measured mode may have")
         freqs[k] = f
+        freq_std[k], shape_std[:, k] = _deviations(mode, len(dofs), source, where)
         s = mode.get("shape")
         if s is None:
             continue
@@ -106,7 +109,30 @@ def modal_data_from_dict(d: Any, source: str = "<memory>") -> ModalData:
     meta = d.get("meta", {})
     if not isinstance(meta, dict):
         raise _err(source, "field 'meta' must be an object")
-    return ModalData(d["model"], tuple(dofs), freqs, shapes, meta, source)
+    return ModalData(d["model"], tuple(dofs), freqs, shapes, meta, source, freq_std, shape_std)
+
+
+def _deviations(mode: dict, n_dofs: int, source: str, where: str) -> tuple[float, np.ndarray]:
+    """A mode's optional `frequency_std_hz` (> 0) and `shape_std` (one number > 0 or one per
+    dof, only beside a shape), NaN where absent."""
+    fs = mode.get("frequency_std_hz")
+    if fs is None:
+        fs = np.nan
+    elif not is_number(fs) or fs <= 0:
+        raise _err(source, f"{where}.frequency_std_hz: must be a finite number > 0, got {shown(fs)}")
+    ss = mode.get("shape_std")
+    if ss is None:
+        return float(fs), np.full(n_dofs, np.nan)
+    if mode.get("shape") is None:
+        raise _err(source, f"{where}.shape_std: given for a mode without a shape")
+    values = ss if isinstance(ss, list) else [ss] * n_dofs
+    if isinstance(ss, list) and len(ss) != n_dofs:
+        raise _err(source, f"{where}.shape_std: needs one number or {n_dofs} (one per 'dofs' entry), got {len(ss)}")
+    for j, v in enumerate(values):
+        if not is_number(v) or v <= 0:
+            at = f"[{j}]" if isinstance(ss, list) else ""
+            raise _err(source, f"{where}.shape_std{at}: must be a finite number > 0, got {shown(v)}")
+    return float(fs), np.asarray(values, dtype=float)
 
 
 def modal_data_to_dict(data: ModalData) -> dict:
@@ -114,8 +140,14 @@ def modal_data_to_dict(data: ModalData) -> dict:
     modes = []
     for k in range(data.n_modes):
         col = data.shapes[:, k]
-        modes.append({"frequency_hz": float(data.frequencies_hz[k]),
-                      "shape": None if np.isnan(col).any() else [float(v) for v in col]})
+        mode = {"frequency_hz": float(data.frequencies_hz[k]),
+                "shape": None if np.isnan(col).any() else [float(v) for v in col]}
+        if not np.isnan(data.frequency_std_hz[k]):
+            mode["frequency_std_hz"] = float(data.frequency_std_hz[k])
+        std = data.shape_std[:, k]
+        if mode["shape"] is not None and not np.isnan(std).any():
+            mode["shape_std"] = float(std[0]) if np.all(std == std[0]) else [float(v) for v in std]
+        modes.append(mode)
     return {"format": DATA_FORMAT, "model": data.model,
             "dofs": [list(x) if isinstance(x, tuple) else int(x) for x in data.dofs],
             "modes": modes, "meta": data.meta}

@@ -14,6 +14,10 @@ from ..model.validate import shown
 
 #: The format tag of a JSON modal-data file.
 DATA_FORMAT = "femu.modal-data/1"
+#: The noise assumed where a mode states no deviation (the diagnosis' convention,
+#: diagnosis/residuals.py): a frequency's std as a fraction of it, a shape entry's std as a
+#: fraction of the largest |entry| of its shape.
+DEFAULT_FREQ_NOISE, DEFAULT_SHAPE_NOISE = 0.002, 0.02
 
 
 class DataFileError(ValueError):
@@ -40,6 +44,9 @@ class ModalData:
     coordinates (node id, direction), or 1-based row numbers (int) for a matrix model whose DOFs
     are a count; frequencies_hz: (m,) ascending; shapes: (len(dofs), m), a column of
     NaN where only the frequency is known. A shape's sign and scale carry no meaning.
+    frequency_std_hz: (m,) the standard deviation of each frequency (Hz), NaN where not stated;
+    shape_std: (len(dofs), m) the standard deviation of each shape entry in the units of
+    `shapes` as given, NaN where not stated (None for either: none stated).
     """
 
     model: str
@@ -48,6 +55,29 @@ class ModalData:
     shapes: np.ndarray
     meta: dict = field(default_factory=dict)
     source: str = "<memory>"
+    frequency_std_hz: np.ndarray | None = None
+    shape_std: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        m = self.frequencies_hz.shape[0]
+        fs = np.full(m, np.nan) if self.frequency_std_hz is None else np.asarray(self.frequency_std_hz, dtype=float)
+        ss = (np.full(self.shapes.shape, np.nan) if self.shape_std is None
+              else np.asarray(self.shape_std, dtype=float))
+        if fs.shape != (m,) or ss.shape != self.shapes.shape:
+            raise ValueError(f"{self.source}: frequency_std_hz must have shape ({m},) and shape_std "
+                             f"{self.shapes.shape}, got {fs.shape} and {ss.shape}")
+        object.__setattr__(self, "frequency_std_hz", fs)
+        object.__setattr__(self, "shape_std", ss)
+
+    @property
+    def has_frequency_std(self) -> np.ndarray:
+        """(m,) True where the mode's frequency has a stated standard deviation."""
+        return ~np.isnan(self.frequency_std_hz)
+
+    @property
+    def has_shape_std(self) -> np.ndarray:
+        """(m,) True where the mode's shape has a stated standard deviation (every entry)."""
+        return self.has_shape & ~np.isnan(self.shape_std).any(axis=0)
 
     @property
     def n_modes(self) -> int:
@@ -59,16 +89,28 @@ class ModalData:
         """(m,) True where the mode's shape was measured."""
         return ~np.isnan(self.shapes).any(axis=0)
 
+    def noise(self, freq_noise: float = DEFAULT_FREQ_NOISE,
+              shape_noise: float = DEFAULT_SHAPE_NOISE) -> tuple[np.ndarray, np.ndarray]:
+        """The standard deviations (m,) of the frequencies (Hz) and (len(dofs), m) of the shape
+        entries (units of `shapes`): the stated ones, else `freq_noise` x the frequency and
+        `shape_noise` x the largest |entry| of the mode's shape (NaN where no shape)."""
+        sf = np.where(self.has_frequency_std, self.frequency_std_hz, freq_noise * self.frequencies_hz)
+        with np.errstate(invalid="ignore"):
+            peak = np.nanmax(np.abs(self.shapes), axis=0, initial=0.0)
+        ss = np.where(np.isnan(self.shape_std), shape_noise * peak[None, :], self.shape_std)
+        return sf, np.where(np.isnan(self.shapes), np.nan, ss)
+
     def subset(self, modes) -> "ModalData":
         """The data restricted to some modes (indices), e.g. to hold modes out."""
         modes = np.asarray(modes, dtype=int)
         return ModalData(self.model, self.dofs, self.frequencies_hz[modes], self.shapes[:, modes],
-                         dict(self.meta), self.source)
+                         dict(self.meta), self.source, self.frequency_std_hz[modes], self.shape_std[:, modes])
 
     def without_shapes(self) -> "ModalData":
-        """The data with every shape dropped (frequencies only)."""
+        """The data with every shape dropped (frequencies only; their deviations kept)."""
         return ModalData(self.model, self.dofs, self.frequencies_hz.copy(),
-                         np.full_like(self.shapes, np.nan), dict(self.meta), self.source)
+                         np.full_like(self.shapes, np.nan), dict(self.meta), self.source,
+                         self.frequency_std_hz.copy(), np.full_like(self.shapes, np.nan))
 
     def load_model(self) -> FrameModel:
         """The model this data belongs to (name, or path relative to the data file)."""

@@ -18,7 +18,7 @@ import warnings
 
 #: The commands, in the order `femu --help` lists them: each is the module femu.cli.<name>.
 COMMANDS = ("model", "suite", "optimizers", "study", "results", "report", "reproduce", "diagnose", "identify",
-            "import", "export")
+            "update", "import", "export")
 
 
 def _module(name: str):

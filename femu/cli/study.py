@@ -28,6 +28,12 @@ def add_arguments(s) -> None:
     s.add_argument("--suite", default=None,
                    help="suite problems, comma-separated ids or prefixes: hframe-freq/12, paper, frame-shape/24/1 "
                         "(`femu suite` lists them)")
+    s.add_argument("--model", default=None,
+                   help="a user's own problem: this model file (with --data, and --parameters or each element's "
+                        "modulus within +-30 %%), benchmarked with the objective of `femu update`; its f_opt is the "
+                        "best J the study's runs found (best known, not certified)")
+    s.add_argument("--data", default=None, help="the measured modes of --model (femu.modal-data/1)")
+    s.add_argument("--parameters", default=None, help="the parameter file of --model (femu.parameters/1)")
     s.add_argument("--time-limit", type=float, default=DEFAULT_TIME_LIMIT_S,
                    help="wall-clock seconds per run before it is stopped, status timeout, its evaluations until "
                         "then kept (default: %(default)s)")
@@ -110,7 +116,8 @@ def run(args) -> int:
                            workers=args.workers, scheduler=args.scheduler, time_limit_s=args.time_limit, suite=args.suite,
                            progress=not args.no_progress, retry_failed=getattr(args, "retry_failed", False),
                            x0=getattr(args, "x0", "none"), options=options or None,
-                           isolated=not getattr(args, "in_process", False))
+                           isolated=not getattr(args, "in_process", False), model=getattr(args, "model", None),
+                           data=getattr(args, "data", None), parameters=getattr(args, "parameters", None))
     except KeyboardInterrupt:
         print(f"femu study: interrupted; the finished runs are in {args.store}: the same command resumes the study",
               file=sys.stderr)

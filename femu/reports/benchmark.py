@@ -32,7 +32,12 @@ import numpy as np
 from fe_problem.jsonutil import dumps
 from fe_problem.safe_files import write_text
 from femu.studies.store import J_ROUNDING
-from femu.studies.tasks import is_suite_id
+from adapters.variants import USER_PREFIX
+from femu.studies.tasks import is_suite_id, variant_stem
+
+#: How f_opt is known for a user's problem (`femu study --model`): the lowest J of the study's
+#: runs, not certified.
+BEST_KNOWN = "best known"
 
 from . import stats as st
 from .render import make_out_dir
@@ -64,6 +69,8 @@ def problem_facts(problem_id: str) -> dict:
         p = make_problem(problem_id)
         if problem_id == "paper":  # the suite's paper problem
             f_opt, kind, precision, scale = PAPER_F_OPT, "certified", PAPER_F_OPT_PRECISION, TARGET_SCALE["paper"]
+        elif problem_id.startswith(USER_PREFIX):  # a user's problem: the runs' best J, set by targets_of
+            f_opt, kind, precision, scale = None, BEST_KNOWN, None, None
         else:  # J >= 0 is all that is known
             f_opt, kind, precision, scale = 0.0, "lower bound", None, None
     return {"f_opt": f_opt, "f_opt_kind": kind, "f_opt_precision": precision, "target_scale": scale,
@@ -94,6 +101,11 @@ def targets_of(runs) -> dict[str, st.Targets]:
         if r.variant in out:
             continue
         facts = problem_facts(r.variant)
+        if facts["f_opt"] is None:  # best known: the lowest J of the study's runs on the problem
+            f_opt = min((x.best_f for x in runs if x.variant == r.variant and math.isfinite(x.best_f)),
+                        default=facts["f_start"])
+            out[r.variant] = st.fixed_targets(r.variant, float(f_opt), facts["f_start"], scale=facts["target_scale"])
+            continue
         stored = getattr(r, "f_opt", None)
         if stored is not None and not math.isclose(stored, facts["f_opt"], rel_tol=1e-9, abs_tol=1e-15):
             raise ValueError(f"run {r.optimizer} seed {r.seed} on {r.variant}: its record's f_opt {stored!r} is not "
@@ -375,6 +387,11 @@ def render_benchmark(s: dict, figures: dict, source: str) -> str:
                               "-" if p["f_opt_precision"] is None else f"{p['f_opt_precision']:.2g}",
                               "own decade" if p["target_scale"] is None else f"{p['target_scale']:.3g}",
                               f"{p['f_start']:.4g}", _g(p["targets"][0]), _g(p["targets"][-1])] for p in s["problems"]])
+    best_known = [p["id"] for p in s["problems"] if p["f_opt_kind"] == BEST_KNOWN]
+    if best_known:
+        lines += ["", f"f_opt of {', '.join(best_known)} is the best J seen over this study's runs (a user's "
+                      "problem, `femu study --model`): best known, **not certified**; a better optimum would move "
+                      "every target, and a run that reached it only counts as the best of these runs."]
     lines += [""] + _one_budget_lines(s)
     lines += ["## Expected running time (ERT)", ""] + _ert_lines(s)
     lines += [f"![ERT]({figures['ert']})", "", "## Fixed-target ECDFs (instances pooled)", "",
@@ -439,4 +456,4 @@ def write_benchmark(runs, out_dir, source: str, name: str = "report.md") -> Path
 
 
 def _stem(group: str) -> str:
-    return group.replace("/", "_")
+    return variant_stem(group)

@@ -169,8 +169,13 @@ def data_check_lines(diag: Diagnosis) -> list[str]:
 def noise_text(diag: Diagnosis) -> str:
     """'frequencies 0.2 %, shape entries 2 % of each mode's largest entry (default)'."""
     sel, source = diag.selection, (diag.noise.source if diag.noise else "stated")
-    return (f"frequencies {fmt(100 * sel.freq_noise, 3)} %, shape entries {fmt(100 * sel.shape_noise, 3)} % of "
+    text = (f"frequencies {fmt(100 * sel.freq_noise, 3)} %, shape entries {fmt(100 * sel.shape_noise, 3)} % of "
             f"each mode's largest entry ({source})")
+    n_f, n_s, m = diag.noise.data_deviations if diag.noise else (0, 0, 0)
+    if n_f or n_s:
+        text += (f"; the data's own deviations instead for {n_f} of {m} frequencies and {n_s} of {m} shapes "
+                 "(docs/modal-data-format.md)")
+    return text
 
 
 def verdict_lines(diag: Diagnosis) -> list[str]:

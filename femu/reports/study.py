@@ -18,7 +18,7 @@ from fe_problem.jsonutil import dumps
 from fe_problem.safe_files import write_text
 from femu.studies.store import Store
 
-from femu.studies.tasks import is_suite_id
+from femu.studies.tasks import is_suite_id, variant_stem
 
 from .benchmark import write_benchmark
 from .figures import (plot_convergence, plot_ecdf, plot_errors, plot_mac, plot_mode_shapes, plot_overhead,
@@ -117,7 +117,7 @@ def render_files(groups: list[GroupSummary], out_dir, source: str, name: str = "
     out = make_out_dir(out_dir)
     figures = {}
     for g in groups:
-        stem = f"{g.variant}_b{g.budget}"
+        stem = f"{variant_stem(g.variant)}_b{g.budget}"
         made = {"convergence": plot_convergence(g, out / f"convergence_{stem}.png"),
                 "errors": plot_errors(g, out / f"errors_{stem}.png"),
                 "overhead": plot_overhead(g, out / f"overhead_{stem}.png")}

@@ -35,7 +35,7 @@ from adapters.capabilities import check_options
 from adapters.harness import RunResult
 from adapters.registry import BUILTINS, check_name, get, module_of
 from adapters.sandbox import optimizer_facts, server_address
-from adapters.variants import VARIANTS
+from adapters.variants import USER_PREFIX, VARIANTS
 from fe_problem.suite import select_suite
 from fe_problem.jsonutil import dumps
 
@@ -44,7 +44,7 @@ from .executors import InProcess, LocalPool
 from .manifest import read_manifest, write_manifest
 from .progress import Progress
 from .seeds import parse_names, parse_seeds
-from .store import Store
+from .store import Store, safe_name
 from .tasks import Task, n_var_of, run_task
 from . import DEFAULT_TIME_LIMIT_S  # noqa: F401  (femu.studies.study.DEFAULT_TIME_LIMIT_S, as before)
 
@@ -157,9 +157,32 @@ def check_workers(workers) -> None:
                          f"process may use), got {workers}")
 
 
-def _problems(variants, suite) -> list[str]:
+def user_source(store: Store, model, data, parameters=None) -> str:
+    """The variant ``user:PATH`` of a user's problem: its source (the files' paths and SHA-256,
+    fe_problem.user_problem.ProblemSource) written to STORE/problems/NAME.json, the problem built
+    once here so that a bad file is refused before anything runs."""
+    from fe_problem.safe_files import write_text
+    from fe_problem.user_problem import ProblemSource, problem_from_source
+
+    src = ProblemSource.of(model, data, parameters)
+    problem_from_source(src)  # every file checked (one line naming the file and field otherwise)
+    folder = store.path / "problems"
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ValueError(f"--store {store.path}: cannot create {folder} ({exc.strerror or exc})") from None
+    path = folder / f"{safe_name(src.name.replace(':', '_'))}.json"
+    if not path.exists():
+        write_text(path, dumps(src.to_dict()) + "\n")
+    return USER_PREFIX + str(path.resolve())
+
+
+def _problems(variants, suite, user: str | None = None) -> list[str]:
     """The study's problems: the variants named, then the suite ids selected (`select_suite`:
-    ids, families or family/dimension prefixes); ``paper`` when neither is given."""
+    ids, families or family/dimension prefixes), then a user's problem; ``paper`` when none is
+    given."""
+    if user is not None and variants is None and suite is None:
+        return [user]
     names = [] if variants is None and suite is not None else parse_names(variants or "paper", "variants")
     for v in names:
         if v not in VARIANTS:
@@ -169,13 +192,16 @@ def _problems(variants, suite) -> list[str]:
             names += [i for i in select_suite(suite) if i not in names]
         except ValueError as exc:
             raise ValueError(f"--suite: {exc}") from None
+    if user is not None:
+        names.append(user)
     return names
 
 
-def _check_inputs(optimizers, seeds, budget, variants, workers, scheduler, time_limit_s, options, suite=None):
+def _check_inputs(optimizers, seeds, budget, variants, workers, scheduler, time_limit_s, options, suite=None,
+                  user: str | None = None):
     """The study's arguments checked and normalised; ValueError naming the flag otherwise."""
     optimizers = parse_names(optimizers, "optimizers")
-    variants = _problems(variants, suite)
+    variants = _problems(variants, suite, user)
     seeds = parse_seeds(seeds)
     for name in optimizers:
         check_name(name)  # ValueError naming the known ones, before the options are looked at (no import)
@@ -229,7 +255,7 @@ def _stored_runs(store: Store, grid: list[Task]) -> dict[str, RunResult]:
 def run_study(optimizers, seeds, budget: int, store, variants=None, workers: int | None = None,
               scheduler: str | None = None, time_limit_s: float | None = None, progress: bool = True,
               options: dict | None = None, retry_failed: bool = False, suite=None, x0: str = "none",
-              isolated: bool = True) -> StudyResult:
+              isolated: bool = True, model=None, data=None, parameters=None) -> StudyResult:
     """Run the grid optimizers x variants x seeds with `budget` FE evaluations per run into
     `store` (a directory), skipping the runs already stored.
 
@@ -246,11 +272,20 @@ def run_study(optimizers, seeds, budget: int, store, variants=None, workers: int
     isolated: each optimizer in a worker process without the problem (adapters.sandbox); False
     runs it in its run's own process, for debugging (`femu study --in-process`): its records
     are unverified, and reports say so.
+    model, data, parameters: a user's own problem (`femu study --model FILE --data FILE
+    [--parameters FILE]`, the balanced objective of `femu update`) run as a further variant
+    ``user:PATH``: PATH the problem source file written into the store (`user_source`); only it
+    when no variants or suite are given.
     Raises ValueError (StoreError for the store) before running anything on bad input.
     """
-    optimizers, seeds, budget, variants, options = _check_inputs(
-        optimizers, seeds, budget, variants, workers, scheduler, time_limit_s, options, suite)
     store = store if isinstance(store, Store) else Store(store)
+    user = None
+    if model is not None or data is not None or parameters is not None:
+        if model is None or data is None:
+            raise ValueError("--model and --data go together (a user's problem needs both; --parameters is optional)")
+        user = user_source(store, model, data, parameters)
+    optimizers, seeds, budget, variants, options = _check_inputs(
+        optimizers, seeds, budget, variants, workers, scheduler, time_limit_s, options, suite, user)
     x0 = check_x0_mode(x0, "--x0")
     if x0 == "all":
         n_vars = sorted({n_var_of(v) for v in variants})

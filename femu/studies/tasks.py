@@ -18,7 +18,7 @@ from functools import lru_cache
 from typing import Callable
 
 from adapters.harness import RunResult, run
-from adapters.variants import make_problem
+from adapters.variants import USER_PREFIX, make_problem
 from fe_problem.suite import suite_entry, suite_problem
 
 from .store import run_key
@@ -46,8 +46,18 @@ class Task:
 
 
 def is_suite_id(variant: str) -> bool:
-    """Whether a study's variant is a suite id (``family/dimension/instance``)."""
-    return "/" in variant
+    """Whether a study's variant is a suite id (``family/dimension/instance``; a user's problem,
+    ``user:PATH``, is not)."""
+    return "/" in variant and not variant.startswith(USER_PREFIX)
+
+
+def variant_stem(variant: str) -> str:
+    """A variant as a piece of a file name: a suite id's ``/`` as ``_``; a user's problem
+    ``user:PATH`` as ``user_`` and the stem of its source file."""
+    if variant.startswith(USER_PREFIX):
+        from pathlib import Path
+        return "user_" + Path(variant[len(USER_PREFIX):]).stem
+    return variant.replace("/", "_")
 
 
 def problem_of(variant: str):
@@ -75,7 +85,9 @@ def run_task(task: Task, on_start: Callable[[], None] | None = None) -> dict:
             on_start()
         record = run(task.optimizer, problem, task.budget, task.seed, time_limit_s=task.time_limit_s,
                      variant=task.variant, x0=task.x0, isolated=task.isolated, **task.options).to_dict()
-        return dict(record, f_opt=getattr(problem, "f_opt", None))
+        source = getattr(problem, "source", None)  # a user's problem: its files and their SHA-256
+        return dict(record, f_opt=getattr(problem, "f_opt", None),
+                    problem_source=None if source is None else source.to_dict())
     except Exception as exc:
         return lost_record(task, "failed", f"{type(exc).__name__}: {exc}\n{traceback.format_exc(limit=6)}",
                             time.perf_counter() - t0)
