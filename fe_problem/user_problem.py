@@ -25,17 +25,24 @@ DEFAULT_SPREAD = 0.3
 
 def load_update_model(path):
     """The model at `path` (or a shipped model's name): the one place `femu update` and
-    `femu study --model` read a model (a frame model file today)."""
-    from .model import load_model
+    `femu study --model` read a model (a frame model file, `femu.model/1`, or a matrix model's
+    manifest, `femu.matrix-model/1`, told apart by the file's `format`)."""
+    from .any_model import load_any_model
 
-    return load_model(path)
+    return load_any_model(path)
 
 
 def default_parameters(model):
     """The parameters used without a parameter file, and the sentence a report says of them."""
+    from .matrix_model import MatrixModel
     from .model import FrameModel
     from .parameters import frame_default_parameters
 
+    if isinstance(model, MatrixModel):
+        if not model.parameters:
+            raise ValueError(f"{model.source or model.name}: no term has lower and upper: a matrix model's updating "
+                             "parameters are the terms of its manifest with bounds")
+        return model.parameters, "the manifest's parameters (its terms with lower and upper)"
     if isinstance(model, FrameModel):
         return (frame_default_parameters(model, DEFAULT_SPREAD),
                 f"no parameter file: each element's modulus within +-{DEFAULT_SPREAD:.0%} of the model's own")
@@ -51,12 +58,16 @@ def file_hash(path) -> str | None:
 def user_problem(model_path, data_path, parameters_path=None, hold_out: int = 0, name: str | None = None):
     """(problem, full data, held-out indices, the parameter note): the balanced updating problem
     of a user's model and data, the last `hold_out` measured modes kept out of the fit."""
+    from .matrix_model import MatrixModel
     from .modal_data import load_modal_data
     from .parameter_file import load_parameters
     from .problem import UpdatingProblem
 
     model = load_update_model(model_path)
     data = load_modal_data(data_path)
+    if parameters_path is not None and isinstance(model, MatrixModel):
+        raise ValueError(f"--parameters {parameters_path}: a matrix model carries its parameters in its manifest "
+                         f"({model.source}: the terms with lower and upper); give no parameter file")
     if parameters_path is not None:
         parameters, note = load_parameters(parameters_path, model), f"parameters from {parameters_path}"
     else:

@@ -27,9 +27,13 @@ DEFAULT_OPTIMIZER, DEFAULT_BUDGET = "sensitivity", 1000
 def write_updated_model(model, parameters, x, out_dir: Path) -> Path:
     """Write `model` with its parameters at x into `out_dir`, in the format it was read in (a
     frame model: updated-model.json, `femu.model/1`); returns the path."""
+    from fe_problem.matrix_model import MatrixModel, save_matrix_model
     from fe_problem.model import FrameModel, save_model
     from fe_problem.parameters import model_with
 
+    if isinstance(model, MatrixModel):  # the manifest, initials at the estimates, its matrices copied beside it
+        updated = model.with_initials({p.name: float(v) for p, v in zip(parameters, x)})
+        return save_matrix_model(updated, Path(out_dir) / "updated-model.json", copy_files=True)
     if isinstance(model, FrameModel):
         return save_model(model_with(model, parameters, x), Path(out_dir) / "updated-model.json")
     raise TypeError(f"cannot write a model of type {type(model).__name__}")

@@ -126,7 +126,8 @@ def render_files(groups: list[GroupSummary], out_dir, source: str, name: str = "
         if g.parameters is not None and any(s.best_x is not None for s in g.solvers):
             made["parameters"] = plot_parameters(g, out / f"parameters_{stem}.png")
         if g.modes is not None:
-            made["modes"] = plot_mode_shapes(g, out / f"modes_{stem}.png")
+            if hasattr(g.modes.model, "nodes"):  # drawn on a frame; a matrix model has no drawing
+                made["modes"] = plot_mode_shapes(g, out / f"modes_{stem}.png")
             made["mac"] = plot_mac(g, out / f"mac_{stem}.png")
         figures[(g.variant, g.budget)] = {k: p.name for k, p in made.items()}
     write_text(out / "summary.json", dumps([g.to_dict() for g in groups]))

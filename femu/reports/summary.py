@@ -143,7 +143,9 @@ def _modes(problem, solvers) -> ModeComparison | None:
     init, upd = problem.modal(None, k), problem.modal(s.best_x, k)
     sign = np.where(np.sum(init.shapes * upd.shapes, axis=0) < 0, -1.0, 1.0)
     model = problem.model
-    moving = [(n.id, d) for n in model.nodes for d in model.layout.translations]
+    # a frame: the translations of every node; a matrix model (no nodes): every DOF
+    moving = ([(n.id, d) for n in model.nodes for d in model.layout.translations] if hasattr(model, "nodes")
+              else list(model.dofs))
     mac_iu = mac(init.at(moving), upd.at(moving))
     data = problem.data
     mac_mu = None
