@@ -24,18 +24,32 @@ UPDATE_FORMAT = "femu.update/1"
 DEFAULT_OPTIMIZER, DEFAULT_BUDGET = "sensitivity", 1000
 
 
-def write_updated_model(model, parameters, x, out_dir: Path) -> Path:
-    """Write `model` with its parameters at x into `out_dir`, in the format it was read in (a
-    frame model: updated-model.json, `femu.model/1`); returns the path."""
+def write_updated_model(model, parameters, x, out_dir: Path) -> dict:
+    """Write `model` with its parameters at x into `out_dir`, in the format it was read in; returns
+    {"model": path} (and "deck": path for a model imported from Nastran). A frame model:
+    updated-model.json (`femu.model/1`), and when it was imported from a Nastran deck
+    (`nastran.source_of`) also updated-model.bdf, that deck with the changed values
+    (`nastran.write_like`); a matrix model: updated-model.json, its manifest with each parameter's
+    `initial` at its estimate and its matrix files copied beside it."""
     from fe_problem.matrix_model import MatrixModel, save_matrix_model
     from fe_problem.model import FrameModel, save_model
+    from fe_problem.model.nastran import source_of, write_like
     from fe_problem.parameters import model_with
 
-    if isinstance(model, MatrixModel):  # the manifest, initials at the estimates, its matrices copied beside it
+    out_dir = Path(out_dir)
+    if isinstance(model, MatrixModel):
         updated = model.with_initials({p.name: float(v) for p, v in zip(parameters, x)})
-        return save_matrix_model(updated, Path(out_dir) / "updated-model.json", copy_files=True)
+        return {"model": save_matrix_model(updated, out_dir / "updated-model.json", copy_files=True)}
     if isinstance(model, FrameModel):
-        return save_model(model_with(model, parameters, x), Path(out_dir) / "updated-model.json")
+        updated = model_with(model, parameters, x)
+        files = {"model": save_model(updated, out_dir / "updated-model.json")}
+        deck = source_of(model)
+        if deck is not None:
+            if not Path(deck).is_file():
+                raise ValueError(f"{model.source}: its source deck {deck} (meta 'import' 'path') is not there: "
+                                 f"updated-model.bdf not written (updated-model.json is)")
+            files["deck"] = write_like(updated, deck, out_dir / "updated-model.bdf")
+        return files
     raise TypeError(f"cannot write a model of type {type(model).__name__}")
 
 
@@ -178,7 +192,7 @@ def update(model_path, data_path, out, parameters_path=None, optimizer: str = DE
         "correlation": [[None if np.isnan(v) else float(v) for v in row] for row in est.correlation],
         "verdict": verdict(est, data),
     }
-    files = {"model": write_updated_model(problem.model, problem.parameters, x, out)}
+    files = write_updated_model(problem.model, problem.parameters, x, out)
     files["update"] = write_text(out / "update.json", dumps(record) + "\n")
     files.update(write_update_report(record, mac0, mac1, out))
     return UpdateResult(record, mac0, mac1, files)
