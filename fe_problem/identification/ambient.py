@@ -355,8 +355,32 @@ def _fdd(acc, fs, band, lib):
     return modes, chart
 
 
+def _check_matrix_model(recording: Recording, model) -> None:
+    """Every channel label is a DOF of a matrix model: a 1-based DOF number when the manifest
+    gives a count of DOFs, a NODE:DIRECTION among its labels otherwise; TimeSeriesError naming
+    the file and column."""
+    where = f"model {model.name!r} ({model.source})" if model.source else f"model {model.name!r}"
+    for s in recording.setups:
+        for k, lab in enumerate(s.channels):
+            if model.row_of(lab) is not None:
+                continue
+            if model.labelled:
+                said = f"DOF number {lab}" if isinstance(lab, int) else f"{lab[0]}:{lab[1]}"
+                raise TimeSeriesError(f"{s.channel_label(k)}: {said} is not one of the [node, direction] DOF labels "
+                                      f"of {where}")
+            if isinstance(lab, int):
+                raise TimeSeriesError(f"{s.channel_label(k)}: DOF number {lab} is beyond {where}'s DOFs "
+                                      f"1..{model.n_dof}")
+            raise TimeSeriesError(f"{s.channel_label(k)}: a NODE:DIRECTION label, but {where} numbers its DOFs "
+                                  f"1..{model.n_dof}: label the channels by DOF number")
+
+
 def _check_model(recording: Recording, model) -> None:
     """Every channel label names a node and a DOF of `model`; TimeSeriesError naming the file and column."""
+    from ..matrix_model import MatrixModel
+
+    if isinstance(model, MatrixModel):
+        return _check_matrix_model(recording, model)
     names = model.layout.names
     ids = set(model.node_ids)
     for s in recording.setups:
@@ -376,12 +400,14 @@ def identify_ambient(recording: Recording, model=None, method: str = "ssi-cov", 
                      order: int | None = None) -> AmbientIdentification:
     """Identify the modes of an ambient test (a `Recording` from `read_timeseries`).
 
-    model: a FrameModel, name or file whose nodes the channel labels name (optional: the data
-    then names no model); method: 'ssi-cov', 'plscf' or 'fdd'; band_hz (lo, hi) Hz (default 0 to
+    model: a FrameModel, name or file whose nodes the channel labels name, or a matrix model
+    (MatrixModel or manifest) whose DOF labels or numbers they are (optional: the data then
+    names no model); method: 'ssi-cov', 'plscf' or 'fdd'; band_hz (lo, hi) Hz (default 0 to
     the Nyquist frequency); order: the highest model order (SSI: state dimension; pLSCF:
     polynomial order). Returns an AmbientIdentification whose `data` is ModalData (real shapes
     scaled to a largest entry of 1; per mode frequency_std_hz, shape_std, damping in meta)."""
-    from fe_problem import ModalData, load_model
+    from fe_problem import ModalData
+    from fe_problem.any_model import load_any_model
 
     if method not in METHODS:
         raise ValueError(f"--method {method!r}: one of {', '.join(METHODS)}")
@@ -395,7 +421,7 @@ def identify_ambient(recording: Recording, model=None, method: str = "ssi-cov", 
     model_ref = None
     if model is not None:
         model_ref = model if isinstance(model, str) else model.name
-        model = load_model(model)
+        model = load_any_model(model)
         _check_model(recording, model)
     lib = _pyoma()
     warn: list[str] = []

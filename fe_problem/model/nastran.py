@@ -718,6 +718,14 @@ def _same(a: float, b: float) -> bool:
     return a == b or abs(a - b) <= 1e-13 * max(abs(a), abs(b))
 
 
+def _large_field(card) -> None:
+    """Have `card` written in large fields (16 characters): pyNastran writes CELAS2 and PELAS in
+    small fields whatever the deck's size, which keeps 7 significant digits of a changed K."""
+    from pyNastran.bdf.field_writer_16 import print_card_16
+
+    card.write_card = lambda size=8, is_double=False: card.comment + print_card_16(card.repr_fields())
+
+
 def write_like(model: FrameModel, source: str | Path, out_path: str | Path) -> Path:
     """Write the deck `source` again as `out_path` with `model`'s values, every other card as
     it was: `model` is `read_bdf(source)` with changed values (an updated model; its
@@ -799,11 +807,13 @@ def write_like(model: FrameModel, source: str | Path, out_path: str | Path) -> P
         value = s.stiffness / units.scale("rotational_spring" if s.dof_a[1].startswith("r") else "spring")
         if ref["card"] == "CELAS2":
             bdf.elements[ref["id"]].k = value
+            _large_field(bdf.elements[ref["id"]])
         elif ref["card"] == "CELAS1":
             users = [r["id"] for r in names["springs"].values() if r.get("pid") == ref["pid"]]
             if len({model_spring.stiffness for model_spring in model.springs if model_spring.id in users}) > 1:
                 refuse(f"spring {s.id} (its PELAS {ref['pid']} is shared by springs now of different stiffness)")
             bdf.properties[ref["pid"]].k = value
+            _large_field(bdf.properties[ref["pid"]])
         else:
             refuse(f"spring {s.id} (from a rod)")
     if len(model.springs) != len(original.springs):

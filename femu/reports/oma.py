@@ -118,6 +118,16 @@ def plot_shapes(record: dict, model, path: Path) -> Path:
     for ax in axes.ravel()[n:]:
         ax.set_visible(False)
     coords = record["coordinates"]
+    if model is None:  # no frame to draw on (a matrix model): bars over the channels
+        for ax, m in zip(axes.ravel(), modes):
+            shape = np.asarray(m["shape"])
+            err = None if m["shape_std"] is None else np.asarray(m["shape_std"])
+            ax.bar(np.arange(shape.size), shape, yerr=err, color="#c0142b", ecolor="0.2", capsize=2)
+            ax.set_xticks(np.arange(shape.size), coords, rotation=90, fontsize=6)
+            ax.axhline(0.0, color="0.5", lw=0.6)
+            std = "" if m["frequency_std_hz"] is None else f" ± {m['frequency_std_hz']:.3g}"
+            ax.set_title(f"mode {m['mode']}: {m['frequency_hz']:.3f}{std} Hz\nMPC {m['mpc']:.3f}", fontsize=8)
+        return save_figure(fig, path)
     labels = [tuple(c.split(":")) for c in coords]
     at = projected(model, model.coordinates)
     pos = {nd.id: at[k] for k, nd in enumerate(model.nodes)}
@@ -177,10 +187,12 @@ def render_markdown(record: dict, figures: dict) -> str:
 
 def write_report(ident, record: dict, out: Path) -> Path:
     """Write report.md and its three figures into `out`; returns the report's path."""
-    from fe_problem import load_model
+    from fe_problem.any_model import load_any_model
+    from fe_problem.model import FrameModel
 
     out = Path(out)
-    model = load_model(ident.data.model) if ident.data.model else None
+    model = load_any_model(ident.data.model) if ident.data.model else None
+    model = model if isinstance(model, FrameModel) else None  # a matrix model has no frame to draw
     figures = {"stabilisation": plot_stabilisation(record, out / "stabilisation.png").name,
                "singular_values": plot_singular_values(record, out / "singular-values.png").name,
                "shapes": plot_shapes(record, model, out / "shapes.png").name}
