@@ -10,7 +10,8 @@ and ambient identification (issue 37), each through the CLI:
     MAT1/CONM2/CELAS2 values the estimates (read back with pyNastran), every other card as it was;
 (d) `femu identify --oma --model MANIFEST` with channels labelled by DOF number (records simulated
     by tests/oma_sim.py, independent of the project's modal code), its deviations the noise of
-    `femu update`; `femu diagnose` refuses a matrix model in one line.
+    `femu update`; `femu diagnose` refuses a matrix model in one line;
+(e) `femu identify` of FRFs with a matrix model whose DOF labels name the channels.
 """
 
 from __future__ import annotations
@@ -280,3 +281,32 @@ def test_femu_study_on_a_matrix_model(building, tmp_path):
     best = min(r["best_f"] for r in records)
     assert f"{best:.17g} | best known" in bench and "**not certified**" in bench
     assert list(out.glob("mac_*.png")) and not list(out.glob("modes_*.png"))  # no frame to draw
+
+
+# --- (e) the FRF path: a matrix model's DOF labels name the channels -------------------------------
+
+def test_identify_frfs_with_a_labelled_matrix_model(tmp_path, capsys):
+    """FRFs of the H-frame identified against a matrix model whose DOF labels are the frame's
+    (identification reads only the labels: K = M = I here): the same modes as against the frame,
+    the data naming the manifest; a counted model, or a channel it lacks, is one line."""
+    from fe_problem.identification.frf_io import write_npz
+
+    frame = fp.load_model("hframe")
+    labels = [list(d) for d in frame.dofs]
+    labelled = write_manifest(tmp_path, [("K", np.eye(len(labels)), {})], [("M", np.eye(len(labels)), {})], labels,
+                              name="hframe-labels", file="labelled.json")
+    frfs = fp.synthetic_frf("hframe", band_hz=(5, 300), resolution_hz=1.0, noise=0.01, seed=2)
+    write_npz(frfs, tmp_path / "frf.npz")
+    for model, out in (("hframe", "a"), (str(labelled), "b")):
+        assert main(["identify", str(tmp_path / "frf.npz"), "--model", model, "--out", str(tmp_path / out)]) == 0
+    capsys.readouterr()
+    a, b = (json.loads((tmp_path / o / "modal-data.json").read_text()) for o in ("a", "b"))
+    assert b["model"] == "../labelled.json" and b["dofs"] == a["dofs"] and b["modes"] == a["modes"]
+    counted = write_manifest(tmp_path, [("K", np.eye(4), {})], [("M", np.eye(4), {})], 4, file="counted.json")
+    line = _one_line_error(capsys, ["identify", str(tmp_path / "frf.npz"), "--model", str(counted), "--out",
+                                    str(tmp_path / "c")])
+    assert "numbers its DOFs 1..4, and FRF files name [node, direction] coordinates" in line
+    short = write_manifest(tmp_path, [("K", np.eye(3), {})], [("M", np.eye(3), {})], labels[:3], file="short.json")
+    line = _one_line_error(capsys, ["identify", str(tmp_path / "frf.npz"), "--model", str(short), "--out",
+                                    str(tmp_path / "d")])
+    assert "frf.npz" in line and "is not one of the DOF labels of model" in line

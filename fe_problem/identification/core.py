@@ -74,7 +74,12 @@ def _band(frfs: FRFSet, band_hz, n_modes):
 
 def check_coordinates(frfs: FRFSet, model) -> None:
     """Raise FRFFileError naming file and channel if a channel's or the reference's node is not
-    in `model`, or its direction is not one of the model's nodal DOFs (its layout's)."""
+    in `model`, or its direction is not one of the model's nodal DOFs (its layout's); for a
+    matrix model, unless the coordinate is one of its [node, direction] DOF labels."""
+    from ..matrix_model import MatrixModel
+
+    if isinstance(model, MatrixModel):
+        return _check_matrix_coordinates(frfs, model)
     ids, names = set(model.node_ids), model.layout.names
     for k, (node, d) in enumerate(frfs.coordinates):
         if node not in ids:
@@ -88,6 +93,21 @@ def check_coordinates(frfs: FRFSet, model) -> None:
     if frfs.reference[1] not in names:
         raise FRFFileError(f"{frfs.sources[0]}: reference direction {frfs.reference[1]!r} is not a DOF of model "
                            f"{model.name!r} (its nodes have {', '.join(names)})")
+
+
+def _check_matrix_coordinates(frfs: FRFSet, model) -> None:
+    """`check_coordinates` for a matrix model: every channel and the reference one of its DOF
+    labels; a model whose DOFs are only numbered cannot be named by an FRF file's coordinates."""
+    where = f"model {model.name!r} ({model.source})" if model.source else f"model {model.name!r}"
+    if not model.labelled:
+        raise FRFFileError(f"{frfs.sources[0]}: {where} numbers its DOFs 1..{model.n_dof}, and FRF files name "
+                           "[node, direction] coordinates: give the manifest's 'dofs' as [node, direction] labels")
+    for k, c in enumerate(frfs.coordinates):
+        if model.row_of(c) is None:
+            raise FRFFileError(f"{frfs.channel_label(k)}: {c[0]} {c[1]} is not one of the DOF labels of {where}")
+    if model.row_of(frfs.reference) is None:
+        raise FRFFileError(f"{frfs.sources[0]}: reference {frfs.reference[0]} {frfs.reference[1]} is not one of the "
+                           f"DOF labels of {where}")
 
 
 def _inside(chart: P.Chart, lo: float, hi: float) -> tuple[list, list]:
@@ -145,7 +165,8 @@ def identify(frfs: FRFSet, model=None, band_hz=None, n_modes: int | None = None,
     called per order of the stabilisation. Returns an Identification whose `data` is ModalData
     (frequencies Hz, real shapes at the measured coordinates, per-mode damping and uncertainty in meta).
     """
-    from fe_problem import ModalData, load_model
+    from fe_problem import ModalData
+    from fe_problem.any_model import load_any_model
 
     if not (isinstance(max_order, int) and 1 <= max_order <= P.MAX_ORDER_LIMIT):
         raise ValueError(f"--max-order: must be a whole number from 1 to {P.MAX_ORDER_LIMIT}, got {max_order!r}")
@@ -160,7 +181,7 @@ def identify(frfs: FRFSet, model=None, band_hz=None, n_modes: int | None = None,
             model = str(beside)
     model_ref = model if isinstance(model, str) else model.name
     try:
-        model = load_model(model)
+        model = load_any_model(model)
     except (ValueError, FileNotFoundError) as exc:  # the model the FRF file names: say which file named it
         if not named_by_file:
             raise
