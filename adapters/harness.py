@@ -257,7 +257,7 @@ class BudgetedObjective:
         cost = 1 if not jacobian else self._jacobian_cost - (key == self._residuals_at)
         if self.remaining < cost:
             raise BudgetExhausted()
-        out = self._timed(lambda x: self._least_squares(x, cost), X[0])
+        out = self._timed(lambda x: self._least_squares(x, cost, bool(jacobian)), X[0])
         self._residuals_at = None if jacobian else key
         self._n_jacobians += bool(jacobian)
         # charge the extra cost first, so the trace dates the point at the evaluation count
@@ -279,14 +279,24 @@ class BudgetedObjective:
 
 
 def _charged_least_squares(least_squares):
-    """`least_squares` as f(x, cost): the cost charged for the call is passed on as
+    """`least_squares` as f(x, cost, jacobian): the cost charged for the call is passed on as
     ``charged=`` when the problem's method takes it (a logging wrapper records that many
-    evaluations), and dropped otherwise."""
+    evaluations), and whether a Jacobian is wanted as ``jacobian=`` when it takes that (a cost
+    of 1 does not tell: with one parameter the Jacobian at a point already paid costs 1 too);
+    each dropped otherwise."""
     try:
-        takes = "charged" in inspect.signature(least_squares).parameters
+        params = inspect.signature(least_squares).parameters
     except (TypeError, ValueError):
-        takes = False
-    return (lambda x, cost: least_squares(x, charged=cost)) if takes else (lambda x, cost: least_squares(x))
+        params = {}
+
+    def call(x, cost, jacobian):
+        kw = {}
+        if "charged" in params:
+            kw["charged"] = cost
+        if "jacobian" in params:
+            kw["jacobian"] = jacobian
+        return least_squares(x, **kw)
+    return call
 
 
 def check_takes_x0(name: str, optimizer=None) -> None:

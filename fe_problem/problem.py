@@ -305,7 +305,7 @@ class UpdatingProblem:
                 else np.zeros((0, self.n_var)))
         return e_f, e_s, -df / self.sigma_hz[:, None], de_s
 
-    def _balanced_least_squares(self, X, f, phi, df, charged):
+    def _balanced_least_squares(self, X, f, phi, df, charged, residuals_only: bool = False):
         """`least_squares` of the balanced objective: residuals rho whose squares sum to J, each
         kind's noise residuals e times c = sqrt(balanced_objective(R) / R), and their exact
         Jacobian c de + e (dc/dR) 2 e^T de (frequency rows analytic, shape rows by forward
@@ -315,7 +315,7 @@ class UpdatingProblem:
         parts = [(e_f, jac_f)]
         if e_s.size:
             jac_s = None
-            if charged != 1:
+            if not residuals_only:
                 jac_s = self._shape_jacobian(X[0], e_s, lambda p: self.noise_residuals(f, p)[1])
                 extra = self.n_var if charged is None else min(self.n_var, int(charged) - 1)
                 self.n_evals += extra
@@ -364,7 +364,7 @@ class UpdatingProblem:
         r = np.sqrt(self.shape_weight) * (a[None] - ab[:, None, :] * b)
         return r.transpose(0, 2, 1).reshape(len(phi), -1)
 
-    def least_squares(self, x, charged: int | None = None) -> "LeastSquares":
+    def least_squares(self, x, charged: int | None = None, jacobian: bool | None = None) -> "LeastSquares":
         """J, the weighted residuals r of the whole objective (J = sum r^2) and dr/dtheta at one
         point: the frequency residuals (m,), then, when J has a shape term, `shape_residuals`.
 
@@ -373,8 +373,11 @@ class UpdatingProblem:
         own evaluations. Shape rows are forward differences (one batched solve of n_var points,
         counted as n_var more evaluations, or charged - 1 when less was charged), computed only when the caller paid for a Jacobian:
         `charged` (what the harness charged for the call, adapters.budget.jacobian_cost) of 1
-        means residuals only (the Jacobian is then None). The harness charges n_var + 1 for a
-        Jacobian whichever way it is computed."""
+        means residuals only (the Jacobian is then None), unless `jacobian` says which: with one
+        parameter a Jacobian at the point whose residuals were just paid is charged 1 too, so the
+        harness passes `jacobian` explicitly. The harness charges n_var + 1 for a Jacobian
+        whichever way it is computed."""
+        residuals_only = (charged == 1) if jacobian is None else not jacobian
         X = self.check_x(x, "x")
         if X.shape[0] != 1:
             raise ValueError(f"least_squares takes one point, got {X.shape[0]}")
@@ -384,7 +387,7 @@ class UpdatingProblem:
         f = frequencies_hz(lam)[:, self.model_index]
         df = dlam[0, self.model_index, :] / (8.0 * np.pi**2 * f[0, :, None])
         if self.objective == "balanced":
-            return self._balanced_least_squares(X, f, phi, df, charged)
+            return self._balanced_least_squares(X, f, phi, df, charged, residuals_only)
         fm = self.data.frequencies_hz
         sw = np.sqrt(self.weights)
         r = sw * (fm - f[0]) / fm
@@ -392,7 +395,7 @@ class UpdatingProblem:
         if self.shape_weight:
             rs = self.shape_residuals(phi)[0]
             r = np.concatenate([r, rs])
-            if charged == 1:
+            if residuals_only:
                 jac = None
             else:
                 jac = np.vstack([jac, self._shape_jacobian(X[0], rs)])

@@ -310,3 +310,23 @@ def test_identify_frfs_with_a_labelled_matrix_model(tmp_path, capsys):
     line = _one_line_error(capsys, ["identify", str(tmp_path / "frf.npz"), "--model", str(short), "--out",
                                     str(tmp_path / "d")])
     assert "frf.npz" in line and "is not one of the DOF labels of model" in line
+
+
+@pytest.mark.parametrize("objective", ["balanced", "weighted"])
+def test_one_parameter_with_shapes_gets_its_jacobian(objective):
+    """With one parameter a Jacobian at a point whose residuals were just paid is charged 1, as
+    residuals alone are: the harness says which it wants (`jacobian=`), so the sensitivity method
+    runs (it failed with 'NoneType * float' before) and finds the modulus of the data."""
+    import adapters
+
+    model = fp.load_model("hframe")
+    left = fp.Parameter("modulus", (1, 2, 3, 4), 5e10, 9e10, 7e10, name="left")
+    data = fp.synthetic_measurement(model, 6, parameters=(left,), theta=np.array([6.44e10]), seed=1)
+    kw = {"shape_weight": 1.0} if objective == "weighted" else {}
+    problem = fp.UpdatingProblem(model, data, (left,), objective=objective, **kw)
+    run = adapters.run("sensitivity", problem, 20, 0, x0="all")
+    assert run.status == "ok", run.error
+    assert run.best_x[0] == pytest.approx(6.44e10, rel=1e-6)
+    ls = problem.least_squares(problem.x0, charged=1, jacobian=True)
+    assert ls.jacobian is not None and ls.jacobian.shape == (ls.residuals.size, 1)
+    assert problem.least_squares(problem.x0, charged=1).jacobian is None

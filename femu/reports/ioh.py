@@ -242,11 +242,11 @@ class IOHLoggedProblem:
         self._log(X, f)
         return f
 
-    def least_squares(self, x, charged: int = 1):
+    def least_squares(self, x, charged: int = 1, jacobian: bool | None = None):
         """The problem's least-squares form, logged as the `charged` evaluations the harness
         charged for it (residuals alone 1, with the Jacobian n_var + 1, adapters.budget
         .jacobian_cost): the point once, then as often again without change."""
-        out = self.problem.least_squares(x, charged=charged)
+        out = self.problem.least_squares(x, charged=charged, jacobian=jacobian)
         self._log(np.repeat(np.atleast_2d(x), charged, axis=0), np.full(charged, out.f))
         return out
 
