@@ -55,6 +55,29 @@ def file_hash(path) -> str | None:
     return hashlib.sha256(p.read_bytes()).hexdigest() if p.is_file() else None
 
 
+def model_hash(path) -> str | None:
+    """The SHA-256 of a model file, and for a matrix manifest of its matrix files too (the
+    manifest's bytes, then each term's file's in manifest order): a changed matrix changes the
+    problem as a changed manifest does. None for a shipped name that is not a file."""
+    import json
+
+    p = Path(path)
+    if not p.is_file():
+        return None
+    raw = p.read_bytes()
+    h = hashlib.sha256(raw)
+    try:
+        d = json.loads(raw)
+    except ValueError:
+        return h.hexdigest()
+    if isinstance(d, dict) and str(d.get("format", "")).startswith("femu.matrix-model/"):
+        for t in list(d.get("stiffness") or []) + list(d.get("mass") or []):
+            f = p.parent / str(t.get("file", "")) if isinstance(t, dict) else None
+            if f is not None and f.is_file():
+                h.update(f.read_bytes())
+    return h.hexdigest()
+
+
 def user_problem(model_path, data_path, parameters_path=None, hold_out: int = 0, name: str | None = None):
     """(problem, full data, held-out indices, the parameter note): the balanced updating problem
     of a user's model and data, the last `hold_out` measured modes kept out of the fit."""
@@ -87,7 +110,8 @@ def user_problem(model_path, data_path, parameters_path=None, hold_out: int = 0,
 @dataclass(frozen=True)
 class ProblemSource:
     """Where a user's problem comes from: absolute paths (or shipped names) of the model, the
-    data and the parameter file (None: the default parameters) and each file's SHA-256."""
+    data and the parameter file (None: the default parameters) and each file's SHA-256 (the
+    model's through `model_hash`: a matrix manifest's with its matrix files)."""
 
     model: str
     data: str
@@ -101,7 +125,7 @@ class ProblemSource:
         """The source of the files given (paths made absolute; a shipped name kept)."""
         def where(p):
             return None if p is None else (str(Path(p).resolve()) if Path(p).is_file() else str(p))
-        return cls(where(model), where(data), where(parameters), file_hash(model), file_hash(data),
+        return cls(where(model), where(data), where(parameters), model_hash(model), file_hash(data),
                    None if parameters is None else file_hash(parameters))
 
     def to_dict(self) -> dict:
@@ -127,7 +151,9 @@ def problem_from_source(src: ProblemSource):
     """The problem of a source; ValueError when a file has changed since (its SHA-256 differs)."""
     for what in ("model", "data", "parameters"):
         path, recorded = getattr(src, what), getattr(src, f"{what}_sha256")
-        if path is not None and recorded is not None and file_hash(path) != recorded:
+        if path is None or recorded is None:
+            continue
+        if (model_hash(path) if what == "model" else file_hash(path)) != recorded:
             raise ValueError(f"{path}: the {what} file has changed since the study recorded it (SHA-256 "
                              f"{recorded[:12]}...): its runs are of another problem; use a new store")
     problem = user_problem(src.model, src.data, src.parameters, name=src.name)[0]
@@ -135,5 +161,5 @@ def problem_from_source(src: ProblemSource):
     return problem
 
 
-__all__ = ["DEFAULT_SPREAD", "ProblemSource", "SOURCE_FORMAT", "default_parameters", "file_hash",
+__all__ = ["DEFAULT_SPREAD", "ProblemSource", "SOURCE_FORMAT", "default_parameters", "file_hash", "model_hash",
            "load_update_model", "problem_from_source", "source_from_dict", "user_problem"]

@@ -281,6 +281,16 @@ def test_femu_study_on_a_matrix_model(building, tmp_path):
     best = min(r["best_f"] for r in records)
     assert f"{best:.17g} | best known" in bench and "**not certified**" in bench
     assert list(out.glob("mac_*.png")) and not list(out.glob("modes_*.png"))  # no frame to draw
+    # a changed matrix file (the manifest unchanged) is noticed as a changed manifest is
+    from adapters.variants import make_problem
+    k = sp.load_npz(d / "storey2.npz")
+    try:
+        sp.save_npz(d / "storey2.npz", 1.01 * k)
+        with pytest.raises(ValueError, match="the model file has changed since the study recorded it"):
+            make_problem(records[0]["variant"])
+    finally:
+        sp.save_npz(d / "storey2.npz", k)
+    assert make_problem(records[0]["variant"]).n_var == 3
 
 
 # --- (e) the FRF path: a matrix model's DOF labels name the channels -------------------------------
