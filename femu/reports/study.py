@@ -4,7 +4,7 @@ femu.reports.render. A report renders records and computes nothing new.
 
 `write_report(store_or_runs, out_dir)` writes DIR/report.md, DIR/summary.json and the figures
 (convergence, ECDF, overhead, mean error vs the paper, updated parameters, the frame in its
-first modes, MAC matrices); with ``ioh`` also DIR/ioh. Runs on suite
+first modes, MAC matrices); with ``ioh`` also DIR/ioh, with ``coco`` DIR/coco. Runs on suite
 problems (`femu study --suite`) get the benchmark report instead (femu.reports.benchmark:
 DIR/report.md, DIR/stats.json), and runs on variants beside them DIR/variants.md; a study of
 variants only where two solvers share a problem gets the benchmark report as DIR/benchmark.md.
@@ -31,9 +31,10 @@ from .summary import best_so_far, paper_comparison, summarize  # noqa: F401  (th
 __all__ = ["best_so_far", "paper_comparison", "render_files", "render_markdown", "summarize", "write_report"]
 
 
-def write_report(store_or_runs, out_dir, ioh: bool = False, source: str | None = None) -> Path:
+def write_report(store_or_runs, out_dir, ioh: bool = False, source: str | None = None, coco: bool = False) -> Path:
     """Write OUT/report.md, OUT/summary.json and PNG figures for a Store, a store path or a
-    list of RunResults; with `ioh`, also OUT/ioh (IOHprofiler files). `source` says in the
+    list of RunResults; with `ioh`, also OUT/ioh (IOHprofiler files); with `coco`, OUT/coco
+    (COCO data for cocopp). `source` says in the
     report where the runs come from (default: the store's path). Returns report.md's path."""
     if isinstance(store_or_runs, (str, Path)):
         store_or_runs = Store(store_or_runs)
@@ -66,6 +67,9 @@ def write_report(store_or_runs, out_dir, ioh: bool = False, source: str | None =
     if ioh:
         from .ioh import export_runs
         export_runs(runs, Path(out_dir) / "ioh")
+    if coco:
+        from .coco import export_coco
+        export_coco(runs, Path(out_dir) / "coco")
     return path
 
 
