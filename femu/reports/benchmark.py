@@ -36,7 +36,7 @@ from femu.studies.tasks import is_suite_id
 
 from . import stats as st
 from .render import make_out_dir
-from .render import markdown_table
+from .render import markdown_table, provenance_lines, report_provenance
 
 #: The run scores of the per-problem tests (femu.reports.stats.run_scores).
 COMPARISON_METRICS = ("auc", "final")
@@ -226,7 +226,8 @@ def benchmark_statistics(runs) -> dict:
             "not_compared": not_compared if not comparisons else None, "per_problem": per_problem,
             "design": design(runs), "below_f_opt": below_f_opt(runs),
             "aggregate": st.aggregate_ecdf(traces, targets, n_var), "profiles": st.profiles(traces, targets, n_var),
-            "costs": costs(runs), "convergence": convergence(traces, targets)}
+            "costs": costs(runs), "convergence": convergence(traces, targets),
+            "provenance": report_provenance(runs)}
 
 
 def convergence(traces, targets, points: int = 40) -> list[dict]:
@@ -411,6 +412,7 @@ def render_benchmark(s: dict, figures: dict, source: str) -> str:
                               ", ".join(f"{n} {st_}" for st_, n in c["statuses"].items())]
                              for k, c in s["costs"].items()])
     lines += ["", "## Convergence per problem", ""] + [f"![convergence {g}]({f})" for g, f in figures["convergence"].items()]
+    lines += [""] + provenance_lines(s["provenance"])
     return "\n".join(lines) + "\n"
 
 

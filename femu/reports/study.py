@@ -25,7 +25,7 @@ from .figures import (plot_convergence, plot_ecdf, plot_errors, plot_mac, plot_m
                       plot_parameters)
 from .markdown import render_markdown
 from .records import GroupSummary
-from .render import make_out_dir
+from .render import make_out_dir, provenance_lines, report_provenance
 from .summary import best_so_far, paper_comparison, summarize  # noqa: F401  (the report's public names)
 
 __all__ = ["best_so_far", "paper_comparison", "render_files", "render_markdown", "summarize", "write_report"]
@@ -51,11 +51,11 @@ def write_report(store_or_runs, out_dir, ioh: bool = False, source: str | None =
     if suite:  # the benchmark report; runs on the named variants get theirs in variants.md
         path = write_benchmark(suite, out_dir, source)
         if variants:
-            other = render_files(summarize(variants), out_dir, source, name="variants.md")
+            other = render_files(summarize(variants), out_dir, source, name="variants.md", runs=variants)
             with path.open("a") as f:
                 f.write(f"\nThe runs on problem variants (not suite problems) are reported in [{other.name}]({other.name}).\n")
     else:
-        path = render_files(summarize(runs), out_dir, source)
+        path = render_files(summarize(runs), out_dir, source, runs=runs)
         if shared_problem(runs):  # the benchmark statistics of any study with a comparison to make
             other = write_benchmark(runs, out_dir, source, name="benchmark.md")
             with path.open("a") as f:
@@ -116,9 +116,12 @@ def settings_apart(runs) -> tuple[list, list[str]]:
     return out, notes
 
 
-def render_files(groups: list[GroupSummary], out_dir, source: str, name: str = "report.md") -> Path:
-    """Render summary records as OUT/<name> (report.md), OUT/summary.json and the PNG figures."""
+def render_files(groups: list[GroupSummary], out_dir, source: str, name: str = "report.md", runs=()) -> Path:
+    """Render summary records as OUT/<name> (report.md), OUT/summary.json and the PNG figures,
+    each with its provenance (`render.report_provenance` of `runs`, the runs summarised): in
+    report.md a section, in summary.json each group's "provenance"."""
     out = make_out_dir(out_dir)
+    prov = report_provenance(runs)
     figures = {}
     for g in groups:
         stem = f"{g.variant}_b{g.budget}"
@@ -133,7 +136,7 @@ def render_files(groups: list[GroupSummary], out_dir, source: str, name: str = "
             made["modes"] = plot_mode_shapes(g, out / f"modes_{stem}.png")
             made["mac"] = plot_mac(g, out / f"mac_{stem}.png")
         figures[(g.variant, g.budget)] = {k: p.name for k, p in made.items()}
-    write_text(out / "summary.json", dumps([g.to_dict() for g in groups]))
+    write_text(out / "summary.json", dumps([{**g.to_dict(), "provenance": prov} for g in groups]))
     path = out / name
-    write_text(path, render_markdown(groups, figures, source))
+    write_text(path, render_markdown(groups, figures, source) + "\n" + "\n".join(provenance_lines(prov)))
     return path
