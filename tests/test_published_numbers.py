@@ -48,3 +48,18 @@ def test_diagnosis_page_on_the_papers_data(paper_diagnosis):
     noise = float(_number(r"misfit implies: frequencies ([\d.]+) %", out, "femu diagnose paper"))
     assert _number(r"misfit implies ([\d.]+) % frequency noise", said, "docs/diagnosis.md") == f"{noise:.1f}"
     assert "CAUSE: none" in out and "VERDICT: NOT ADEQUATE" in out
+
+
+def test_the_readme_reproduce_table_is_where_the_check_script_looks():
+    # benchmarks/readme_reproduce.py (minutes of CPU: run before a release) compares README.md's
+    # table with `femu reproduce --markdown`; here only that it finds that table and its form
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("readme_reproduce", ROOT / "benchmarks" / "readme_reproduce.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    text = (ROOT / "README.md").read_text()
+    first, end = mod.readme_table(text)
+    table = text.splitlines()[first:end]
+    assert table[0] == "|  | f1 | f2 | f3 | f4 | f5 | mean abs error % |"  # femu.reports.reproduce.render_markdown's
+    assert table[2].startswith("| measured | 53.9 | 117.3 |") and table[-1].startswith("| paper PSO / SA / GA (Table 1) |")
