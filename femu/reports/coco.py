@@ -109,7 +109,7 @@ def export_coco(runs, out_dir) -> Path:
     """Write COCO data for `runs` (RunResults, a Store or a store path) under OUT_DIR,
     replacing a previous export there (ValueError for a directory that holds anything else).
     Returns OUT_DIR."""
-    from femu.studies.store import Store
+    from femu.studies.store import Store, safe_name
 
     from .ioh import algorithm_names
 
@@ -125,8 +125,6 @@ def export_coco(runs, out_dir) -> Path:
     usable = [r for r in runs if r.n_evals > 0 and r.trace]
     skipped = [r for r in runs if not (r.n_evals > 0 and r.trace)]
     scales = _scales(usable) if usable else {}
-    from femu.studies.store import safe_name
-
     for alg, rs in algorithm_names(usable).items():
         folder = out / safe_name(alg)
         by_fun: dict[int, dict[int, list]] = {}
