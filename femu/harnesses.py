@@ -9,7 +9,8 @@ harness asks. Bounds are the problem's (Pa) except for ioh, whose problems live 
   named and numbered as the IOH export (`femu.reports.ioh`): function id, instance, dimension
   n_var, x in [0, 1]^n mapped to xl + x (xu - xl), value raw_y = (J - f_opt) / scale, optimum
   (truth, 0) where the truth is known. Its loggers (ioh.logger.Analyzer, ...) work as on any
-  ioh problem, and write what `femu report --ioh` writes. One problem per family at a time.
+  ioh problem, and write what `femu report --ioh` writes. Problems of several ids live side by
+  side (for one id, the latest made answers).
 - `pymoo_problem(pid)`: a pymoo Problem(n_var, xl, xu) whose `_evaluate` evaluates a whole
   population in one vectorised call.
 - `nevergrad_function(pid)`: a nevergrad ExperimentFunction on ng.p.Array(init=x0, lower=xl,

@@ -45,6 +45,18 @@ def test_ioh_problem_logs_with_its_analyzer(reference, tmp_path):
     np.testing.assert_allclose(run.points[: len(firsts)], np.c_[firsts + 1, best[firsts]], atol=1e-9)
 
 
+def test_ioh_problems_of_one_family_live_side_by_side(reference):
+    other = fp.suite_problem("hframe-freq/12/1")
+    a, b = harnesses.ioh_problem("hframe-freq/12/1"), harnesses.ioh_problem(PID)
+    x = np.linspace(0.1, 0.9, 12)
+    xl, xu = np.asarray(reference.xl), np.asarray(reference.xu)
+    scale = 100 * fp.suite.TARGET_SCALE["hframe-freq"]
+    for _ in range(2):  # interleaved: each answers with its own instance
+        assert a(x) == pytest.approx(other.evaluate((xl + x * (xu - xl))[None])[0] / scale, rel=1e-12)
+        assert b(x) == pytest.approx(reference.evaluate((xl + x * (xu - xl))[None])[0] / scale, rel=1e-12)
+    assert a(x) != pytest.approx(b(x), rel=1e-3)
+
+
 def test_pymoo_problem_evaluates_a_population_and_runs_a_ga(reference):
     from pymoo.algorithms.soo.nonconvex.ga import GA
     from pymoo.optimize import minimize

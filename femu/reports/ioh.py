@@ -72,7 +72,9 @@ FULL = "raw_y_full"
 ATTRIBUTE = "femu_raw_y_definition"
 _PROPERTIES: list = []
 
-_FEEDS: dict[str, object] = {}
+_FEEDS: dict[tuple, object] = {}
+#: The instance ioh last evaluated per family (`_family_functions`).
+_SEEN: dict[str, int] = {}
 #: The optimum (x in [0, 1]^n, raw_y) ioh reports per (family, instance, n_var): x NaN where
 #: not known, raw_y 0 where f_opt is known (NaN otherwise).
 _OPTIMA: dict[tuple, tuple] = {}
@@ -150,32 +152,41 @@ def _register(family: str) -> None:
     # every family registered at once, before any problem is made: ioh 0.3 crashes making a
     # problem of a family wrapped after another family's problem was made
     for family in (*FUNCTION_IDS, family):
-        if family in _FEEDS:
+        if family in _KEEP:
             continue
-        _FEEDS[family] = None
-        feed, optimum = _KEEP[family] = _family_functions(family)  # ioh does not hold them: freed, they crash
-        ioh.wrap_problem(feed, name=PREFIX + family, dimension=1, lb=0.0, ub=1.0, calculate_objective=optimum)
+        feed, optimum, seen = _KEEP[family] = _family_functions(family)  # ioh does not hold them: freed, they crash
+        ioh.wrap_problem(feed, name=PREFIX + family, dimension=1, lb=0.0, ub=1.0, calculate_objective=optimum,
+                         transform_variables=seen)
 
 
 def _family_functions(family: str):
-    """The objective (one argument: x) and optimum (instance, dimension) of a family for ioh."""
+    """The objective (one argument: x), optimum (instance, dimension) and the variables'
+    transformation (x, instance) of a family for ioh. ioh hands the instance to the
+    transformation only, just before it calls the objective: it is noted there, and the
+    objective answers with the feed of (family, instance, dimension), so that problems of one
+    family coexist."""
     def feed(x):
-        return _FEEDS[family](x)
+        return _FEEDS[(family, _SEEN[family], len(x))](x)
 
     def optimum(instance, dimension):
         return _OPTIMA.get((family, instance, dimension), ([math.nan] * dimension, math.nan))
 
-    return feed, optimum
+    def seen(x, instance):
+        _SEEN[family] = instance
+        return x
+
+    return feed, optimum, seen
 
 
 def ioh_problem(terms: IOHTerms, feed):
     """An ioh RealSingleObjective (minimisation) named femu_<family>, with our function id and
     the problem's instance and dimension, bounds [0, 1], whose value at each call is `feed(x)`
-    (one feed per family at a time); its optimum (x*, 0) where x* is known."""
+    (one feed per family, instance and dimension at a time: the latest); its optimum (x*, 0)
+    where x* is known."""
     import ioh
 
     _register(terms.family)
-    _FEEDS[terms.family] = feed
+    _FEEDS[(terms.family, terms.instance, terms.n_var)] = feed
     x_opt = [math.nan] * terms.n_var if terms.x_opt is None else terms.x_opt.tolist()
     _OPTIMA[(terms.family, terms.instance, terms.n_var)] = (x_opt, 0.0 if terms.f_opt_kind != "unknown" else math.nan)
     p = ioh.get_problem(PREFIX + terms.family, terms.instance, terms.n_var, ioh.ProblemClass.REAL)
