@@ -54,16 +54,24 @@ def git_commit(path=None) -> tuple[str | None, bool | None]:
 
 def provenance(extra: tuple[str, ...] = ()) -> dict:
     """Where a report comes from: femu-bench's version and git commit (None where not in a
-    work tree), the benchmark suite's version, host, platform, the date (UTC, ISO 8601) and the
-    versions of Python and the run libraries (`library_versions`)."""
+    work tree), the benchmark suite's version, host, platform, its CPUs and load average (1, 5,
+    15 min; None where the system has none), the date (UTC, ISO 8601) and the versions of
+    Python and the run libraries (`library_versions`)."""
     from datetime import datetime, timezone
 
     from fe_problem.suite import SUITE_VERSION
 
+    import os
+
     versions = library_versions(tuple(extra))
     commit, dirty = git_commit()
+    try:  # how busy the host was: timings in the report are this machine's under this load
+        load = [round(v, 2) for v in os.getloadavg()]
+    except (AttributeError, OSError):
+        load = None
     return {"femu_bench": versions.get("femu-bench"), "commit": commit, "commit_dirty": dirty,
             "suite_version": SUITE_VERSION, "host": platform.node(), "platform": platform.platform(),
+            "cpus": os.cpu_count(), "load_average": load,
             "date_utc": datetime.now(timezone.utc).isoformat(timespec="seconds"), "versions": versions}
 
 

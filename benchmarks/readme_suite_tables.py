@@ -144,7 +144,9 @@ def page(stats: dict, study: str) -> str:
     if prov:  # the report's provenance: where the numbers (and the costs' seconds) were made
         commit = prov["commit"][:12] + (" with local changes" if prov["commit_dirty"] else "") if prov["commit"] else "none"
         lines += [f"Made by femu-bench {prov['femu_bench']} (commit {commit}), suite version {prov['suite_version']}, "
-                  f"on {prov['host']} ({prov['platform']}), {prov['date_utc']}; the runs' hosts: "
+                  f"on {prov['host']} ({prov['platform']}, {prov.get('cpus')} CPUs, load average "
+                  f"{' / '.join(map(str, prov.get('load_average') or ['unknown']))} when reported), "
+                  f"{prov['date_utc']}; the runs' hosts: "
                   + ", ".join(f"{h} ({n})" for h, n in prov["records"]["hosts"].items())
                   + ". Costs are that machine's CPU seconds under its load then.", ""]
     for group in sorted({g for per in stats["ert"]["ert"].values() for g in per}):

@@ -40,7 +40,8 @@ def provenance_lines(p: dict) -> list[str]:
     rec = p["records"]
     return ["## Provenance", "",
             f"- made with femu-bench {p['femu_bench']}, commit {commit}, suite version {p['suite_version']}",
-            f"- on {p['host']} ({p['platform']}), {p['date_utc']}",
+            f"- on {p['host']} ({p['platform']}, {p.get('cpus')} CPUs, load average "
+            f"{'unknown' if not p.get('load_average') else ' / '.join(map(str, p['load_average']))}), {p['date_utc']}",
             f"- libraries: {libs}",
             f"- the {rec['runs']} runs: hosts {counts(rec['hosts'])}; suite versions {counts(rec['suite_versions'])}; "
             f"femu-bench {counts(rec['femu_bench'])}", ""]
