@@ -177,7 +177,7 @@ def cocopp_testbed():
     try:
         from cocopp import testbedsettings as tb
     except ImportError:
-        raise ValueError("the COCO post-processing needs cocopp: pip install cocopp") from None
+        raise ValueError("reading the COCO export with cocopp needs the 'test' extra: pip install 'femu-bench[test]'") from None
     from fe_problem.suite import FAMILIES
 
     ids = function_ids()
