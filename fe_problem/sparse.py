@@ -184,6 +184,22 @@ def _pattern(keys: np.ndarray, n: int):
     return made, slot.ravel()
 
 
+def _dense_lowest(k: np.ndarray, m: np.ndarray, count: int, sigma: float):
+    """The `count` lowest eigenpairs of K phi = lambda M phi (dense), M-normalised. Where M is
+    singular (DOFs without mass) the pencil (M, K - sigma M) is solved instead, K - sigma M
+    positive definite: its eigenvalues mu = 1 / (lambda - sigma) are 0 for the infinite
+    eigenvalues of the massless directions, and only the pairs with mu > 0 are returned."""
+    try:
+        return scipy.linalg.eigh(k, m, subset_by_index=(0, count - 1))
+    except np.linalg.LinAlgError:
+        n = len(k)
+        mu, phi = scipy.linalg.eigh(m, k - sigma * m, subset_by_index=(n - count, n - 1))
+        keep = mu > 1e-12 * mu[-1]
+        mu, phi = mu[keep][::-1], phi[:, keep][:, ::-1]
+        phi = phi / np.sqrt(np.einsum("im,im->m", phi, m @ phi))
+        return sigma + 1.0 / mu, phi
+
+
 class SparseModalSolver:
     """Eigen-solves of K0 + sum theta_k dK_k, M0 + sum theta_k dM_k (free DOFs) from triplets.
 
@@ -194,6 +210,10 @@ class SparseModalSolver:
     names the model in errors. `x0_modes`: for a system with no parameter (solved at x0 only),
     the elastic modes the caller will ask for: the count's solve then finds those too, with
     their vectors (at the provisional shift), and `eigen` returns them without a second solve.
+    `n_finite`: how many eigenvalues are finite (default n; fewer where M is singular, the DOFs
+    without mass of a matrix model): no more modes than these are asked of ARPACK, whose
+    shift-invert mode takes M positive semi-definite (the massless directions are the
+    eigenvalue 0 of the inverted operator, never among the largest).
     """
 
     #: An eigenvalue below this fraction of the first clearly elastic one is a zero-energy mode.
@@ -203,8 +223,11 @@ class SparseModalSolver:
 
     def __init__(self, k_trip, m_trip, n: int, x0: np.ndarray, name: str, workers: int | None = None,
                  min_zero: int = 0, factorization: str | None = None, arpack_tol: float = ARPACK_TOL,
-                 x0_modes: int = 0, count_from: "SparseModalSolver | None" = None):
+                 x0_modes: int = 0, count_from: "SparseModalSolver | None" = None, n_finite: int | None = None):
         self.n_free, self.name, self.n_params = n, name, len(x0)
+        # the eigenvalues that are finite: n, or fewer where M is singular (DOFs without mass, a
+        # matrix model's: their eigenvalues are infinite, 1/(lambda - sigma) = 0 in shift-invert)
+        self.n_finite = n if n_finite is None else int(n_finite)
         self.workers = default_workers() if workers is None else int(workers)
         self.factorization = default_factorization() if factorization is None else factorization
         if self.factorization not in FACTORIZATIONS or (self.factorization == "cholmod" and _cholmod is None):
@@ -226,19 +249,19 @@ class SparseModalSolver:
         self._x0_pairs = None  # the modes at x0 the count's solve found (`x0_modes`), or None
         if self._same_at_x0(count_from, x0):  # the same matrices at x0: its count and shift
             self.n_rigid, self.sigma = count_from.n_rigid, count_from.sigma
-            self.n_elastic = n - self.n_rigid
+            self.n_elastic = self.n_finite - self.n_rigid
             return
         if x0_modes > 0 and self.n_params == 0:
-            k = min(n, max(12, min_zero + x0_modes))
+            k = min(self.n_finite, max(12, min_zero + x0_modes))
             pairs = self._point(x0, k, vectors=True)
-            lam = pairs[0][:min(n, 12)]
+            lam = pairs[0][:min(self.n_finite, 12)]
         else:
             lam = self._lowest(x0[None, :])
         nonzero = lam > self.ZERO_TOL * lam[-1] if lam[-1] > 0 else np.zeros(len(lam), bool)
         self.n_rigid = max(int(len(lam) - nonzero.sum()), min(min_zero, len(lam)))
         if self.n_rigid < len(lam):
             self.sigma = -self.SHIFT * float(lam[self.n_rigid])
-        self.n_elastic = n - self.n_rigid
+        self.n_elastic = self.n_finite - self.n_rigid
         if x0_modes > 0 and self.n_params == 0 and self.n_rigid + min(x0_modes, self.n_elastic) <= len(pairs[0]):
             self._x0_pairs = pairs
 
@@ -336,7 +359,7 @@ class SparseModalSolver:
 
     def _lowest(self, x0: np.ndarray) -> np.ndarray:
         """Eigenvalues at x0, enough to see every zero-energy mode and a few elastic ones."""
-        k = min(self.n_free, 12)
+        k = min(self.n_finite, 12)
         return self._point(x0[0], k, vectors=False)[0]
 
     def zero_modes(self, x0: np.ndarray) -> np.ndarray:
@@ -380,9 +403,8 @@ class SparseModalSolver:
         eigenvalues (k,) ascending and, with `vectors`, M-normalised vectors (n_free, k).
         `matrices`: K and M at theta as (k_data, m_data, K, M), when the caller has them."""
         kd, md, kmat, mmat = self._matrices(theta) if matrices is None else matrices
-        if k >= self.n_free - 1:  # ARPACK needs k < n - 1: a tiny model, solved densely
-            lam, phi = scipy.linalg.eigh(kmat.toarray(), mmat.toarray(), subset_by_index=(0, k - 1))
-            return lam, phi
+        if k >= self.n_finite - 1:  # ARPACK needs k < n - 1 (n: the operator's rank): a tiny model, solved densely
+            return _dense_lowest(kmat.toarray(), mmat.toarray(), k, self.sigma)
         # eigsh calls both operators through `aslinearoperator(op).matvec` two or three times per
         # Lanczos step: `_Direct` hands it the function itself, without LinearOperator's checks
         # and scipy's sparse dispatch around the same CSR product and the same solve
@@ -392,10 +414,10 @@ class SparseModalSolver:
         while True:  # a wider Krylov space if the first does not converge (never seen on frames)
             try:
                 out = eigsh(kmat, k=k, M=m_op, sigma=self.sigma, which="LM", OPinv=op, v0=self._v0,
-                            ncv=min(self.n_free, ncv), tol=self.arpack_tol, return_eigenvectors=vectors)
+                            ncv=min(self.n_finite, ncv), tol=self.arpack_tol, return_eigenvectors=vectors)
                 break
             except ArpackNoConvergence:
-                if ncv >= min(self.n_free, 8 * k + 40):
+                if ncv >= min(self.n_finite, 8 * k + 40):
                     raise ValueError(f"model {self.name!r}: the Lanczos iteration for the lowest {k} modes did "
                                      "not converge at this point") from None
                 ncv *= 2
