@@ -85,7 +85,7 @@ class ModalSolver:
     ZERO_TOL = 1e-8
 
     def __init__(self, k0: np.ndarray, m0: np.ndarray, dk: np.ndarray, dm: np.ndarray, x0: np.ndarray,
-                 name: str, n_body: int = 0, n_null: int | None = None, massless=(), dof_names=None):
+                 name: str, n_body: int = 0, n_null: int | None = None, massless=()):
         self.k0, self.m0, self.dk, self.dm, self.name = k0, m0, dk, dm, name
         self.n_free = k0.shape[0]
         self.mass_constant = not np.any(dm)
@@ -93,7 +93,7 @@ class ModalSolver:
         self.massless = np.asarray(massless, dtype=int)
         self.condensed = self.massless.size > 0
         if self.condensed:
-            self._split(x0, dof_names)
+            self._split()
             n_fixed_null = 0
         else:
             n_fixed_null = self._project(n_body if n_null is None else n_null) if self.mass_constant else 0
@@ -129,10 +129,9 @@ class ModalSolver:
         self._da_flat = (self._q.T @ da @ self._q).reshape(len(self.dk), k * k)
         return self.n_free - k
 
-    def _split(self, x0: np.ndarray, dof_names) -> None:
-        """Partition K and M into the massed DOFs a and the massless ones b (`massless`), and
-        check that K_bb is positive definite at x0: a DOF with neither mass nor stiffness (a
-        mechanism of massless DOFs alone) has no mode and is refused, naming it."""
+    def _split(self) -> None:
+        """Partition K and M into the massed DOFs a and the massless ones b (`massless`; K_bb
+        positive definite at x0 is AffineModel's check)."""
         n = self.n_free
         b = self.massless
         a = np.setdiff1d(np.arange(n), b)
@@ -146,12 +145,6 @@ class ModalSolver:
         self._m_aa, self._dm_aa = self.m0[ia], self.dm[:, a[:, None], a[None, :]]
         if self.mass_constant:
             self._linv = np.linalg.inv(cholesky(self._m_aa, self.name))
-        k_bb = self._k_bb + np.einsum("p,pij->ij", x0, self._dk_bb)
-        if np.linalg.eigvalsh(k_bb)[0] <= 1e-12 * max(np.abs(k_bb).max(), 1e-300):
-            names = [dof_names[i] for i in b] if dof_names is not None else [str(i) for i in b]
-            raise ValueError(f"model {self.name!r}: the DOFs without mass ({', '.join(names[:4])}"
-                             f"{' ...' if len(names) > 4 else ''}) can move without straining anything "
-                             "(no mass, no stiffness): support them or give them mass")
 
     def _condensed(self, theta: np.ndarray):
         """For theta (b, p): the symmetric operators L^-1 K_c L^-T (b, n_a, n_a) of the condensed
