@@ -126,3 +126,27 @@ def test_the_diagnosis_refuses_massless_dofs_by_name():
     data = fp.synthetic_measurement(model, 6, model_name=model.name)
     with pytest.raises(ModelFileError, match="13 DOF\\(s\\) carry no mass .* the diagnosis does not handle"):
         fp.diagnose(model, data)
+
+
+@pytest.mark.parametrize("path, step, rtol", [("dense", 1e-4, 1e-6), ("sparse", 1e-3, 1e-5)])
+def test_the_analytic_jacobian_with_massless_dofs_is_the_residuals_derivative(path, step, rtol):
+    """certify's ModalJacobian (Nelson's bordered system, which stays nonsingular with a
+    singular M for a simple eigenvalue) against central differences of the residuals, the shape
+    rows on their own; the measured DOFs include massless rotations."""
+    from fe_problem.certify import ModalJacobian
+
+    model = lumped_hframe()
+    pars = parameters(model)
+    dofs = [(n.id, d) for n in model.nodes[::2] for d in ("x", "y", "rz")]
+    data = fp.synthetic_measurement(model, 6, dofs=dofs, model_name=model.name, parameters=pars,
+                                    theta=np.array([p.initial * 1.1 for p in pars]))
+    p = fp.UpdatingProblem(model, data, pars, shape_weight=1.0, solver=path)
+    assert p.system.path == path and p.system.massless.size == 13
+    mj = ModalJacobian(p)
+    x = np.random.default_rng(5).uniform(p.xl, p.xu)
+    r, jac = mj(x)
+    h = step * (p.xu - p.xl)
+    e = np.diag(h)
+    fd = ((mj.residuals(x + e) - mj.residuals(x - e)) / (2 * h[:, None])).T
+    assert np.abs(jac - fd).max() <= rtol * np.abs(fd).max()
+    assert np.abs(jac[6:] - fd[6:]).max() <= rtol * np.abs(fd[6:]).max()
