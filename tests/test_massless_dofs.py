@@ -150,3 +150,18 @@ def test_the_analytic_jacobian_with_massless_dofs_is_the_residuals_derivative(pa
     fd = ((mj.residuals(x + e) - mj.residuals(x - e)) / (2 * h[:, None])).T
     assert np.abs(jac - fd).max() <= rtol * np.abs(fd).max()
     assert np.abs(jac[6:] - fd[6:]).max() <= rtol * np.abs(fd[6:]).max()
+
+
+def test_a_lumped_space_frame_equals_an_independent_condensation():
+    """frame3d with lumped-mass beams (three massless rotations per free node) on both paths."""
+    f = fp.load_model("frame3d")
+    model = f.replace(elements=tuple(dataclasses.replace(e, formulation=e.formulation + "-lumped")
+                                     for e in f.elements))
+    dense, sparse = (fp.AffineModel(model, solver=path) for path in ("dense", "sparse"))
+    assert dense.massless.size > 0 and np.array_equal(dense.massless, sparse.massless)
+    k = dense.stiffness(np.zeros((1, 0)))[0]
+    m = dense.mass(np.zeros((1, 0)))[0]
+    ref_lam, _, n_b = condensed_reference(k, m, dense.n_rigid, N_MODES)
+    assert n_b == dense.massless.size and dense.n_elastic == dense.n_free - n_b - dense.n_rigid
+    for s in (dense, sparse):
+        np.testing.assert_allclose(s.eigen(np.zeros((1, 0)), N_MODES)[0][0], ref_lam, rtol=1e-10, atol=0)
