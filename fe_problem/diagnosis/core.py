@@ -46,7 +46,7 @@ from ..assembly import AffineModel, solver_path
 from ..correlation import correlate
 from ..modal_data import DataFileError, ModalData, load_modal_data
 from ..matrix_model import MatrixModel
-from ..model import FrameModel, load_model
+from ..model import FrameModel, ModelFileError, load_model
 from ..parameters import Parameter
 from .candidates import Candidate, Setting, all_candidates, scale_stiffness, solve
 from . import plausibility
@@ -523,6 +523,11 @@ def calibrate(model: FrameModel, data: ModalData, freq_noise: float, shape_noise
     """Fit the global stiffness-to-mass scale; measured modes that pair with no model mode are
     shown, never fitted. reference: the user's model when `model` is it extended (Setting)."""
     system = AffineModel(model)
+    if system.massless.size:
+        # its zone batches, reduced bases and adjoint screening assume mass on every free DOF
+        raise ModelFileError(f"{model.source or model.name}: {system.massless.size} DOF(s) carry no mass (lumped mass "
+                             "without rotary inertia, or a pinned end's rotation): the diagnosis does not handle "
+                             "DOFs without mass yet; give the nodes rotary inertia, or import with --mass consistent")
     st = Setting(model, data.dofs, min(data.n_modes + 6, system.n_elastic), reference)
     st.__dict__["system"] = system  # `Setting.system`'s cache: the model's one system
     obs_all = Observations.of(data, freq_noise=freq_noise, shape_noise=shape_noise)
