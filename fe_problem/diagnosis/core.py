@@ -55,7 +55,7 @@ from .groups import distributed_candidates
 from .modelform import model_form_candidates, screen_forms
 from .plausibility import few_dof_note
 from .fit import Fit, brings, chi2_batch, class_promises, fit, look_along, profiled, promise, screen
-from . import answer, group_free, sparse_class
+from . import answer, dropped, group_free, sparse_class
 from .nested import require_dynesty, rescored
 from .record import Cause, CandidateFit, Diagnosis, Gain, Noise, PinnedParameter, Residuals, Selection
 from .verdict import profile_interval, verdict
@@ -91,6 +91,18 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
         raise ValueError(f"evidence must be one of {', '.join(EVIDENCE_METHODS)}, got {evidence!r}")
     if evidence == "nested":
         require_dynesty()  # before the work: a missing dependency fails at once
+    with dropped.recording() as failed:
+        diag = _diagnose(model, data, freq_noise, shape_noise, kinds, n_fit, alpha, max_causes, evidence)
+    if not failed:
+        return diag
+    notes = tuple(f"candidate {label} dropped: {why}; it is left out of the fits, the test and the evidence"
+                  for label, why in failed.items())
+    return dataclasses.replace(diag, warnings=diag.warnings + notes,
+                               dropped=tuple({"label": k, "reason": v} for k, v in failed.items()))
+
+
+def _diagnose(model, data, freq_noise, shape_noise, kinds, n_fit, alpha, max_causes, evidence) -> Diagnosis:
+    """`diagnose`'s steps, inside the record of dropped candidates (dropped.py)."""
     data = load_modal_data(data)
     model = data.load_model() if model is None else load_model(model)
     _check(model, data)
@@ -226,7 +238,10 @@ def model_form_fits(cal: "Calibration") -> list[tuple[Candidate, Fit]]:
     forms = model_form_candidates(cal.setting)
     drops = [d for d, _ in screen_forms(obs, base, cal.setting, forms)]
     cal.setting.baselines.clear()  # the last screen of this model: its adjoint blocks (87 MB at 3,024 DOFs) go
-    return [(forms[i], coarse_fit(obs, forms[i])) for i in sorted(range(len(forms)), key=lambda i: -drops[i])[:N_FORM_FIT]]
+    drops = [0.0 if dropped.is_dropped(c.label) else d for c, d in zip(forms, drops)]  # a failed solve: not fitted
+    best = [i for i in sorted(range(len(forms)), key=lambda i: -drops[i])[:N_FORM_FIT]]
+    out = [(forms[i], coarse_fit(obs, forms[i])) for i in best if not dropped.is_dropped(forms[i].label)]
+    return [(c, f) for c, f in out if not dropped.is_dropped(c.label)]
 
 
 def _form_explains(cal: "Calibration", forms, first: Fit, dispersion: float, alpha: float) -> str | None:
@@ -265,9 +280,13 @@ def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str 
     # round did not fit better than no effect (a revisit moved it): `_one_per_answer` keeps no row of it
     several = rounds is not None and (len(rounds.sized) > 1 or answer.search_key(rounds)[1] not in {
         c.label.split("(")[0] for c, f, family in fits if family == "local" and f.chi2 < base.chi2 - 1e-9})
-    sparse = sparse_class.fit_sparse(cal.setting, obs, base.pairing)  # "every member", sparse (None: n/a)
-    partitions = group_free.fit_partitions(cal.setting, obs, base.pairing)  # every storey / line / floor free
-    pair = group_free.fit_pair(cal.setting, obs, base.pairing, pair_seeds(fits, sparse, rounds))
+    fits = [x for x in fits if not dropped.is_dropped(x[0].label)]  # a failed solve: no class (dropped.py)
+    sparse = dropped.guarded("every member (sparse)", lambda: sparse_class.fit_sparse(cal.setting, obs, base.pairing),
+                             None)  # "every member", sparse (None: n/a)
+    partitions = dropped.guarded("the free group classes", lambda: group_free.fit_partitions(
+        cal.setting, obs, base.pairing), [])  # every storey / line / floor free
+    pair = dropped.guarded("two adjacent members free", lambda: group_free.fit_pair(
+        cal.setting, obs, base.pairing, pair_seeds(fits, sparse, rounds)), None)
     # the sparse class does not set the dispersion: with many members and few data its misfit says
     # little about the noise (it would move every other class's evidence)
     reduced = [base.chi2 / obs.dof(1)] + [f.chi2 / obs.dof(2) for _, f, _ in fits]
@@ -600,10 +619,14 @@ def screen_and_fit(cal: Calibration, kinds, n_fit: int | None, keep=None, bring=
     pairs one of them at some size of its grid is fitted too (`fit.brings`)."""
     cands = [c for c in all_candidates(cal.setting, kinds) if keep is None or keep(c)]
     screened = look_at_clipped(cal, cands, screen_candidates(cal, cands), n_fit)
+    # a candidate whose solve failed (dropped.py) is neither ranked nor fitted
+    screened = [(0.0, 0.0) if dropped.is_dropped(c.label) else x for c, x in zip(cands, screened)]
     order, chosen = to_fit(cands, screened, n_fit)
     if bring is not None and len(bring):
         chosen |= {i for i in order if i not in chosen and brings(cal.obs, cands[i], bring)}
+    chosen = {i for i in chosen if not dropped.is_dropped(cands[i].label)}
     fitted = {i: fit(cal.obs, cands[i], screened[i][1]) for i in order if i in chosen}
+    fitted = {i: f for i, f in fitted.items() if not dropped.is_dropped(cands[i].label)}  # failed in its fit
     order = [i for i in order if i in fitted] + [i for i in order if i not in fitted]
     return Screening(cands, screened, order, fitted)
 

@@ -35,7 +35,7 @@ def profiled(obs: Observations, hz: np.ndarray, shapes: np.ndarray, pairing: np.
     frequencies so that frequency-only modes pair with the calibrated model."""
     idx = obs.pair(hz, shapes) if pairing is None else pairing
     for _ in range(2):
-        ok = idx >= 0
+        ok = (idx >= 0) & np.isfinite(hz[np.clip(idx, 0, None)])  # a failed solve's mode: no scale from it
         if not ok.any():
             s = 1.0
         else:

@@ -344,7 +344,8 @@ class Diagnosis:
     answer: the best class by evidence (`Answer`). When the answer is not a local class (a
     distributed, sparse or model-form class) `cause`, `extended_model`, `gain` and `verdict` are
     that class's and `causes` stay the local search's. Records written before `answer` existed
-    have none (None here).
+    have none (None here). dropped: the candidates and classes whose solve failed numerically,
+    each {"label", "reason"}, left out of the fits, the test and the evidence (dropped.py).
     """
 
     cause: Cause
@@ -361,6 +362,7 @@ class Diagnosis:
     data_checks: tuple = ()
     evidence: object = None
     answer: Answer | None = None
+    dropped: tuple = ()
 
     @property
     def adequate(self) -> bool | None:
@@ -384,4 +386,4 @@ class Diagnosis:
                          "goodness_of_fit": self.verdict, "noise": self.noise,
                          "data_checks": [c.to_dict() for c in self.data_checks],
                          "evidence": None if self.evidence is None else self.evidence.to_dict(),
-                         "answer": self.answer})
+                         "answer": self.answer, "dropped": list(self.dropped)})

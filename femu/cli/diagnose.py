@@ -16,7 +16,9 @@ Progress and warnings go to stderr. The method and its tests: docs/diagnosis.md.
 from __future__ import annotations
 
 
+import contextlib
 import math
+import os
 import sys
 import warnings
 from pathlib import Path
@@ -55,6 +57,29 @@ def _check_out(out: str) -> Path:
     if path.exists() and not path.is_dir():
         raise ValueError(f"--out {out}: exists and is not a directory")
     return path
+
+
+@contextlib.contextmanager
+def _stdout_to_stderr():
+    """File descriptor 1 pointed at stderr inside: what a library writes to the C-level stdout
+    (LAPACK's and ARPACK's messages) goes to stderr, so that stdout holds only the command's
+    output (`--json`: the JSON alone). Python's own `sys.stdout` is flushed before and after."""
+    try:
+        sys.stdout.flush()
+        saved = os.dup(1)
+    except (OSError, ValueError):  # no fd 1 to redirect (closed, or not a file)
+        yield
+        return
+    try:
+        os.dup2(2, 1)
+        yield
+    finally:
+        try:
+            sys.stdout.flush()
+        except (OSError, ValueError):
+            pass
+        os.dup2(saved, 1)
+        os.close(saved)
 
 
 def _p_text(p) -> str:
@@ -98,7 +123,7 @@ def run(args) -> int:
         require_dynesty()  # a missing optional dependency: one line, exit 2, before the work
     if sys.stderr.isatty():  # progress for a person waiting; logs and pipes get results and errors only
         _stderr(f"diagnosing {data.source} ({data.n_modes} modes) against model {model.name} ...")
-    with warnings.catch_warnings(record=True) as caught:
+    with warnings.catch_warnings(record=True) as caught, _stdout_to_stderr():
         warnings.simplefilter("always")
         diag = diagnose(model, data, freq_noise=freq_noise, shape_noise=shape_noise,
                         evidence=getattr(args, "evidence", "laplace"))
