@@ -49,7 +49,7 @@ from ..model import FrameModel, load_model
 from ..parameters import Parameter
 from .candidates import Candidate, Setting, all_candidates, scale_stiffness, solve
 from . import plausibility
-from .datachecks import DataCheck, check_data, spurious_modes
+from .datachecks import FAULTS, DataCheck, check_data, left_out, spurious_modes, without
 from .evidence import FACTOR_10, Evidence, ScoredClass, label_log_prior, occam_log_factor, ranked, sides_log_prior
 from .groups import distributed_candidates
 from .modelform import model_form_candidates, screen_forms
@@ -76,7 +76,7 @@ METHOD = "likelihood ratio vs the calibrated model, Bonferroni over candidates, 
 
 def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: float | None = None,
              shape_noise: float | None = None, kinds=None, n_fit: int | None = N_FIT, alpha: float = ALPHA,
-             max_causes: int = MAX_CAUSES, evidence: str = "laplace") -> Diagnosis:
+             max_causes: int = MAX_CAUSES, evidence: str = "laplace", keep_faulty: bool = False) -> Diagnosis:
     """Diagnose what `model` misses in `data` (see the module docstring for the method).
 
     freq_noise: std of a measured frequency, relative (default 0.002 = 0.2 %); shape_noise: std
@@ -85,14 +85,16 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
     fitted properly besides the ones always fitted (None: all); max_causes: at most this many
     causes are added one after another; evidence: how the model classes are scored, ``laplace``
     (at the fitted optimum) or ``nested`` (the best by Laplace sampled with dynesty, seeded:
-    nested.py; the optional dependency ``.[nested]``).
+    nested.py; the optional dependency ``.[nested]``); keep_faulty: fit the channels and modes
+    the data checks find faulty too (default: left out, `datachecks.left_out`; either way an
+    answer on data with a fault is not decisive).
     """
     if evidence not in EVIDENCE_METHODS:
         raise ValueError(f"evidence must be one of {', '.join(EVIDENCE_METHODS)}, got {evidence!r}")
     if evidence == "nested":
         require_dynesty()  # before the work: a missing dependency fails at once
     with dropped.recording() as failed:
-        diag = _diagnose(model, data, freq_noise, shape_noise, kinds, n_fit, alpha, max_causes, evidence)
+        diag = _diagnose(model, data, freq_noise, shape_noise, kinds, n_fit, alpha, max_causes, evidence, keep_faulty)
     if not failed:
         return diag
     notes = tuple(f"candidate {label} dropped: {why}; it is left out of the fits, the test and the evidence"
@@ -101,7 +103,8 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
                                dropped=tuple({"label": k, "reason": v} for k, v in failed.items()))
 
 
-def _diagnose(model, data, freq_noise, shape_noise, kinds, n_fit, alpha, max_causes, evidence) -> Diagnosis:
+def _diagnose(model, data, freq_noise, shape_noise, kinds, n_fit, alpha, max_causes, evidence,
+              keep_faulty=False) -> Diagnosis:
     """`diagnose`'s steps, inside the record of dropped candidates (dropped.py)."""
     data = load_modal_data(data)
     model = data.load_model() if model is None else load_model(model)
@@ -111,6 +114,14 @@ def _diagnose(model, data, freq_noise, shape_noise, kinds, n_fit, alpha, max_cau
                   "default" if freq_noise is None and shape_noise is None else "stated")
     cal = calibrate(model, data, noise.freq_noise, noise.shape_noise)
     checks = data_checks(cal)
+    leave = {} if keep_faulty else left_out(checks)
+    if leave:  # the faults found are left out of the fit: the search runs on what the data can still say
+        cleaned = without(data, leave)
+        try:
+            cal, data = calibrate(model, cleaned, noise.freq_noise, noise.shape_noise), cleaned
+        except DataFileError:  # too little left to diagnose: kept, as with keep_faulty
+            leave = {}
+    faulty = tuple(c for c in checks if c.kind in FAULTS)
     found = screen_and_fit(cal, kinds, n_fit)
     sel = select(cal, found, alpha)
     warnings = list(cal.warnings)
@@ -126,7 +137,7 @@ def _diagnose(model, data, freq_noise, shape_noise, kinds, n_fit, alpha, max_cau
         scored = score_classes(cal, found, None, evidence, forms)
         ev = scored.evidence
         other = _beyond_the_test(cal, scored, v, sel, alpha, model)
-        row, runner, decisive = answer.choose(ev, answer.search_key(None), other is not None)
+        row, runner, decisive = answer.choose(ev, answer.search_key(None), other is not None, cal.obs)
         gained, extended = gain(cal, None), None
         if other is None:
             if not v.adequate:
@@ -141,11 +152,13 @@ def _diagnose(model, data, freq_noise, shape_noise, kinds, n_fit, alpha, max_cau
             if few:
                 warnings.append(few)
         answered = answer.record(row, runner, decisive, cause)
-        undecided = answer.undecided_note(answered)
+        thin = _fault_undecided(faulty) or answer.dof_note(row, cal.obs)
+        answered = dataclasses.replace(answered, decisive=False, not_decisive_because=thin) if thin else answered
+        undecided = thin or answer.undecided_note(answered)
         return Diagnosis(cause, alternatives, residuals_of(cal), gained, tuple(sel.rows.values()),
-                         sel.selection, extended, tuple(warnings + _fault_notes(checks) + _evidence_notes(ev, None, row)
+                         sel.selection, extended, tuple(warnings + _fault_notes(checks, leave, keep_faulty) + _evidence_notes(ev, None, row)
                                                         + ([f"answer not decisive: {undecided}"] if undecided else [])),
-                         (), v, noise, checks, ev, answered)
+                         (), v, noise, checks, ev, answered, left_out=leave)
     cause, alternatives, _ = extend(cal, found, sel)
     from .rounds import further_causes  # it uses this module's steps
 
@@ -159,7 +172,7 @@ def _diagnose(model, data, freq_noise, shape_noise, kinds, n_fit, alpha, max_cau
     cause = plausibility.judged(model, _first(cause, causes[0]))
     scored = score_classes(cal, found, rounds, evidence, forms)
     ev = scored.evidence
-    row, runner, decisive = answer.choose(ev, answer.search_key(rounds), True)
+    row, runner, decisive = answer.choose(ev, answer.search_key(rounds), True, cal.obs)
     gained, n_params = rounds.gain, 1 + len(rounds.causes)
     if row.family in answer.NON_LOCAL:  # the best class by evidence is not the local search's
         other = answer.non_local(cal, row, scored.fitted, scored.sparse, sel.selection.p_adjusted, alpha, model,
@@ -180,15 +193,17 @@ def _diagnose(model, data, freq_noise, shape_noise, kinds, n_fit, alpha, max_cau
     if few:
         warnings.append(few)
     answered = answer.record(row, runner, decisive, cause)
-    undecided = answer.undecided_note(answered)
+    thin = _fault_undecided(faulty) or answer.dof_note(row, cal.obs)
+    answered = dataclasses.replace(answered, decisive=False, not_decisive_because=thin) if thin else answered
+    undecided = thin or answer.undecided_note(answered)
     if undecided:
         warnings.append(f"answer not decisive: {undecided}")
     if len(cal.unpaired):
         final_unpaired = calibrate(rounds.model, data, noise.freq_noise, noise.shape_noise, model).unpaired
         checks = checks + spurious_modes(cal.unpaired, final_unpaired, cal.obs_all.frequencies_hz, _explained(checks))
     return Diagnosis(cause, alternatives, residuals_of(cal), gained, tuple(sel.rows.values()), sel.selection,
-                     extended, tuple(warnings + _fault_notes(checks) + _evidence_notes(ev, rounds, row)), causes, v,
-                     noise, checks, ev, answered)
+                     extended, tuple(warnings + _fault_notes(checks, leave, keep_faulty) + _evidence_notes(ev, rounds, row)), causes, v,
+                     noise, checks, ev, answered, left_out=leave)
 
 
 def _beyond_the_test(cal: "Calibration", scored: "Scored", v, sel: "Selected", alpha: float,
@@ -472,10 +487,29 @@ def _explained(checks) -> set:
     return {m for c in checks if c.kind in ("duplicate_mode", "mode_order") for m in c.where.get("modes", [])}
 
 
-def _fault_notes(checks) -> list[str]:
-    """One sentence per fault of the data: the diagnosis ran on the data as given."""
-    return [f"data check: {c.text}. The diagnosis ran on the data as given; this fault of the data may explain "
-            "the misfit and the causes named" for c in checks]
+def _fault_notes(checks, leave: dict, kept: bool) -> list[str]:
+    """One sentence per fault of the data, saying whether the diagnosis left it out (`leave`:
+    `datachecks.left_out`) or ran on the data as given (`kept`: keep_faulty, or too little left)."""
+    if leave:
+        what = "; ".join(f"{k} {', '.join(''.join(map(str, v)) if isinstance(v, list) else str(v) for v in vals)}"
+                         for k, vals in leave.items())
+        after = (f"The diagnosis left out of its fit {what} (mode numbers in the rest of the record count the modes "
+                 "left in)" if "modes" in leave else f"The diagnosis left out of its fit {what}")
+    else:
+        after = ("The diagnosis ran on the data as given" + (" (keep_faulty)" if kept else "")
+                 + "; this fault of the data may explain the misfit and the causes named")
+    given = ("The diagnosis ran on the data as given; this fault of the data may explain the misfit and the causes "
+             "named")
+    return [f"data check: {c.text}. {after if c.kind in FAULTS else given}" for c in checks]
+
+
+def _fault_undecided(faulty) -> str | None:
+    """Why an answer on data with a fault is not decisive (None: no fault): what the fault hid
+    or changed, left out or not, may be where the structure differs from its model."""
+    if not faulty:
+        return None
+    return (f"the data have a fault ({', '.join(dict.fromkeys(c.kind for c in faulty))}): an answer on faulty data "
+            "is never decisive (datachecks.FAULTS)")
 
 
 def _first(cause: Cause, first) -> Cause:

@@ -95,7 +95,10 @@ def answer_lines(diag: Diagnosis) -> list[str]:
     lines = [f"{'best class by evidence' if best else 'answer, though not the best class by evidence'}: {a.label} "
              f"({a.family}), log evidence {fmt(a.log_evidence)}"
              + (", decisive (the next answer more than a factor of 10 below)" if a.decisive and ru else "")]
-    if not a.decisive and ru is not None and best:
+    because = getattr(a, "not_decisive_because", None)
+    if because:
+        lines.append(f"not decisive: {because}")
+    elif not a.decisive and ru is not None and best:
         lines.append(f"cannot tell apart {a.label} from {ru['label']} (log evidence {fmt(a.log_evidence)} against "
                      f"{fmt(ru['log_evidence'])})")
     elif ru is not None and not best:
