@@ -165,7 +165,14 @@ def data_check_lines(diag: Diagnosis) -> list[str]:
         return []
     lines = [f"DATA CHECKS: {len(diag.data_checks)} fault(s) of the data found"]
     lines += [f"  - {c.kind}: {c.text}" for c in diag.data_checks]
-    lines.append("  the diagnosis below ran on the data as given; the fault(s) may explain its misfit and causes")
+    leave = getattr(diag, "left_out", None) or {}
+    if leave:
+        what = "; ".join(f"{k} " + ", ".join("".join(map(str, v)) if isinstance(v, list) else str(v) for v in vals)
+                         for k, vals in leave.items())
+        lines.append(f"  the diagnosis below left out of its fit: {what} (--keep-faulty fits them); its answer is "
+                     "not decisive")
+    else:
+        lines.append("  the diagnosis below ran on the data as given; the fault(s) may explain its misfit and causes")
     return lines + [""]
 
 
