@@ -302,9 +302,13 @@ def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str 
         cal.setting, obs, base.pairing), [])  # every storey / line / floor free
     pair = dropped.guarded("two adjacent members free", lambda: group_free.fit_pair(
         cal.setting, obs, base.pairing, pair_seeds(fits, sparse, rounds)), None)
-    # the sparse class does not set the dispersion: with many members and few data its misfit says
-    # little about the noise (it would move every other class's evidence)
-    reduced = [base.chi2 / obs.dof(1)] + [f.chi2 / obs.dof(2) for _, f, _ in fits]
+    # the dispersion: the smallest reduced chi^2 of the classes (at least 1), the richest class's
+    # included (quasi-likelihood practice: the scale from the maximal model) when it leaves at least
+    # MIN_DOF residual dof, so that its misfit estimates the noise (`_richest_reduced`). Taken from
+    # the best one-parameter class alone, the dispersion of a model that does not fit shrank every
+    # likelihood difference until the parameters' charges chose (issue 38: a four-storey frame's
+    # storey pattern, chi^2 79, lost to a one-member class, chi^2 257, at a dispersion of 17.8).
+    reduced = [base.chi2 / obs.dof(1)] + [f.chi2 / obs.dof(2) for _, f, _ in fits] + _richest_reduced(obs, sparse)
     searched = _search_fits(obs, rounds) if several else []
     chi2_s = min(f.chi2 for f in searched) if several else None
     if several:
@@ -353,6 +357,16 @@ def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str 
         integrands.update({label: group_free.integrand(cal.setting, obs, g) for label, g in groups.items()})
         ev = rescored(ev, integrands, base.chi2, d)
     return Scored(ev, answer.fitted_candidates(fits), sparse, groups)
+
+
+def _richest_reduced(obs: Observations, sparse) -> list[float]:
+    """The "every member" sparse class's reduced chi^2 as a candidate for the evidence's dispersion
+    (`score_classes`), when it leaves at least `plausibility.MIN_DOF` residual dof; else none
+    (with many members and few data its misfit says little about the noise)."""
+    if sparse is None:
+        return []
+    dof = obs.n_residuals - obs.n_shape_modes - 1 - len(sparse.theta)
+    return [sparse.chi2 / dof] if dof >= plausibility.MIN_DOF else []
 
 
 #: Local stiffness classes (the best by chi^2) whose elements seed the two-adjacent-members class.
