@@ -97,8 +97,7 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
         diag = _diagnose(model, data, freq_noise, shape_noise, kinds, n_fit, alpha, max_causes, evidence, keep_faulty)
     if not failed:
         return diag
-    notes = tuple(f"candidate {label} dropped: {why}; it is left out of the fits, the test and the evidence"
-                  for label, why in failed.items())
+    notes = tuple(f"{label} dropped: {why}; left out of the fits, the test and the evidence" for label, why in failed.items())
     return dataclasses.replace(diag, warnings=diag.warnings + notes,
                                dropped=tuple({"label": k, "reason": v} for k, v in failed.items()))
 
@@ -612,7 +611,8 @@ def residuals_of(cal: Calibration) -> Residuals:
     base = cal.base
     return Residuals(correlate(cal.hz0 * np.sqrt(base.s), cal.sh0, cal.obs_all, cal.base_all.pairing),
                      base.s, base.chi2, cal.obs.n_residuals, base.chi2 / cal.obs.dof(1),
-                     tuple(int(i) + 1 for i in cal.unpaired), _pinned_moduli(cal),
+                     tuple(int(i) + 1 for i in cal.unpaired),
+                     dropped.guarded("the bounded modulus update (pinned moduli)", lambda: _pinned_moduli(cal), ()),
                      tuple((int(n), str(d)) for n, d in cal.data.dofs))
 
 
