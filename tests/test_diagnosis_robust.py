@@ -188,3 +188,16 @@ def test_with_more_noise_than_stated_the_chosen_class_predicts_the_held_out_mode
     others = [c.held_out_error_pct for label, c in rows.items() if label != d.answer.label]
     assert len(others) >= 3
     assert chosen.held_out_error_pct <= min(others) + 100 * 0.002 * times
+
+
+def test_python_m_femu_diagnose_json_on_few_modes_at_few_floors(tmp_path):
+    """`python -m femu diagnose --json` as a user runs it on the three-mode six-floor data with the
+    model file beside it: exit 0, stdout is one JSON document, the answer is named."""
+    model, data = six_floors()
+    model_file = fp.save_model(model, tmp_path / "six.model.json")
+    path = fp.save_modal_data(dataclasses.replace(data, model="six.model.json"), tmp_path / "six.modal.json")
+    done = subprocess.run([sys.executable, "-m", "femu", "diagnose", str(path), "--model", str(model_file), "--json"],
+                          capture_output=True, text=True, cwd=ROOT, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    record = json.loads(done.stdout)
+    assert record["answer"]["family"] != "none" and record["dropped"] == []
