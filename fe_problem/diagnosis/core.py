@@ -117,6 +117,8 @@ def _diagnose(model, data, freq_noise, shape_noise, kinds, n_fit, alpha, max_cau
     if leave:  # the faults found are left out of the fit: the search runs on what the data can still say
         cleaned = without(data, leave)
         try:
+            if len(cleaned.dofs) < 2:
+                raise DataFileError("fewer than 2 channels left")
             cal, data = calibrate(model, cleaned, noise.freq_noise, noise.shape_noise), cleaned
         except DataFileError:  # too little left to diagnose: kept, as with keep_faulty
             leave = {}
