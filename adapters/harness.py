@@ -72,6 +72,8 @@ class RunResult:
     these fields have them empty. problem_source: for a user's problem (variant ``user:PATH``)
     the paths and SHA-256 of its model, data and parameter files (fe_problem.user_problem),
     set by studies; None otherwise.
+    suite_version: the benchmark suite's version (fe_problem.suite.SUITE_VERSION) the problem
+    was defined by; None in records written before it was recorded.
     """
 
     optimizer: str
@@ -104,6 +106,7 @@ class RunResult:
     effective_options: dict = field(default_factory=dict)
     capabilities: dict = field(default_factory=dict)
     problem_source: dict | None = None
+    suite_version: str | None = None
 
     @property
     def overhead_s(self) -> float:
@@ -385,6 +388,9 @@ def record(name: str, problem, counted0: int, objective: BudgetedObjective, seed
     counts, best point, trace and FE times from `objective`, the status failed when the problem
     counted more points than the objective was charged (`_overrun`); `fields`: the rest
     (verified, output, the optimizer's description)."""
+    # here, on the evaluating side: an optimizer's process cannot import fe_problem
+    from fe_problem.suite import SUITE_VERSION
+
     overrun = _overrun(problem, counted0, objective, budget)
     if overrun:
         status, error = "failed", overrun
@@ -394,7 +400,8 @@ def record(name: str, problem, counted0: int, objective: BudgetedObjective, seed
         best_x=[] if objective.best_x is None else objective.best_x.tolist(), trace=objective.finish_trace(),
         wall_s=wall, cpu_s=cpu, fe_s=objective.fe_s, fe_cpu_s=objective.fe_cpu_s,
         opt_cpu_s=max(cpu - objective.fe_cpu_s, 0.0), n_jacobians=objective.n_jacobians, x0=x0, status=status,
-        error=error, variant=variant, host=platform.node(), versions=library_versions(), **fields)
+        error=error, variant=variant, host=platform.node(), versions=library_versions(), suite_version=SUITE_VERSION,
+        **fields)
 
 
 def _problem_count(problem) -> int | None:

@@ -116,6 +116,12 @@ def design_line(stats: dict) -> str:
         parts.append(f"smallest Wilcoxon-Holm p on the problems {d['wilcoxon_holm']:.2g}")
     if "friedman" in d:
         parts.append(f"smallest Friedman p {d['friedman']:.2g}")
+    w = d.get("power")
+    if w:  # the report's power statement (femu.reports.stats.wilcoxon_power)
+        parts.append(f"power {w['power']:.0%} for a Wilcoxon-Holm pair at standardized per-problem difference dz "
+                     + (f">= {w['detectable_dz']:.2f}" if w["detectable_dz"] is not None else "none (too few problems)")
+                     + f", at least {w['min_problems']} problems to separate a pair at all; problems needed: "
+                     + ", ".join(f"dz {k}: {v}" for k, v in w["problems_needed"].items()))
     return "Design: " + "; ".join(parts) + "."
 
 
@@ -134,6 +140,15 @@ def page(stats: dict, study: str) -> str:
              "aggregates, profiles): [suite.md](suite.md).", "",
              f"Study: `{study}` ({stats['n_runs']} runs, budget {stats['budget']} FE evaluations).", "",
              design_line(stats), ""]
+    prov = stats.get("provenance")
+    if prov:  # the report's provenance: where the numbers (and the costs' seconds) were made
+        commit = prov["commit"][:12] + (" with local changes" if prov["commit_dirty"] else "") if prov["commit"] else "none"
+        lines += [f"Made by femu-bench {prov['femu_bench']} (commit {commit}), suite version {prov['suite_version']}, "
+                  f"on {prov['host']} ({prov['platform']}, {prov.get('cpus')} CPUs, load average "
+                  f"{' / '.join(map(str, prov.get('load_average') or ['unknown']))} when reported), "
+                  f"{prov['date_utc']}; the runs' hosts: "
+                  + ", ".join(f"{h} ({n})" for h, n in prov["records"]["hosts"].items())
+                  + ". Costs are that machine's CPU seconds under its load then.", ""]
     for group in sorted({g for per in stats["ert"]["ert"].values() for g in per}):
         lines += [f"## ERT on {group}", "",
                   "FE evaluations [10 %, 90 % of COCO's bootstrapped run lengths with restarts] (runs that hit / runs), "

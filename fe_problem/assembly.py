@@ -19,6 +19,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg
 import scipy.sparse as sp
+from scipy.sparse.linalg import splu
 
 from .limits import MAX_SPARSE_DOFS  # noqa: F401  (fe_problem.assembly.MAX_SPARSE_DOFS, as before)
 from .elements import element_blocks
@@ -125,7 +126,8 @@ class AffineModel:
         else:
             check_sparse_size(model, n)
         k_trip, m_trip = terms.free_arrays()
-        self._check_mass(m_trip)
+        self.massless = self._check_mass(m_trip)
+        self._check_massless_held(k_trip)
         # the rigid-body motions the supports allow are zero modes however ill-conditioned the
         # model (an eigenvalue test alone can miss them, or take a real mode for one, on a fine mesh)
         n_body = self._n_rigid_motions(k_trip, self.x0)
@@ -136,11 +138,13 @@ class AffineModel:
             # the ones no term strains at any theta (a spring to ground that is a parameter, 0
             # at x0, strains one at other theta): these are projected out for good
             n_null = self._n_rigid_motions(k_trip, np.where(self.x0 != 0.0, self.x0, self.upper))
-            self._solver = ModalSolver(k0, m0, dk, dm, self.x0, model.name, n_body=n_body, n_null=n_null)
+            self._solver = ModalSolver(k0, m0, dk, dm, self.x0, model.name, n_body=n_body, n_null=n_null,
+                                       massless=self.massless)
         else:
             same = like is not None and like.path == "sparse" and like.model is model and not like.parameters
             self._solver = SparseModalSolver(k_trip, m_trip, n, self.x0, model.name, workers, min_zero=n_body,
-                                             x0_modes=x0_modes, count_from=like._solver if same else None)
+                                             x0_modes=x0_modes, count_from=like._solver if same else None,
+                                             n_finite=n - self.massless.size)
         #: None, or what moves in the zero-energy motions that are not rigid-body motions
         self.mechanism: str | None = self._find_mechanism() if self.n_rigid > n_body else None
 
@@ -180,9 +184,11 @@ class AffineModel:
         m_trip = (r, c, np.concatenate(parts_m), term)
         new = object.__new__(AffineModel)
         new.model, new.parameters, new.dofmap, new.path = model, (), dofmap, "sparse"
-        new._check_mass(m_trip)
+        new.massless = new._check_mass(m_trip)
+        new._check_massless_held(k_trip)
         new._n_body = self._n_body
-        new._solver = SparseModalSolver(k_trip, m_trip, n, new.x0, model.name, min_zero=new._n_body, x0_modes=x0_modes)
+        new._solver = SparseModalSolver(k_trip, m_trip, n, new.x0, model.name, min_zero=new._n_body, x0_modes=x0_modes,
+                                        n_finite=n - new.massless.size)
         new.mechanism = new._find_mechanism() if new.n_rigid > new._n_body else None
         return new
 
@@ -285,19 +291,61 @@ class AffineModel:
         with one_blas_thread():
             return self._solver.eigen_sensitivities(theta, n_modes, rows)
 
-    def _check_mass(self, m_trip) -> None:
-        """ModelFileError naming the model and the DOFs, if some free DOF carries no mass at x0."""
+    def _check_mass(self, m_trip) -> np.ndarray:
+        """The free DOFs without mass (no mass entry in their row for any parameter: the
+        rotations of lumped-mass beams, a pinned end's rotation), which the solvers condense
+        out exactly; ModelFileError naming the model and the DOFs if some other free DOF carries
+        no mass at x0 (a mass parameter at zero)."""
         r, c, v, t = m_trip
+        n = len(self.dofmap.free)
         d = r == c
         scale = np.append(self.x0, 1.0)[t[d]]  # term -1 (the constant part) takes the last entry: 1
-        diag = np.bincount(r[d], weights=v[d] * scale, minlength=len(self.dofmap.free))
-        massless = np.flatnonzero(diag <= 0.0)
+        diag = np.bincount(r[d], weights=v[d] * scale, minlength=n)
+        none = np.bincount(r, weights=np.abs(v), minlength=n) == 0.0
+        massless = np.flatnonzero((diag <= 0.0) & ~none)
+        if none.all():
+            massless = np.arange(n)
         if massless.size:
             names = self._dof_names()
             shown = ", ".join(names[i] for i in massless[:4]) + (" ..." if massless.size > 4 else "")
             raise ModelFileError(f"{self.model.source or self.model.name}: {massless.size} DOF(s) carry no mass "
                              f"({shown}): connect the node to an element with density, give it a lumped mass "
                              "with rotary inertia, or support that DOF")
+        return np.flatnonzero(none)
+
+    #: Massless DOFs up to which a singular K_bb is explained by name (a dense eigen-solve).
+    NAME_MASSLESS_MAX = 3000
+
+    def _check_massless_held(self, k_trip) -> None:
+        """ModelFileError naming the model and the DOFs if the DOFs without mass can move, at x0,
+        without straining anything (K_bb singular: a rotation that only pinned ends meet): such a
+        motion has no inertia and no stiffness, so no mode. The solvers condense the massless DOFs
+        (dense) or factor K - sigma M (sparse), which both need K_bb positive definite."""
+        b = self.massless
+        if not b.size:
+            return
+        r, c, v, t = k_trip
+        n = len(self.dofmap.free)
+        k = sp.csc_matrix((v * np.append(self.x0, 1.0)[t], (r, c)), shape=(n, n))[b][:, b]
+        scale = max(abs(k).max(), 1e-300)
+        try:
+            lu = splu(k.tocsc() / scale)
+            ok = np.all(np.abs(lu.U.diagonal()) > 1e-12)
+        except RuntimeError:
+            ok = False
+        if ok:
+            return
+        names = self._dof_names()
+        shown = f"{b.size} DOFs without mass"
+        if b.size <= self.NAME_MASSLESS_MAX:
+            w, u = np.linalg.eigh(k.toarray() / scale)
+            null = u[:, w <= 1e-10]
+            if null.size:
+                moving = np.flatnonzero(np.abs(null).max(axis=1) > 0.2 * np.abs(null).max())
+                shown = ", ".join(names[b[i]] for i in moving[:4]) + (" ..." if moving.size > 4 else "")
+        raise ModelFileError(f"{self.model.source or self.model.name}: {shown} can move without mass and without "
+                             "straining anything (no mode): hold that rotation (a support, an end not released) "
+                             "or give it mass")
 
     def _find_mechanism(self) -> str:
         """What moves, when the structure has more zero-energy motions than the rigid-body
@@ -305,7 +353,9 @@ class AffineModel:
         and the DOFs that move most. Such modes are dropped with the rigid-body modes; `femu
         model` shows this line."""
         k = self.stiffness(self.x0[None, :])[0]
-        if self.path == "dense":
+        if self.path == "dense" and self._solver.condensed:
+            null = self._solver.zero_modes(self.x0)
+        elif self.path == "dense":
             # the modes the solver counted as zero-energy (the same rule, not a second one)
             _, null = scipy.linalg.eigh(k, self.mass(self.x0[None, :])[0], subset_by_index=[0, self.n_rigid - 1])
         else:

@@ -5,6 +5,11 @@ With a constant mass matrix (no mass or density parameter) the problem is put on
 mass-normalised coordinates, A(theta) = L^-1 K(theta) L^-T with M = L L^T, and the motions
 no parameter can strain (rigid-body modes of a free structure) are projected out once; each
 evaluation is then one contraction and one `numpy.linalg.eigvalsh`/`eigh` on the stack.
+
+DOFs without mass (`massless`: the rotations of lumped-mass beams, a pinned end's released
+rotation) carry no inertia force, so they are condensed out exactly for each theta:
+K_c = K_aa - K_ab K_bb^-1 K_ba on the massed DOFs a, solved with M_aa, and the massless
+components recovered as phi_b = -K_bb^-1 K_ba phi_a (batched solves, `_condensed`).
 """
 
 from __future__ import annotations
@@ -80,11 +85,18 @@ class ModalSolver:
     ZERO_TOL = 1e-8
 
     def __init__(self, k0: np.ndarray, m0: np.ndarray, dk: np.ndarray, dm: np.ndarray, x0: np.ndarray,
-                 name: str, n_body: int = 0, n_null: int | None = None):
+                 name: str, n_body: int = 0, n_null: int | None = None, massless=()):
         self.k0, self.m0, self.dk, self.dm, self.name = k0, m0, dk, dm, name
         self.n_free = k0.shape[0]
         self.mass_constant = not np.any(dm)
-        n_fixed_null = self._project(n_body if n_null is None else n_null) if self.mass_constant else 0
+        #: free DOFs without mass, condensed out (`_condensed`); empty: the plain solve
+        self.massless = np.asarray(massless, dtype=int)
+        self.condensed = self.massless.size > 0
+        if self.condensed:
+            self._split()
+            n_fixed_null = 0
+        else:
+            n_fixed_null = self._project(n_body if n_null is None else n_null) if self.mass_constant else 0
         lam = np.linalg.eigvalsh(self.operator(x0[None, :]))[0]
         # zero modes left in the solve: the rigid-body motions not projected out, and any other
         # motion no element strains at x0 (a mechanism)
@@ -93,7 +105,7 @@ class ModalSolver:
         zero = int(np.sum(lam < self.ZERO_TOL * ref)) if ref > 0 else len(lam)
         self._skip = max(zero, left)
         self.n_rigid = self._skip + n_fixed_null                      # rigid-body modes dropped
-        self.n_elastic = self.n_free - self.n_rigid
+        self.n_elastic = self.n_free - self.massless.size - self.n_rigid
 
     def _project(self, n_null: int) -> int:
         """Set up the mass-normalised operator without the rigid-body motions; returns the
@@ -117,6 +129,65 @@ class ModalSolver:
         self._da_flat = (self._q.T @ da @ self._q).reshape(len(self.dk), k * k)
         return self.n_free - k
 
+    def _split(self) -> None:
+        """Partition K and M into the massed DOFs a and the massless ones b (`massless`; K_bb
+        positive definite at x0 is AffineModel's check)."""
+        n = self.n_free
+        b = self.massless
+        a = np.setdiff1d(np.arange(n), b)
+        self._a, self._b = a, b
+        ia, ib = np.ix_(a, a), np.ix_(a, b)
+        self._k_aa, self._k_ab = self.k0[ia], self.k0[ib]
+        self._k_bb = self.k0[np.ix_(b, b)]
+        self._dk_aa = self.dk[:, a[:, None], a[None, :]]
+        self._dk_ab = self.dk[:, a[:, None], b[None, :]]
+        self._dk_bb = self.dk[:, b[:, None], b[None, :]]
+        self._m_aa, self._dm_aa = self.m0[ia], self.dm[:, a[:, None], a[None, :]]
+        if self.mass_constant:
+            self._linv = np.linalg.inv(cholesky(self._m_aa, self.name))
+
+    def _condensed(self, theta: np.ndarray):
+        """For theta (b, p): the symmetric operators L^-1 K_c L^-T (b, n_a, n_a) of the condensed
+        problem (M_aa = L L^T), the factors L^-1 (b, n_a, n_a) and X = K_bb^-1 K_ba (b, n_b, n_a),
+        with which phi_b = -X phi_a."""
+        k_aa = self._k_aa + np.einsum("bp,pij->bij", theta, self._dk_aa)
+        k_ab = self._k_ab + np.einsum("bp,pij->bij", theta, self._dk_ab)
+        k_bb = self._k_bb + np.einsum("bp,pij->bij", theta, self._dk_bb)
+        try:
+            x = np.linalg.solve(k_bb, np.swapaxes(k_ab, 1, 2))
+        except np.linalg.LinAlgError:
+            raise ValueError(f"model {self.name!r}: the stiffness of the DOFs without mass is singular at "
+                             "this point (a massless DOF that nothing holds)") from None
+        kc = k_aa - k_ab @ x
+        if self.mass_constant:
+            linv = np.broadcast_to(self._linv, kc.shape)
+        else:
+            linv = np.linalg.inv(cholesky(self._m_aa + np.einsum("bp,pij->bij", theta, self._dm_aa), self.name))
+        a = linv @ kc @ np.swapaxes(linv, 1, 2)
+        return 0.5 * (a + np.swapaxes(a, 1, 2)), linv, x
+
+    def _eigen_condensed(self, theta: np.ndarray, sl: slice, vectors: bool, rows):
+        """`eigen` with DOFs without mass: the condensed problem's eigenvectors, their massless
+        components recovered, and the eigenvalues refined as the Rayleigh quotients
+        phi^T K phi / phi^T M phi on the full K and M (as `_eigen_varying_mass`)."""
+        a, linv, x = self._condensed(theta)
+        _, y = np.linalg.eigh(a)
+        phi_a = np.swapaxes(linv, 1, 2) @ y[:, :, sl]
+        phi = np.empty((theta.shape[0], self.n_free, phi_a.shape[2]))
+        phi[:, self._a, :] = phi_a
+        phi[:, self._b, :] = -(x @ phi_a)
+        k, m = self.stiffness(theta), self.mass(theta)
+        mass = np.einsum("bim,bim->bm", phi, m @ phi)
+        lam = np.einsum("bim,bim->bm", phi, k @ phi) / mass
+        if not vectors:
+            return lam, None
+        phi = signed(phi / np.sqrt(mass)[:, None, :])
+        return lam, (phi if rows is None else take_rows(phi, rows))
+
+    def zero_modes(self, x0: np.ndarray) -> np.ndarray:
+        """The zero-energy modes at x0 (n_free, n_rigid), M-normalised (the condensed solve's)."""
+        return self._eigen_condensed(x0[None, :], slice(0, self.n_rigid), True, None)[1][0]
+
     def stiffness(self, theta: np.ndarray) -> np.ndarray:
         """K(theta) on the free DOFs, (b, n, n) for theta (b, p)."""
         return self.k0 + np.einsum("bp,pij->bij", theta, self.dk)
@@ -126,7 +197,10 @@ class ModalSolver:
         return self.m0 + np.einsum("bp,pij->bij", theta, self.dm)
 
     def operator(self, theta: np.ndarray) -> np.ndarray:
-        """The symmetric operators (b, n, n) whose eigenvalues are omega^2, for theta (b, p)."""
+        """The symmetric operators (b, n, n) whose eigenvalues are omega^2, for theta (b, p)
+        (n: the massed DOFs, where some are condensed out)."""
+        if self.condensed:
+            return self._condensed(theta)[0]
         if self.mass_constant:
             n = self._a0.shape[0]
             # A stacked (b, 1, p) @ (p, n*n) product computes every row by the same routine, so
@@ -156,6 +230,8 @@ class ModalSolver:
             raise ValueError(f"model {self.name!r} has only {self.n_elastic} elastic modes, "
                              f"asked for {n_modes}")
         sl = slice(self._skip, self._skip + n_modes)
+        if self.condensed:
+            return self._eigen_condensed(theta, sl, vectors, rows)
         if not self.mass_constant:
             return self._eigen_varying_mass(theta, sl, vectors, rows)
         a = self.operator(theta)

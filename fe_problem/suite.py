@@ -49,6 +49,14 @@ from .parameters import Parameter, element_moduli
 from .problem import UpdatingProblem
 from ._threads import blas_pinned
 
+#: The suite's version: a new one with any change of any problem's data, bounds or f_opt (its
+#: definition: `suite_fingerprint`). Recorded in every run record (RunResult.suite_version).
+SUITE_VERSION = "1.0"
+#: The fingerprint (`suite_fingerprint`) of each version's definitions. Add a line for a new
+#: version, never edit one: tests/test_suite_version.py fails when the definitions' fingerprint is
+#: not the current version's, so a changed problem cannot ship under an old version.
+SUITE_FINGERPRINTS = {"1.0": "4b2b582f180abd0c901be07136103891912d05548344e6af1d7fcffacba263b9"}
+
 #: The minimum J of the paper problem (see docs/suite.md for the commands that certify it).
 PAPER_F_OPT = 5.4136727410825565e-06
 PAPER_F_OPT_HOW = ("inverse eigensensitivity (10 seeds, restarts) and CMA-ES (10 seeds) agree to a "
@@ -368,3 +376,50 @@ def suite_problem(problem_id: str, solver: str = "auto") -> SuiteProblem:
     p.suite_id, p.f_opt, p.f_opt_kind, p.f_opt_how, p.truth = problem_id, f_opt, entry.f_opt_kind, entry.f_opt_how, truth
     p.f_opt_precision, p.target_scale = precision, entry.target_scale
     return p
+
+
+def _digits(values) -> list[str]:
+    """Numbers to 9 significant digits: the same on every machine (round-off is far below)."""
+    return [f"{v:.9e}" for v in np.asarray(values, dtype=float).ravel()]
+
+
+def suite_definition() -> dict:
+    """What defines the suite's problems, as plain data (`suite_fingerprint` hashes it): the
+    constants of the synthetic data; per id its entry (n_var, n_dof, f_opt, how it is known,
+    precision, target scale), its seeds, its parameters' bounds and start (Pa); the paper's data;
+    and per family and dimension the hidden truth and data of instance 1, which exercise the
+    code that makes every instance's data from its seeds. Builds 31 small data sets (seconds)."""
+    out = {"constants": {"n_modes": N_MODES, "freq_noise": FREQ_NOISE, "shape_noise": SHAPE_NOISE,
+                         "max_draws": MAX_DRAWS, "target_scale": TARGET_SCALE, "paper_f_opt": _digits([PAPER_F_OPT]),
+                         "families": {f.name: [f.structure, f.shapes, f.noisy, list(f.dimensions), f.instances]
+                                      for f in FAMILIES.values()}},
+           "problems": {}, "data": {}}
+    for pid in suite_ids():
+        entry = suite_entry(pid).to_dict()
+        family, n_var, inst = _parse(pid)
+        if family.structure == "paper":
+            params = UpdatingProblem("hframe", "paper").parameters
+        else:
+            params = _structure(family, n_var)[1]
+        entry.update({k: _digits([entry[k]]) if isinstance(entry[k], float) else entry[k]
+                      for k in ("f_opt", "f_opt_precision", "target_scale")})
+        entry["seeds"] = [id_seed(pid, "truth"), id_seed(pid, "noise")]
+        entry["bounds"] = [_digits([q.lower for q in params]), _digits([q.upper for q in params]),
+                           _digits([q.initial for q in params])]
+        out["problems"][pid] = entry
+        if family.structure != "paper" and inst == 1:
+            truth, data = _truth_and_data(pid)
+            out["data"][pid] = {"truth": _digits(truth), "frequencies_hz": _digits(data.frequencies_hz),
+                                "shapes": _digits(np.abs(data.shapes)) if data.shapes is not None else None,
+                                "dofs": [list(map(str, d)) for d in data.dofs]}
+    paper = UpdatingProblem("hframe", "paper").data
+    out["data"]["paper/12/1"] = {"frequencies_hz": _digits(paper.frequencies_hz)}
+    return out
+
+
+def suite_fingerprint() -> str:
+    """SHA-256 of `suite_definition` (canonical JSON): equal for equal problems on any machine."""
+    import json
+
+    text = json.dumps(suite_definition(), sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()

@@ -19,7 +19,9 @@ cpu_s, fe_s, overhead_s (seconds), best_f (eq. 4 objective), with the quartiles 
 and of the mean error, the status ("ok", or "mixed" with the count per status), the
 number of runs, and `best_run`: the seed, J and point (the updated moduli, Pa) of its best run.
 Beside them: the measured and initial frequencies, the paper's Table 1
-frequencies and the mean errors its table implies (recomputed) and its text states.
+frequencies and the mean errors its table implies (recomputed) and its text states; and
+`provenance` (femu-bench version and git commit, suite version, host, date UTC, library
+versions, and the hosts and versions the run records name: femu.reports.render.report_provenance).
 
 The defaults (DEFAULT_SEEDS, DEFAULT_BUDGET) were chosen by timing the whole command on a
 2-core machine shared with other jobs (load average 7-8), process start-up included: 5 seeds
@@ -104,7 +106,7 @@ def reproduce(seeds=DEFAULT_SEEDS, budget: int = DEFAULT_BUDGET, out="femu-repro
     # the optimizers, the problem and the reports load here, not with the module (whose
     # defaults `femu reproduce --help` shows at once, issue 25)
     from adapters.budget import check_budget
-    from femu.reports.render import make_out_dir
+    from femu.reports.render import make_out_dir, report_provenance
     from femu.reports.study import render_files, summarize
 
     log = sys.stderr if log is None else log
@@ -131,7 +133,7 @@ def reproduce(seeds=DEFAULT_SEEDS, budget: int = DEFAULT_BUDGET, out="femu-repro
     print(study.summary(), file=log, flush=True)
     groups = summarize(list(study.runs))  # this reproduction's runs only, whatever else the store holds
     report = render_files(groups, out, f"store `{out / 'store'}`, the runs of `femu reproduce --seeds "
-                          f"{_seed_text(seed_list)} --budget {budget}`")
+                          f"{_seed_text(seed_list)} --budget {budget}`", runs=list(study.runs))
     (group,) = groups
     p = group.paper
     return {
@@ -145,4 +147,5 @@ def reproduce(seeds=DEFAULT_SEEDS, budget: int = DEFAULT_BUDGET, out="femu-repro
                   "mean_error_pct_text": p.mean_error_pct_text,
                   "text_disagrees_with_table": list(p.disagreements)},
         "store": str(out / "store"), "report": str(report), "wall_s": time.perf_counter() - t0,
+        "provenance": report_provenance(list(study.runs)),
     }

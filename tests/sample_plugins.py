@@ -27,6 +27,7 @@ class TinyES:
     """A cheap second optimizer class: (1+4)-ES with step-size adaptation."""
 
     name = "tiny-es"
+    anytime = True  # nothing in it depends on the budget: its ECDFs below the budget are honest
 
     def minimize(self, objective, bounds, budget, rng, sigma=0.2):
         xl, xu = bounds
@@ -46,6 +47,7 @@ class Broken:
     """Fails after its first batch: the report must list it as failed."""
 
     name = "broken"
+    anytime = True  # its one batch does not depend on the budget
 
     def minimize(self, objective, bounds, budget, rng):
         objective(rng.uniform(*bounds, size=(20, len(bounds[0]))))

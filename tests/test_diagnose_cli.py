@@ -54,7 +54,8 @@ CORRELATION_KEYS = ["measured_hz", "model_hz", "error_pct", "mean_abs_error_pct"
                     "mean_comac", "paired_model_mode"]
 RECORD_KEYS = {
     "record": ["cause", "alternatives", "residuals", "gain", "selection", "candidates", "warnings", "extended_model",
-               "causes", "adequate", "goodness_of_fit", "noise", "data_checks", "evidence", "answer"],
+               "causes", "adequate", "goodness_of_fit", "noise", "data_checks", "evidence", "answer",
+               "dropped", "left_out"],
     "answer": {False: ["label", "family", "kind", "location", "estimate", "log_evidence", "decisive", "runner_up"],
                True: ["label", "family", "kind", "location", "estimate", "log_evidence", "decisive", "runner_up",
                       "plausible"]},

@@ -97,7 +97,8 @@ def test_frequencies_only_data_get_no_shape_checks():
 
 def test_swapped_channels_through_the_cli(tmp_path, capsys):
     """`femu diagnose --json` names the fault in `data_checks`; the text names it and the
-    channels and says the diagnosis ran on the data as given."""
+    channels and says the diagnosis left them out of its fit (issue 38; `--keep-faulty` fits them:
+    tests/test_diagnosis_faults.py)."""
     from femu.cli import main
 
     data = _data()
@@ -110,14 +111,16 @@ def test_swapped_channels_through_the_cli(tmp_path, capsys):
     assert main(["diagnose", str(path)]) == 0
     text = capsys.readouterr().out
     assert "DATA CHECKS: 1 fault(s)" in text and "channels 1x and 6x look swapped" in text
-    assert "ran on the data as given" in text
+    line = next(x for x in text.splitlines() if "left out of its fit: channels" in x)
+    assert "1x" in line and "6x" in line
     assert main(["diagnose", str(path), "--json"]) == 0
     import json
 
     record = json.loads(capsys.readouterr().out)
     assert [c["kind"] for c in record["data_checks"]] == ["channel_swap"]
     assert sorted(record["data_checks"][0]["where"]["channels"]) == [[1, "x"], [6, "x"]]
-    assert any("may explain" in w for w in record["warnings"])
+    assert any("left out of its fit channels" in w for w in record["warnings"])
+    assert sorted(record["left_out"]["channels"]) == [[1, "x"], [6, "x"]] and record["answer"]["decisive"] is False
 
 
 # == plausibility ==============================================================================

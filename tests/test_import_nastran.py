@@ -218,12 +218,116 @@ def test_good_deck_of_the_malformed_ones_reads(tmp_path):
     assert code == 0, err
 
 
-def test_lumped_mass_without_rotary_inertia_is_refused(tmp_path):
-    (tmp_path / "lumped.bdf").write_text(GOOD.replace("PARAM,COUPMASS,1\n", ""))
-    code, out, err = femu("import", tmp_path / "lumped.bdf", "--out", tmp_path / "m.json")
-    assert code == 2 and "GRID 2" in err and "--mass consistent" in err and len(err.strip().splitlines()) == 1
-    code, out, err = femu("import", tmp_path / "lumped.bdf", "--mass", "consistent", "--out", tmp_path / "m.json")
-    assert code == 0 and "consistent mass" in out
+# -- lumped mass with rotations (and released ends) that carry no mass -----------------------
+def _opensees_space(rotary: bool, pin_end_of_bar3: bool) -> np.ndarray:
+    """The space frame of `_opensees_frequencies`, its node masses with or without rotary
+    inertia, and with `pin_end_of_bar3` bar 3's end at node 4 pinned (every rotation released:
+    a node of its own tied to node 4 by equalDOF in the translations) and node 5 clamped (else
+    bar 4 would spin about its axis, massless and unstrained); OpenSees' -fullGenLapack, which
+    takes a singular mass matrix (its default ArpackSolver fails to build a factorisation)."""
+    ops.wipe()
+    ops.model("basic", "-ndm", 3, "-ndf", 6)
+    for nid, xyz in NODES.items():
+        ops.node(nid, *xyz)
+    ops.node(99, *NODES[5])
+    ops.node(44, *NODES[4])
+    ops.fix(1, 1, 1, 1, 1, 1, 1)
+    ops.fix(99, 1, 1, 1, 1, 1, 1)
+    if pin_end_of_bar3:
+        ops.equalDOF(4, 44, 1, 2, 3)
+        ops.fix(5, 1, 1, 1, 1, 1, 1)
+    else:
+        ops.fix(44, 1, 1, 1, 1, 1, 1)
+    for nid, (m, i) in CONM2.items():
+        ops.mass(nid, m, m, m, *([i] * 3 if rotary else [0.0] * 3))
+    for eid, ga, gb, v, g0 in BARS:
+        x = np.subtract(NODES[gb], NODES[ga])
+        v = np.subtract(NODES[g0], NODES[ga]) if g0 else np.asarray(v)
+        ops.geomTransf("Linear", eid, *np.cross(x, v))
+        end = 44 if (eid == 3 and pin_end_of_bar3) else gb
+        ops.element("elasticBeamColumn", eid, ga, end, A, E, G, J, I2, I1, eid, "-mass", RHO * A)
+    ops.uniaxialMaterial("Elastic", 1, K_SPRING)
+    ops.element("zeroLength", 300, 99, 5, "-mat", 1, "-dir", 2)
+    w = np.array(ops.eigen("-fullGenLapack", N_MODES))
+    ops.wipe()
+    return np.sqrt(w) / (2 * np.pi)
+
+
+@pytest.mark.parametrize("pinned", [False, True], ids=["rigid", "pinned"])
+def test_lumped_deck_without_rotary_inertia_matches_opensees(tmp_path, pinned):
+    """Nastran's default (lumped mass, no COUPMASS) with CONM2s that have no inertia: every
+    rotation is massless, and with bar 3's end B pinned (PB 456, node 5 clamped) so is its released end; the
+    import solves them exactly (condensed on the dense path, shift-invert with the singular M
+    on the sparse path): OpenSees' frequencies to 1e-8 on both."""
+    bdf = _new_bdf()
+    for nid, xyz in NODES.items():
+        bdf.add_grid(nid, list(xyz))
+    bdf.add_mat1(1, E, None, NU, rho=RHO)
+    bdf.add_pbar(1, 1, A=A, i1=I1, i2=I2, j=J)
+    for eid, ga, gb, v, g0 in BARS:
+        bdf.add_cbar(eid, 1, [ga, gb], list(v) if v else None, g0, pb="456" if (pinned and eid == 3) else "")
+    for k, (nid, (m, _)) in enumerate(CONM2.items()):
+        bdf.add_conm2(100 + k, nid, m)
+    bdf.add_celas2(200, K_SPRING, [5, 0], 2, 0)
+    bdf.add_spc1(7, "123456", [1, 5] if pinned else [1])
+    bdf.write_bdf(str(tmp_path / "frame.bdf"))
+    code, out, err = femu("import", tmp_path / "frame.bdf", "--out", tmp_path / "frame.json")
+    assert code == 0 and err == "", err
+    assert "space frame, lumped mass" in out
+    model = load_model(tmp_path / "frame.json")
+    assert all(m.inertia_kg_m2 == 0.0 for m in model.masses)
+    assert any(model.end_releases(e)[1] for e in model.elements) == pinned
+    expected = _opensees_space(rotary=False, pin_end_of_bar3=pinned)
+    for solver in ("dense", "sparse"):
+        got = fp.modal_analysis(model, N_MODES, solver=solver).frequencies_hz
+        np.testing.assert_allclose(got, expected, rtol=1e-8, atol=0, err_msg=solver)
+    # the massless rotations matter: with the CONM2s' inertias it is another structure
+    assert np.max(np.abs(_opensees_space(rotary=True, pin_end_of_bar3=pinned) / expected - 1)) > 1e-3
+
+
+def test_planar_lumped_deck_pinned_foot_and_hinge_matches_opensees(tmp_path):
+    """A planar portal (GRID PS 345), lumped mass, one CONM2 without inertia, a pinned foot
+    (SPC 12: its rotation free and massless) and a hinge at the girder's end A (PA 6), the
+    default deck convention through the command line, against OpenSees 2-D lumped mass with
+    the hinge as a node tied by equalDOF."""
+    bdf = _new_bdf()
+    pts = {1: (0.0, 0.0), 2: (0.0, 1.0), 3: (1.5, 1.0), 4: (1.5, 0.0)}
+    for nid, (x, y) in pts.items():
+        bdf.add_grid(nid, [x, y, 0.0], ps="345")
+    bdf.add_mat1(1, E, None, NU, rho=RHO)
+    bdf.add_pbar(1, 1, A=A, i1=I1, i2=I2, j=J)
+    bdf.add_cbar(1, 1, [1, 2], [1.0, 0.0, 0.0], None)
+    bdf.add_cbar(2, 1, [2, 3], [0.0, 1.0, 0.0], None, pa="6")  # I1 in the plane, hinge at node 2
+    bdf.add_cbar(3, 1, [3, 4], [1.0, 0.0, 0.0], None)
+    bdf.add_conm2(10, 3, 2.0)
+    bdf.add_spc1(1, "123456", [1])
+    bdf.add_spc1(1, "12", [4])
+    bdf.write_bdf(str(tmp_path / "portal.bdf"))
+    code, out, err = femu("import", tmp_path / "portal.bdf", "--out", tmp_path / "portal.json")
+    assert code == 0 and err == "", err
+    assert "planar frame, lumped mass" in out
+    model = load_model(tmp_path / "portal.json")
+    assert model.meta["import"]["mass"] == "lumped" and model.end_releases(model.element(2))[0]
+    ops.wipe()
+    ops.model("basic", "-ndm", 2, "-ndf", 3)
+    for nid, (x, y) in pts.items():
+        ops.node(nid, x, y)
+    ops.node(22, *pts[2])
+    ops.fix(1, 1, 1, 1)
+    ops.fix(4, 1, 1, 0)
+    ops.equalDOF(2, 22, 1, 2)
+    ops.mass(3, 2.0, 2.0, 0.0)
+    ops.geomTransf("Linear", 1)
+    for eid, (i, j) in ((1, (1, 2)), (2, (22, 3)), (3, (3, 4))):
+        ops.element("elasticBeamColumn", eid, i, j, A, E, I1, 1, "-mass", RHO * A)
+    w = np.array(ops.eigen("-fullGenLapack", 4))  # 4 massed DOFs: the translations of nodes 2 and 3
+    ops.wipe()
+    expected = np.sqrt(w) / (2 * np.pi)
+    for solver in ("dense", "sparse"):
+        np.testing.assert_allclose(fp.modal_analysis(model, 4, solver=solver).frequencies_hz, expected,
+                                   rtol=1e-8, atol=0, err_msg=solver)
+        with pytest.raises(ValueError, match="only 4 elastic modes"):  # no more modes than massed DOFs
+            fp.modal_analysis(model, 5, solver=solver)
 
 
 # -- an updated model written back like its deck ---------------------------------------------

@@ -100,6 +100,46 @@ def test_script_imports_to_opensees_frequencies(tmp_path, text, dimension, mass)
                                rtol=1e-8, atol=0)
 
 
+# The most common OpenSees model: lumped mass (no -cMass) and node masses in the translations
+# only, so every rotation is massless; a pinned foot leaves one more.
+LUMPED = """
+import openseespy.opensees as ops
+
+ops.wipe()
+ops.model('basic', '-ndm', 2, '-ndf', 3)
+nodes = {1: (0, 0), 2: (0, 1.0), 3: (0, 2.0), 4: (1.5, 2.0), 5: (1.5, 1.0), 6: (1.5, 0), 7: (0.75, 2.0)}
+for tag, xy in nodes.items():
+    ops.node(tag, *xy)
+ops.fix(1, 1, 1, 1)
+ops.fix(6, 1, 1, 0)
+for tag, m in ((2, 3.0), (3, 2.0), (4, 2.5), (5, 1.5), (7, 1.0)):
+    ops.mass(tag, m, m, 0.0)
+ops.geomTransf('Linear', 1)
+A, E, I = 1.2e-3, 2.0e11, 3.1e-6
+for k, (i, j) in enumerate([(1, 2), (2, 3), (3, 7), (7, 4), (4, 5), (5, 6)], 1):
+    ops.element('elasticBeamColumn', k, i, j, A, E, I, 1, '-mass', 7850 * A)
+"""
+
+
+def test_translational_node_masses_import_to_opensees_frequencies(tmp_path):
+    """Rotations without mass are solved exactly on both paths (condensed on the dense one,
+    shift-invert with the singular M on the sparse one): OpenSees' frequencies to 1e-8, from
+    its -fullGenLapack (its default ArpackSolver cannot factor this M)."""
+    script = tmp_path / "lumped.py"
+    script.write_text(textwrap.dedent(LUMPED))
+    code, out, err = femu("import", script, "--out", tmp_path / "lumped.json")
+    assert code == 0 and err == "", err
+    model = load_model(tmp_path / "lumped.json")
+    assert model.meta["import"]["mass"] == "lumped" and all(m.inertia_kg_m2 == 0.0 for m in model.masses)
+    expected = opensees_frequencies(script, N_MODES)
+    for solver in ("dense", "sparse"):
+        np.testing.assert_allclose(fp.modal_analysis(model, N_MODES, solver=solver).frequencies_hz, expected,
+                                   rtol=1e-8, atol=0, err_msg=solver)
+    code, out, err = femu("model", tmp_path / "lumped.json", "--modes", 3)
+    assert code == 0 and err == "", err
+    assert f"{expected[0]:.3f}" in out and f"{expected[2]:.3f}" in out
+
+
 @pytest.mark.parametrize("name", ["hframe", "frame3d"])
 def test_shipped_models_exported_and_imported_back(tmp_path, name):
     code, out, err = femu("export", name, "--to", "opensees", "--out", tmp_path / "m.py")

@@ -161,9 +161,11 @@ def test_curves_and_ecdf_agree_with_the_runs(study):
 
 def test_cli_report_with_ioh_and_a_clear_error_for_a_missing_store(study, tmp_path, capsys):
     out = tmp_path / "rep"
-    assert cli.main(["report", str(study.path), "--out", str(out), "--ioh"]) == 0
+    assert cli.main(["report", str(study.path), "--out", str(out), "--ioh", "--coco"]) == 0
     assert "report written to" in capsys.readouterr().out
     assert (out / "report.md").exists() and (out / "ioh" / "femu-ioh.json").exists()
+    # COCO data (tests/test_coco.py reads it with cocopp): one .info per function of each optimizer
+    assert sorted(p.name for p in (out / "coco" / "random-search").glob("*.info")) == ["femuexp_f1.info"]
     assert cli.main(["report", str(tmp_path / "nowhere"), "--out", str(out)]) == 2
     err = capsys.readouterr().err
     assert "nowhere" in err and "no such store" in err

@@ -93,11 +93,33 @@ def search_key(rounds) -> tuple[str, str]:
     return "local", rounds.sized[0][0].label.split("(")[0]
 
 
-def choose(ev: Evidence, search: tuple[str, str], significant: bool) -> tuple[ScoredClass, ScoredClass | None, bool]:
+def residual_dof(row: ScoredClass, obs) -> int:
+    """The residual degrees of freedom a class rests on: the data's count (every frequency, every
+    shape entry less one per shape: its scale is free) less its fitted parameters, the global
+    scale included (not clipped at 1, as `Observations.dof` is for the chi^2 test)."""
+    return obs.n_residuals - obs.n_shape_modes - 1 - row.n_parameters
+
+
+def dof_note(row: ScoredClass, obs) -> str | None:
+    """The sentence when the answer (not the calibrated model) rests on fewer residual degrees of
+    freedom than a decisive answer needs (`plausibility.MIN_DOF`), else None."""
+    if row is None or row.family == "none":
+        return None
+    dof = residual_dof(row, obs)
+    if dof >= plausibility.MIN_DOF:
+        return None
+    return (f"{row.label} rests on {dof} residual degree(s) of freedom ({obs.n_residuals - obs.n_shape_modes} data "
+            f"less {1 + row.n_parameters} fitted parameters, the global scale included), fewer than the "
+            f"{plausibility.MIN_DOF} a decisive answer needs: more modes or measured shapes are needed")
+
+
+def choose(ev: Evidence, search: tuple[str, str], significant: bool,
+           obs=None) -> tuple[ScoredClass, ScoredClass | None, bool]:
     """(the answer's row, the runner-up's row or None, decisive). The answer is the best class when
     it is non-local and may be the answer (`significant`: the test found something, or it found
     nothing but the calibrated model misfits and that class fits, core._beyond_the_test), else the
-    local search's row."""
+    local search's row. `obs` (the observations the classes were fitted to): an answer that rests on
+    fewer residual degrees of freedom than `plausibility.MIN_DOF` is never decisive (`dof_note`)."""
     rows = list(ev.classes)
     own = next((c for c in rows if answer_key(c) == search), None)
     best = rows[0] if rows else None
@@ -107,6 +129,8 @@ def choose(ev: Evidence, search: tuple[str, str], significant: bool) -> tuple[Sc
         return None, None, True
     runner = next((c for c in rows if not same_answer(c, own)), None)
     decisive = runner is None or own.log_evidence - runner.log_evidence >= FACTOR_10
+    if obs is not None and dof_note(own, obs) is not None:
+        decisive = False
     return own, runner, decisive
 
 

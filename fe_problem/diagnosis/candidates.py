@@ -38,6 +38,7 @@ import contextlib
 import dataclasses
 import functools
 import gc
+import weakref
 from dataclasses import dataclass, field
 from typing import Callable, Iterator
 
@@ -50,7 +51,7 @@ from ..model.edits import bending_hinges
 from ..assembly import AffineModel, solver_path
 from ..elements import formulation, formulations
 from ..parameters import Parameter
-from . import zones
+from . import dropped, zones
 from .local import LocalMatrices, Term
 from .reduced import SharedBasis, reduced_joint
 
@@ -210,6 +211,8 @@ class Candidate:
     def __post_init__(self) -> None:
         if not isinstance(self.forward, _Remembered):  # a copy (dataclasses.replace) shares the kept sizes
             self.forward = _Remembered(self.forward)
+        if self.forward.owner is None:  # whose failure a failing solve records (dropped.py); no cycle
+            self.forward.owner = weakref.ref(self)
 
     @property
     def label(self) -> str:
@@ -231,14 +234,39 @@ class _Remembered:
     def __init__(self, forward: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]):
         self.solve = forward
         self.kept: dict[float, tuple[np.ndarray, np.ndarray]] = {}
+        self.owner = None  # a weak reference to the candidate (`Candidate.__post_init__`)
+
+    def _solved(self, a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The solve of sizes `a`; a numerical failure, or non-finite modes, recorded under the
+        candidate's label (dropped.py) and given as non-finite modes (which pair with nothing)."""
+        try:
+            hz, shapes = self.solve(a)
+        except Exception as exc:  # noqa: BLE001 - only numerical failures are caught (is_numerical)
+            if not dropped.is_numerical(exc):
+                raise
+            owner = self.owner() if self.owner is not None else None
+            if owner is not None:
+                dropped.note(owner.label, f"its solve failed ({dropped.reason_of(exc)})")
+            kept = next(iter(self.kept.values()), None)
+            out = dropped.failed_modes(len(a), None if kept is None else (kept[0].shape, kept[1].shape))
+            if out is None:
+                raise
+            return out
+        if np.isfinite(hz).all() and np.isfinite(shapes).all():
+            dropped.solved(hz, shapes)
+        else:
+            owner = self.owner() if self.owner is not None else None
+            if owner is not None:
+                dropped.note(owner.label, "its solve gave non-finite modes")
+        return hz, shapes
 
     def __call__(self, a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         a = np.asarray(a, dtype=float)
         if a.size == 0 or not np.isfinite(a).all():  # a NaN is no dict key (hash(nan) is per object)
-            return self.solve(a)
+            return self._solved(a)
         new = list(dict.fromkeys(float(v) for v in a if float(v) not in self.kept))
         if new:
-            hz, shapes = self.solve(np.array(new))
+            hz, shapes = self._solved(np.array(new))
             for k, v in enumerate(new):
                 self.kept[v] = (hz[k], shapes[k])
         rows = [self.kept[float(v)] for v in a]

@@ -46,17 +46,17 @@ from ..assembly import AffineModel, solver_path
 from ..correlation import correlate
 from ..modal_data import DataFileError, ModalData, load_modal_data
 from ..matrix_model import MatrixModel
-from ..model import FrameModel, load_model
+from ..model import FrameModel, ModelFileError, load_model
 from ..parameters import Parameter
 from .candidates import Candidate, Setting, all_candidates, scale_stiffness, solve
 from . import plausibility
-from .datachecks import DataCheck, check_data, spurious_modes
+from .datachecks import FAULTS, DataCheck, check_data, left_out, spurious_modes, without
 from .evidence import FACTOR_10, Evidence, ScoredClass, label_log_prior, occam_log_factor, ranked, sides_log_prior
 from .groups import distributed_candidates
 from .modelform import model_form_candidates, screen_forms
 from .plausibility import few_dof_note
 from .fit import Fit, brings, chi2_batch, class_promises, fit, look_along, profiled, promise, screen
-from . import answer, group_free, sparse_class
+from . import answer, dropped, group_free, sparse_class
 from .nested import require_dynesty, rescored
 from .record import Cause, CandidateFit, Diagnosis, Gain, Noise, PinnedParameter, Residuals, Selection
 from .verdict import profile_interval, verdict
@@ -77,7 +77,7 @@ METHOD = "likelihood ratio vs the calibrated model, Bonferroni over candidates, 
 
 def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: float | None = None,
              shape_noise: float | None = None, kinds=None, n_fit: int | None = N_FIT, alpha: float = ALPHA,
-             max_causes: int = MAX_CAUSES, evidence: str = "laplace") -> Diagnosis:
+             max_causes: int = MAX_CAUSES, evidence: str = "laplace", keep_faulty: bool = False) -> Diagnosis:
     """Diagnose what `model` misses in `data` (see the module docstring for the method).
 
     freq_noise: std of a measured frequency, relative (default 0.002 = 0.2 %); shape_noise: std
@@ -86,12 +86,26 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
     fitted properly besides the ones always fitted (None: all); max_causes: at most this many
     causes are added one after another; evidence: how the model classes are scored, ``laplace``
     (at the fitted optimum) or ``nested`` (the best by Laplace sampled with dynesty, seeded:
-    nested.py; the optional dependency ``.[nested]``).
+    nested.py; the optional dependency ``.[nested]``); keep_faulty: fit the channels and modes
+    the data checks find faulty too (default: left out, `datachecks.left_out`; either way an
+    answer on data with a fault is not decisive).
     """
     if evidence not in EVIDENCE_METHODS:
         raise ValueError(f"evidence must be one of {', '.join(EVIDENCE_METHODS)}, got {evidence!r}")
     if evidence == "nested":
         require_dynesty()  # before the work: a missing dependency fails at once
+    with dropped.recording() as failed:
+        diag = _diagnose(model, data, freq_noise, shape_noise, kinds, n_fit, alpha, max_causes, evidence, keep_faulty)
+    if not failed:
+        return diag
+    notes = tuple(f"{label} dropped: {why}; left out of the fits, the test and the evidence" for label, why in failed.items())
+    return dataclasses.replace(diag, warnings=diag.warnings + notes,
+                               dropped=tuple({"label": k, "reason": v} for k, v in failed.items()))
+
+
+def _diagnose(model, data, freq_noise, shape_noise, kinds, n_fit, alpha, max_causes, evidence,
+              keep_faulty=False) -> Diagnosis:
+    """`diagnose`'s steps, inside the record of dropped candidates (dropped.py)."""
     data = load_modal_data(data)
     model = data.load_model() if model is None else model
     if isinstance(model, MatrixModel):  # a data file may name a matrix manifest (docs/matrix-model.md)
@@ -105,6 +119,16 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
                   data_deviations=(int(data.has_frequency_std.sum()), int(data.has_shape_std.sum()), data.n_modes))
     cal = calibrate(model, data, noise.freq_noise, noise.shape_noise)
     checks = data_checks(cal)
+    leave = {} if keep_faulty else left_out(checks)
+    if leave:  # the faults found are left out of the fit: the search runs on what the data can still say
+        cleaned = without(data, leave)
+        try:
+            if len(cleaned.dofs) < 2:
+                raise DataFileError("fewer than 2 channels left")
+            cal, data = calibrate(model, cleaned, noise.freq_noise, noise.shape_noise), cleaned
+        except DataFileError:  # too little left to diagnose: kept, as with keep_faulty
+            leave = {}
+    faulty = tuple(c for c in checks if c.kind in FAULTS)
     found = screen_and_fit(cal, kinds, n_fit)
     sel = select(cal, found, alpha)
     warnings = list(cal.warnings)
@@ -120,7 +144,7 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
         scored = score_classes(cal, found, None, evidence, forms)
         ev = scored.evidence
         other = _beyond_the_test(cal, scored, v, sel, alpha, model)
-        row, runner, decisive = answer.choose(ev, answer.search_key(None), other is not None)
+        row, runner, decisive = answer.choose(ev, answer.search_key(None), other is not None, cal.obs)
         gained, extended = gain(cal, None), None
         if other is None:
             if not v.adequate:
@@ -135,11 +159,13 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
             if few:
                 warnings.append(few)
         answered = answer.record(row, runner, decisive, cause)
-        undecided = answer.undecided_note(answered)
+        thin = _fault_undecided(faulty) or answer.dof_note(row, cal.obs)
+        answered = dataclasses.replace(answered, decisive=False, not_decisive_because=thin) if thin else answered
+        undecided = thin or answer.undecided_note(answered)
         return Diagnosis(cause, alternatives, residuals_of(cal), gained, tuple(sel.rows.values()),
-                         sel.selection, extended, tuple(warnings + _fault_notes(checks) + _evidence_notes(ev, None, row)
+                         sel.selection, extended, tuple(warnings + _fault_notes(checks, leave, keep_faulty) + _evidence_notes(ev, None, row)
                                                         + ([f"answer not decisive: {undecided}"] if undecided else [])),
-                         (), v, noise, checks, ev, answered)
+                         (), v, noise, checks, ev, answered, left_out=leave)
     cause, alternatives, _ = extend(cal, found, sel)
     from .rounds import further_causes  # it uses this module's steps
 
@@ -153,7 +179,7 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
     cause = plausibility.judged(model, _first(cause, causes[0]))
     scored = score_classes(cal, found, rounds, evidence, forms)
     ev = scored.evidence
-    row, runner, decisive = answer.choose(ev, answer.search_key(rounds), True)
+    row, runner, decisive = answer.choose(ev, answer.search_key(rounds), True, cal.obs)
     gained, n_params = rounds.gain, 1 + len(rounds.causes)
     if row.family in answer.NON_LOCAL:  # the best class by evidence is not the local search's
         other = answer.non_local(cal, row, scored.fitted, scored.sparse, sel.selection.p_adjusted, alpha, model,
@@ -174,15 +200,17 @@ def diagnose(model: FrameModel | str | None, data: ModalData | str, freq_noise: 
     if few:
         warnings.append(few)
     answered = answer.record(row, runner, decisive, cause)
-    undecided = answer.undecided_note(answered)
+    thin = _fault_undecided(faulty) or answer.dof_note(row, cal.obs)
+    answered = dataclasses.replace(answered, decisive=False, not_decisive_because=thin) if thin else answered
+    undecided = thin or answer.undecided_note(answered)
     if undecided:
         warnings.append(f"answer not decisive: {undecided}")
     if len(cal.unpaired):
         final_unpaired = calibrate(rounds.model, data, noise.freq_noise, noise.shape_noise, model).unpaired
         checks = checks + spurious_modes(cal.unpaired, final_unpaired, cal.obs_all.frequencies_hz, _explained(checks))
     return Diagnosis(cause, alternatives, residuals_of(cal), gained, tuple(sel.rows.values()), sel.selection,
-                     extended, tuple(warnings + _fault_notes(checks) + _evidence_notes(ev, rounds, row)), causes, v,
-                     noise, checks, ev, answered)
+                     extended, tuple(warnings + _fault_notes(checks, leave, keep_faulty) + _evidence_notes(ev, rounds, row)), causes, v,
+                     noise, checks, ev, answered, left_out=leave)
 
 
 def _beyond_the_test(cal: "Calibration", scored: "Scored", v, sel: "Selected", alpha: float,
@@ -232,7 +260,10 @@ def model_form_fits(cal: "Calibration") -> list[tuple[Candidate, Fit]]:
     forms = model_form_candidates(cal.setting)
     drops = [d for d, _ in screen_forms(obs, base, cal.setting, forms)]
     cal.setting.baselines.clear()  # the last screen of this model: its adjoint blocks (87 MB at 3,024 DOFs) go
-    return [(forms[i], coarse_fit(obs, forms[i])) for i in sorted(range(len(forms)), key=lambda i: -drops[i])[:N_FORM_FIT]]
+    drops = [0.0 if dropped.is_dropped(c.label) else d for c, d in zip(forms, drops)]  # a failed solve: not fitted
+    best = [i for i in sorted(range(len(forms)), key=lambda i: -drops[i])[:N_FORM_FIT]]
+    out = [(forms[i], coarse_fit(obs, forms[i])) for i in best if not dropped.is_dropped(forms[i].label)]
+    return [(c, f) for c, f in out if not dropped.is_dropped(c.label)]
 
 
 def _form_explains(cal: "Calibration", forms, first: Fit, dispersion: float, alpha: float) -> str | None:
@@ -271,12 +302,20 @@ def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str 
     # round did not fit better than no effect (a revisit moved it): `_one_per_answer` keeps no row of it
     several = rounds is not None and (len(rounds.sized) > 1 or answer.search_key(rounds)[1] not in {
         c.label.split("(")[0] for c, f, family in fits if family == "local" and f.chi2 < base.chi2 - 1e-9})
-    sparse = sparse_class.fit_sparse(cal.setting, obs, base.pairing)  # "every member", sparse (None: n/a)
-    partitions = group_free.fit_partitions(cal.setting, obs, base.pairing)  # every storey / line / floor free
-    pair = group_free.fit_pair(cal.setting, obs, base.pairing, pair_seeds(fits, sparse, rounds))
-    # the sparse class does not set the dispersion: with many members and few data its misfit says
-    # little about the noise (it would move every other class's evidence)
-    reduced = [base.chi2 / obs.dof(1)] + [f.chi2 / obs.dof(2) for _, f, _ in fits]
+    fits = [x for x in fits if not dropped.is_dropped(x[0].label)]  # a failed solve: no class (dropped.py)
+    sparse = dropped.guarded("every member (sparse)", lambda: sparse_class.fit_sparse(cal.setting, obs, base.pairing),
+                             None)  # "every member", sparse (None: n/a)
+    partitions = dropped.guarded("the free group classes", lambda: group_free.fit_partitions(
+        cal.setting, obs, base.pairing), [])  # every storey / line / floor free
+    pair = dropped.guarded("two adjacent members free", lambda: group_free.fit_pair(
+        cal.setting, obs, base.pairing, pair_seeds(fits, sparse, rounds)), None)
+    # the dispersion: the smallest reduced chi^2 of the classes (at least 1), the richest class's
+    # included (quasi-likelihood practice: the scale from the maximal model) when it leaves at least
+    # MIN_DOF residual dof, so that its misfit estimates the noise (`_richest_reduced`). Taken from
+    # the best one-parameter class alone, the dispersion of a model that does not fit shrank every
+    # likelihood difference until the parameters' charges chose (issue 38: a four-storey frame's
+    # storey pattern, chi^2 79, lost to a one-member class, chi^2 257, at a dispersion of 17.8).
+    reduced = [base.chi2 / obs.dof(1)] + [f.chi2 / obs.dof(2) for _, f, _ in fits] + _richest_reduced(obs, sparse)
     searched = _search_fits(obs, rounds) if several else []
     chi2_s = min(f.chi2 for f in searched) if several else None
     if several:
@@ -325,6 +364,16 @@ def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str 
         integrands.update({label: group_free.integrand(cal.setting, obs, g) for label, g in groups.items()})
         ev = rescored(ev, integrands, base.chi2, d)
     return Scored(ev, answer.fitted_candidates(fits), sparse, groups)
+
+
+def _richest_reduced(obs: Observations, sparse) -> list[float]:
+    """The "every member" sparse class's reduced chi^2 as a candidate for the evidence's dispersion
+    (`score_classes`), when it leaves at least `plausibility.MIN_DOF` residual dof; else none
+    (with many members and few data its misfit says little about the noise)."""
+    if sparse is None:
+        return []
+    dof = obs.n_residuals - obs.n_shape_modes - 1 - len(sparse.theta)
+    return [sparse.chi2 / dof] if dof >= plausibility.MIN_DOF else []
 
 
 #: Local stiffness classes (the best by chi^2) whose elements seed the two-adjacent-members class.
@@ -459,10 +508,29 @@ def _explained(checks) -> set:
     return {m for c in checks if c.kind in ("duplicate_mode", "mode_order") for m in c.where.get("modes", [])}
 
 
-def _fault_notes(checks) -> list[str]:
-    """One sentence per fault of the data: the diagnosis ran on the data as given."""
-    return [f"data check: {c.text}. The diagnosis ran on the data as given; this fault of the data may explain "
-            "the misfit and the causes named" for c in checks]
+def _fault_notes(checks, leave: dict, kept: bool) -> list[str]:
+    """One sentence per fault of the data, saying whether the diagnosis left it out (`leave`:
+    `datachecks.left_out`) or ran on the data as given (`kept`: keep_faulty, or too little left)."""
+    if leave:
+        what = "; ".join(f"{k} {', '.join(''.join(map(str, v)) if isinstance(v, list) else str(v) for v in vals)}"
+                         for k, vals in leave.items())
+        after = (f"The diagnosis left out of its fit {what} (mode numbers in the rest of the record count the modes "
+                 "left in)" if "modes" in leave else f"The diagnosis left out of its fit {what}")
+    else:
+        after = ("The diagnosis ran on the data as given" + (" (keep_faulty)" if kept else "")
+                 + "; this fault of the data may explain the misfit and the causes named")
+    given = ("The diagnosis ran on the data as given; this fault of the data may explain the misfit and the causes "
+             "named")
+    return [f"data check: {c.text}. {after if c.kind in FAULTS else given}" for c in checks]
+
+
+def _fault_undecided(faulty) -> str | None:
+    """Why an answer on data with a fault is not decisive (None: no fault): what the fault hid
+    or changed, left out or not, may be where the structure differs from its model."""
+    if not faulty:
+        return None
+    return (f"the data have a fault ({', '.join(dict.fromkeys(c.kind for c in faulty))}): an answer on faulty data "
+            "is never decisive (datachecks.FAULTS)")
 
 
 def _first(cause: Cause, first) -> Cause:
@@ -523,6 +591,11 @@ def calibrate(model: FrameModel, data: ModalData, freq_noise: float, shape_noise
     """Fit the global stiffness-to-mass scale; measured modes that pair with no model mode are
     shown, never fitted. reference: the user's model when `model` is it extended (Setting)."""
     system = AffineModel(model)
+    if system.massless.size:
+        # its zone batches, reduced bases and adjoint screening assume mass on every free DOF
+        raise ModelFileError(f"{model.source or model.name}: {system.massless.size} DOF(s) carry no mass (lumped mass "
+                             "without rotary inertia, or a pinned end's rotation): the diagnosis does not handle "
+                             "DOFs without mass yet; give the nodes rotary inertia, or import with --mass consistent")
     st = Setting(model, data.dofs, min(data.n_modes + 6, system.n_elastic), reference)
     st.__dict__["system"] = system  # `Setting.system`'s cache: the model's one system
     obs_all = Observations.of(data, freq_noise=freq_noise, shape_noise=shape_noise)
@@ -551,7 +624,8 @@ def residuals_of(cal: Calibration) -> Residuals:
     base = cal.base
     return Residuals(correlate(cal.hz0 * np.sqrt(base.s), cal.sh0, cal.obs_all, cal.base_all.pairing),
                      base.s, base.chi2, cal.obs.n_residuals, base.chi2 / cal.obs.dof(1),
-                     tuple(int(i) + 1 for i in cal.unpaired), _pinned_moduli(cal),
+                     tuple(int(i) + 1 for i in cal.unpaired),
+                     dropped.guarded("the bounded modulus update (pinned moduli)", lambda: _pinned_moduli(cal), ()),
                      tuple((int(n), str(d)) for n, d in cal.data.dofs))
 
 
@@ -606,10 +680,14 @@ def screen_and_fit(cal: Calibration, kinds, n_fit: int | None, keep=None, bring=
     pairs one of them at some size of its grid is fitted too (`fit.brings`)."""
     cands = [c for c in all_candidates(cal.setting, kinds) if keep is None or keep(c)]
     screened = look_at_clipped(cal, cands, screen_candidates(cal, cands), n_fit)
+    # a candidate whose solve failed (dropped.py) is neither ranked nor fitted
+    screened = [(0.0, 0.0) if dropped.is_dropped(c.label) else x for c, x in zip(cands, screened)]
     order, chosen = to_fit(cands, screened, n_fit)
     if bring is not None and len(bring):
         chosen |= {i for i in order if i not in chosen and brings(cal.obs, cands[i], bring)}
+    chosen = {i for i in chosen if not dropped.is_dropped(cands[i].label)}
     fitted = {i: fit(cal.obs, cands[i], screened[i][1]) for i in order if i in chosen}
+    fitted = {i: f for i, f in fitted.items() if not dropped.is_dropped(cands[i].label)}  # failed in its fit
     order = [i for i in order if i in fitted] + [i for i in order if i not in fitted]
     return Screening(cands, screened, order, fitted)
 

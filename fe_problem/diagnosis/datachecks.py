@@ -311,3 +311,48 @@ def spurious_modes(unpaired_nominal, unpaired_final, frequencies_hz, skip=()) ->
             f"mode {i + 1} ({frequencies_hz[i]:.4g} Hz) pairs with no mode of the model, nor of the model the "
             "diagnosis extended: a spurious mode of the identification, or an effect outside the candidates"))
     return tuple(out)
+
+
+#: The checks whose fault the diagnosis leaves out of its fit (`left_out`): the faults found before it.
+FAULTS = ("channel_polarity", "channel_swap", "mode_order", "duplicate_mode")
+
+
+def left_out(checks) -> dict:
+    """What a diagnosis leaves out of its fit for the faults `checks` found (unless told to keep
+    them): ``channels``, each faulty channel (node, direction) (a reversed one; both of a swapped
+    pair: which is which is unknown); ``shapes``, the 1-based modes whose shapes are left out, their
+    frequencies kept (two exchanged shapes: each belongs to the other's frequency); ``modes``, the
+    1-based modes left out whole (of a mode identified twice, the second copy). Empty: no fault."""
+    channels, shapes, modes = [], set(), set()
+    for c in checks:
+        if c.kind in ("channel_polarity", "channel_swap"):
+            channels += [tuple(ch) for ch in c.where["channels"] if tuple(ch) not in channels]
+        elif c.kind == "mode_order":
+            shapes |= set(c.where["modes"])
+        elif c.kind == "duplicate_mode":
+            modes.add(max(c.where["modes"]))
+    out = {}
+    if channels:
+        out["channels"] = [list(ch) for ch in channels]
+    if shapes - modes:
+        out["shapes"] = sorted(shapes - modes)
+    if modes:
+        out["modes"] = sorted(modes)
+    return out
+
+
+def without(data, leave: dict):
+    """The modal data (`ModalData`) with what `left_out` names left out: its channels' rows, its
+    shapes (NaN: frequency only), its modes. Mode numbers in `leave` are the file's (1-based)."""
+    import dataclasses
+
+    if not leave:
+        return data
+    shapes = np.array(data.shapes, dtype=float)
+    for m in leave.get("shapes", []):
+        shapes[:, m - 1] = np.nan
+    gone = {tuple(ch) for ch in leave.get("channels", [])}
+    rows = [i for i, d in enumerate(data.dofs) if tuple(d) not in gone]
+    keep = [k for k in range(data.n_modes) if k + 1 not in set(leave.get("modes", []))]
+    return dataclasses.replace(data, dofs=tuple(data.dofs[i] for i in rows),
+                               frequencies_hz=np.asarray(data.frequencies_hz)[keep], shapes=shapes[np.ix_(rows, keep)])

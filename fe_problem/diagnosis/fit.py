@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+from . import dropped
 from .candidates import Candidate
 from .residuals import Observations
 
@@ -35,7 +36,7 @@ def profiled(obs: Observations, hz: np.ndarray, shapes: np.ndarray, pairing: np.
     frequencies so that frequency-only modes pair with the calibrated model."""
     idx = obs.pair(hz, shapes) if pairing is None else pairing
     for _ in range(2):
-        ok = idx >= 0
+        ok = (idx >= 0) & np.isfinite(hz[np.clip(idx, 0, None)])  # a failed solve's mode: no scale from it
         if not ok.any():
             s = 1.0
         else:
@@ -67,7 +68,12 @@ def chi2_batch(obs: Observations, cand: Candidate, a: np.ndarray, pairing=None, 
     """Profiled fits for a batch of effect sizes, one batched eigen-solve (of the candidate's
     own system, or `forward`: its reduced form, `reduced_forward`)."""
     a = np.asarray(a, dtype=float)
-    hz, shapes = (cand.forward if forward is None else forward)(a)
+    try:
+        hz, shapes = (cand.forward if forward is None else forward)(a)
+    except Exception as exc:  # noqa: BLE001 - a reduced form's numerical failure: the full solve instead
+        if forward is None or not dropped.is_numerical(exc):
+            raise
+        hz, shapes = cand.forward(a)
     out = []
     for i in range(a.shape[0]):
         f = profiled(obs, hz[i], shapes[i], pairing)

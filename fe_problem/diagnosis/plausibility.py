@@ -101,10 +101,17 @@ def check(model: FrameModel, kind: str, location: dict | None, estimate: dict) -
     return None
 
 
+#: The residual degrees of freedom an answer needs to be decisive (answer.choose) and to pass
+#: without the note below: with nu residual dof the reduced chi^2 of a right model scatters by
+#: sqrt(2 / nu) (100 % at nu = 2), so on fewer than 3 almost any class with that many parameters
+#: fits, and its evidence is mostly the charge for its parameters.
+MIN_DOF = 3
+
+
 def few_dof_note(dof: int, n_params: int) -> str | None:
-    """A sentence when an answer rests on one or two degrees of freedom (the goodness of fit then
-    says little: almost any model with that many parameters fits)."""
-    if dof > 2:
+    """A sentence when an answer rests on fewer than `MIN_DOF` degrees of freedom (the goodness of
+    fit then says little: almost any model with that many parameters fits)."""
+    if dof >= MIN_DOF:
         return None
     return (f"the answer rests on {dof} degree(s) of freedom ({n_params} fitted parameters): the data can hardly "
             "test it; more modes or measured shapes are needed before it can be trusted")

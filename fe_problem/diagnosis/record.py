@@ -82,7 +82,9 @@ class Answer:
     (`evidence.FACTOR_10`) or above it; runner_up: that class's ``{"label", "family", "estimate",
     "log_evidence"}`` (the best different answer, decisive or not; None when there is none);
     plausible, implausible_because: as in `Cause`. Within the local family (one cause or several)
-    the local search's rounds choose; between families the evidence does (core.diagnose)."""
+    the local search's rounds choose; between families the evidence does (core.diagnose).
+    not_decisive_because: why an answer is not decisive whatever its evidence (it rests on fewer
+    residual degrees of freedom than `plausibility.MIN_DOF`; the data have a fault), else None."""
 
     label: str
     family: str
@@ -94,6 +96,7 @@ class Answer:
     runner_up: dict | None = None
     plausible: bool = True
     implausible_because: str | None = None
+    not_decisive_because: str | None = None
 
     @property
     def is_local(self) -> bool:
@@ -107,6 +110,8 @@ class Answer:
             out["plausible"] = self.plausible
             if not self.plausible:
                 out["implausible_because"] = self.implausible_because
+        if self.not_decisive_because:
+            out["not_decisive_because"] = self.not_decisive_because
         return out
 
 
@@ -350,7 +355,10 @@ class Diagnosis:
     answer: the best class by evidence (`Answer`). When the answer is not a local class (a
     distributed, sparse or model-form class) `cause`, `extended_model`, `gain` and `verdict` are
     that class's and `causes` stay the local search's. Records written before `answer` existed
-    have none (None here).
+    have none (None here). dropped: the candidates and classes whose solve failed numerically,
+    each {"label", "reason"}, left out of the fits, the test and the evidence (dropped.py);
+    left_out: the faulty channels, shapes and modes the diagnosis left out of its fit
+    (`datachecks.left_out`; empty: none, or kept).
     """
 
     cause: Cause
@@ -367,6 +375,8 @@ class Diagnosis:
     data_checks: tuple = ()
     evidence: object = None
     answer: Answer | None = None
+    dropped: tuple = ()
+    left_out: dict = field(default_factory=dict)
 
     @property
     def adequate(self) -> bool | None:
@@ -390,4 +400,5 @@ class Diagnosis:
                          "goodness_of_fit": self.verdict, "noise": self.noise,
                          "data_checks": [c.to_dict() for c in self.data_checks],
                          "evidence": None if self.evidence is None else self.evidence.to_dict(),
-                         "answer": self.answer})
+                         "answer": self.answer, "dropped": list(self.dropped),
+                         "left_out": dict(self.left_out)})

@@ -47,17 +47,26 @@ def close_mode_shape(u_m: np.ndarray, model_hz: np.ndarray, model_shapes: np.nda
     """The unit model shape a measured unit shape `u_m` is compared with when it pairs with model
     mode `j`: mode j combined with its close neighbours (penalised least squares, see the module
     docstring), or None when mode j has no neighbour within `CLOSE_MODES_REACH` x `CLOSE_MODES_REL` (mode j alone)."""
-    gap = np.abs(model_hz - model_hz[j]) / model_hz[j]
+    own = np.linalg.norm(model_shapes[:, j])
+    if not (np.isfinite(model_hz[j]) and np.isfinite(own) and own > 0 and np.isfinite(u_m).all()):
+        return None  # a failed solve's mode (dropped.py), or one still at the measured coordinates: no combination
+    with np.errstate(divide="ignore", invalid="ignore"):
+        gap = np.abs(model_hz - model_hz[j]) / model_hz[j]
     near = np.flatnonzero(gap < CLOSE_MODES_REACH * CLOSE_MODES_REL)
-    near = near[(near != j) & (np.linalg.norm(model_shapes[:, near], axis=0) > 0)]
+    norms = np.linalg.norm(model_shapes[:, near], axis=0)
+    near = near[(near != j) & (norms > 0) & np.isfinite(norms)]
     if not len(near):
         return None
     b = model_shapes[:, np.concatenate([[j], near])]
     b = b / np.linalg.norm(b, axis=0)
     penalty = np.concatenate([[0.0], np.expm1((gap[near] / CLOSE_MODES_REL) ** 2)])
-    c = np.linalg.lstsq(b.T @ b + np.diag(penalty), b.T @ u_m, rcond=None)[0]
+    try:
+        c = np.linalg.lstsq(b.T @ b + np.diag(penalty), b.T @ u_m, rcond=None)[0]
+    except np.linalg.LinAlgError:  # no combination found: the mode alone, as beyond reach
+        return None
     u = b @ c
-    return u / np.linalg.norm(u)
+    norm = np.linalg.norm(u)
+    return u / norm if np.isfinite(norm) and norm > 0 else None
 
 
 @dataclass(frozen=True, eq=False)
@@ -143,15 +152,23 @@ class Observations:
         measured coordinates (b, n_coord, k); returns r (b, n_residuals). `residuals` is this
         on a batch of one; the first-order screen's hot path (thousands of candidates a chunk,
         screening.py) calls it on whole batches."""
-        idx, ok = pairing, pairing >= 0
-        f = np.where(ok, model_hz[:, np.clip(idx, 0, None)], self.frequencies_hz * (1 + MAX_PAIR_FREQ))
+        idx = pairing
+        # a model mode that is not finite (a failed solve, dropped.py) pairs with nothing: the
+        # large fixed residual of a lost mode, so that no fit prefers a size its model cannot solve
+        f_raw = model_hz[:, np.clip(idx, 0, None)]                                  # (b, m)
+        ok = (idx >= 0)[None, :] & np.isfinite(f_raw)
+        sel = self.has_shape
+        if sel.any():  # so does a model shape that is not finite or does not move the measured coordinates
+            u_a = model_shapes[:, :, np.clip(idx[sel], 0, None)]                 # (b, n_coord, n_sel)
+            norms = np.linalg.norm(u_a, axis=1)                                     # (b, n_sel)
+            ok[:, sel] &= np.isfinite(norms) & (norms > 0)
+        f = np.where(ok, f_raw, self.frequencies_hz * (1 + MAX_PAIR_FREQ))
         rel = self.freq_noise if self.freq_rel_std is None else self.freq_rel_std
         r_f = (f - self.frequencies_hz) / (self.frequencies_hz * rel)
-        if not self.has_shape.any():
+        if not sel.any():
             return r_f
-        sel = self.has_shape
-        u_a = model_shapes[:, :, np.clip(idx[sel], 0, None)]                     # (b, n_coord, n_sel)
-        u_a = u_a / np.linalg.norm(u_a, axis=1, keepdims=True)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            u_a = u_a / norms[:, None, :]
         u_m = self.shapes[:, sel]
         # close modes as `residuals` treats them: only the (model, mode) pairs that have a
         # neighbour within reach go through `close_mode_shape` (none on most models)
@@ -165,12 +182,12 @@ class Observations:
             gap = np.abs(model_hz[:, None, :] - hz_j[:, :, None]) / hz_j[:, :, None]   # (b, n_sel, k)
         near = gap < CLOSE_MODES_REACH * CLOSE_MODES_REL
         near[:, np.arange(len(cols)), j] = False
-        for b, col in zip(*np.nonzero(near.any(axis=2) & ok[cols][None, :])):
+        for b, col in zip(*np.nonzero(near.any(axis=2) & ok[:, cols])):
             mixed = close_mode_shape(u_m[:, col], model_hz[b], model_shapes[b], j[col])
             if mixed is not None:
                 u_a[b, :, col] = mixed
+        u_a = np.where(ok[:, sel][:, None, :], u_a, 0.0)
         u_a = u_a * np.where(np.sum(u_a * u_m, axis=1, keepdims=True) < 0, -1.0, 1.0)
-        u_a = np.where(ok[sel][None, None, :], u_a, 0.0)
         sigma = (self.shape_noise * np.max(np.abs(u_m), axis=0) if self.shape_std is None
                  else self.shape_std[:, sel])
         shape_r = (u_a - u_m) / sigma                                               # (b, n_coord, n_sel)

@@ -172,7 +172,7 @@ def zone_forwards(model: FrameModel, element_id: int, coords, n_modes: int, shar
 def batched(system: AffineModel) -> bool:
     """Whether the solver is the dense one with its mass-normalised operator (a constant mass,
     projected); on the sparse path (large models) each size is solved as its own model."""
-    return isinstance(system._solver, ModalSolver) and system._solver.mass_constant
+    return isinstance(system._solver, ModalSolver) and system._solver.mass_constant and not system._solver.condensed
 
 
 def _one_by_one(model, element_id, start, end, a, coords, n_modes, about="rz"):

@@ -559,8 +559,6 @@ class _Reader:
                          for nid, comps in sorted(self.fixed.items())
                          if any(_DIRS[c - 1] in layout.names for c in comps))
         masses = self.masses()
-        if self.mass == "lumped":
-            self.check_lumped(masses, supports)
         meta = {"import": {
             "format": "nastran", "path": str(self.path.resolve()), "units": units_name, "mass": self.mass,
             "wtmass": self.wtmass, "spc_set": self.sid, "names": self.names,
@@ -570,22 +568,6 @@ class _Reader:
                           elements=tuple(self.elements), masses=masses, springs=tuple(self.springs),
                           supports=supports, description=f"imported from {self.path.name} ({units_name}, "
                           f"{self.mass} mass)", source=str(self.path), layout=layout, meta=meta)
-
-    def check_lumped(self, masses, supports) -> None:
-        """Lumped beams leave rotations massless; femu's solvers need mass on every free DOF."""
-        inertia = {m.node: m.inertia_kg_m2 for m in masses}
-        fixed = {s.node: set(s.directions) for s in supports}
-        for e in self.elements:
-            if e.release_i is not None or e.release_j is not None or e.releases_i or e.releases_j:
-                self.fail(self.bdf.elements[e.id].type, e.id,
-                          "a pinned end of a lumped-mass beam has no mass: import with --mass consistent")
-        for nid in sorted(self.bdf.nodes):
-            free = set(self.layout.rotations) - fixed.get(nid, set())
-            if free and not inertia.get(nid, 0.0) > 0:
-                _fail(self.path, "GRID", nid,
-                      f"lumped mass (no PARAM COUPMASS) leaves rotation(s) {', '.join(sorted(free))} massless and "
-                      "femu's solvers need mass on every free DOF: give the node a rotary inertia (CONM2 "
-                      "I11 = I22 = I33) or import with --mass consistent")
 
 
 def read_bdf(path: str | Path, units: str = "SI", mass: str = "deck", name: str | None = None) -> FrameModel:

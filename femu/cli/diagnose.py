@@ -16,7 +16,9 @@ Progress and warnings go to stderr. The method and its tests: docs/diagnosis.md.
 from __future__ import annotations
 
 
+import contextlib
 import math
+import os
 import sys
 import warnings
 from pathlib import Path
@@ -57,6 +59,29 @@ def _check_out(out: str) -> Path:
     return path
 
 
+@contextlib.contextmanager
+def _stdout_to_stderr():
+    """File descriptor 1 pointed at stderr inside: what a library writes to the C-level stdout
+    (LAPACK's and ARPACK's messages) goes to stderr, so that stdout holds only the command's
+    output (`--json`: the JSON alone). Python's own `sys.stdout` is flushed before and after."""
+    try:
+        sys.stdout.flush()
+        saved = os.dup(1)
+    except (OSError, ValueError):  # no fd 1 to redirect (closed, or not a file)
+        yield
+        return
+    try:
+        os.dup2(2, 1)
+        yield
+    finally:
+        try:
+            sys.stdout.flush()
+        except (OSError, ValueError):
+            pass
+        os.dup2(saved, 1)
+        os.close(saved)
+
+
 def _p_text(p) -> str:
     """A p-value; one that underflowed to 0 is shown as the bound it is."""
     return "< 1e-300" if p == 0 else f"= {fmt(p, 3)}"
@@ -74,6 +99,10 @@ def add_arguments(d) -> None:
                    help="std of a measured shape entry as a fraction of the largest |entry| of its mode, the "
                         "usual convention (default 0.02 = 2 %% of the peak); the record's goodness_of_fit gives "
                         "the noise the data imply")
+    d.add_argument("--keep-faulty", action="store_true",
+                   help="fit the channels and modes the data checks find faulty (a reversed or swapped channel, "
+                        "exchanged shapes, a mode identified twice) instead of leaving them out; either way an "
+                        "answer on faulty data is not decisive")
     d.add_argument("--evidence", choices=("laplace", "nested"), default="laplace",
                    help="how the model classes' evidence is found: laplace (at the fitted optimum, the default) "
                         "or nested (the best classes by Laplace sampled with dynesty, seeded; slower; needs "
@@ -81,7 +110,8 @@ def add_arguments(d) -> None:
 
 
 def run(args) -> int:
-    """Entry point of `femu diagnose` (args: data, model, out, json, freq_noise, shape_noise, evidence)."""
+    """Entry point of `femu diagnose` (args: data, model, out, json, freq_noise, shape_noise, evidence,
+    keep_faulty)."""
     from fe_problem import diagnose, load_modal_data, load_model, save_model
     from fe_problem.jsonutil import dumps
     from femu.reports.diagnosis import write_json, write_report
@@ -98,10 +128,10 @@ def run(args) -> int:
         require_dynesty()  # a missing optional dependency: one line, exit 2, before the work
     if sys.stderr.isatty():  # progress for a person waiting; logs and pipes get results and errors only
         _stderr(f"diagnosing {data.source} ({data.n_modes} modes) against model {model.name} ...")
-    with warnings.catch_warnings(record=True) as caught:
+    with warnings.catch_warnings(record=True) as caught, _stdout_to_stderr():
         warnings.simplefilter("always")
         diag = diagnose(model, data, freq_noise=freq_noise, shape_noise=shape_noise,
-                        evidence=getattr(args, "evidence", "laplace"))
+                        evidence=getattr(args, "evidence", "laplace"), keep_faulty=getattr(args, "keep_faulty", False))
     for msg in dict.fromkeys(str(w.message) for w in caught):
         _stderr(f"warning: {msg}")
 
@@ -115,7 +145,10 @@ def run(args) -> int:
             extended_file = "extended.model.json"
             written.append(save_model(diag.extended_model, out / extended_file))
         written.append(write_json(diag, out / "diagnosis.json"))
-        written.extend(write_report(diag, model, data, out, extended_file))
+        from fe_problem.diagnosis.datachecks import without
+
+        # the report draws the data the diagnosis fitted: the faulty channels and modes left out
+        written.extend(write_report(diag, model, without(data, diag.left_out), out, extended_file))
 
     if args.json:
         sys.stdout.write(dumps(diag) + "\n")

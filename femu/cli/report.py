@@ -3,7 +3,7 @@
 Give --out DIR (the report: report.md and its figures), --json (the benchmark statistics on
 stdout), or both: one of them is required. Example:
 
-  femu report runs/ --out report/ --ioh
+  femu report runs/ --out report/ --ioh --coco
 """
 
 from __future__ import annotations
@@ -22,17 +22,19 @@ def add_arguments(rp) -> None:
                          "range, comparisons on problems as blocks, per-problem tests, aggregate ECDF, profiles); "
                          "with --out, also write the report (required unless --out)")
     rp.add_argument("--ioh", action="store_true", help="also export IOHprofiler files to OUT/ioh")
+    rp.add_argument("--coco", action="store_true", help="also export COCO data (for cocopp) to OUT/coco")
 
 
 def run(args) -> int:
-    """`femu report STORE --out DIR [--ioh]`, `femu report STORE --json [--out DIR]`."""
+    """`femu report STORE --out DIR [--ioh] [--coco]`, `femu report STORE --json [--out DIR]`."""
     from femu.reports.study import write_report
 
     if args.out is None and not args.json:
         raise ValueError("the following arguments are required: --out DIR (the report), or --json (the "
                          "benchmark statistics on stdout)")
-    if args.out is None and args.ioh:
-        raise ValueError("--ioh writes to OUT/ioh and needs --out DIR")
+    for flag in ("ioh", "coco"):
+        if args.out is None and getattr(args, flag):
+            raise ValueError(f"--{flag} writes to OUT/{flag} and needs --out DIR")
     store, runs = stored_runs(args, "report")
     if args.json:
         from fe_problem.jsonutil import dumps
@@ -40,11 +42,13 @@ def run(args) -> int:
 
         stats = benchmark_statistics(runs)
         if args.out is not None:
-            write_report(runs, args.out, ioh=args.ioh, source=f"store `{store.path}`")
+            write_report(runs, args.out, ioh=args.ioh, coco=args.coco, source=f"store `{store.path}`")
         print(dumps(stats))
         return 0
-    path = write_report(runs, args.out, ioh=args.ioh, source=f"store `{store.path}`")
+    path = write_report(runs, args.out, ioh=args.ioh, coco=args.coco, source=f"store `{store.path}`")
     print(f"report written to {path}")
     if args.ioh:
         print(f"IOHprofiler files in {path.parent / 'ioh'}")
+    if args.coco:
+        print(f"COCO data in {path.parent / 'coco'} (cocopp: see docs/suite.md)")
     return 0

@@ -24,6 +24,7 @@ budgets of one (solver, problem, seed), the run with the largest budget counts.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from functools import lru_cache
 from pathlib import Path
 
@@ -41,7 +42,7 @@ BEST_KNOWN = "best known"
 
 from . import stats as st
 from .render import make_out_dir
-from .render import markdown_table
+from .render import markdown_table, provenance_lines, report_provenance
 
 #: The run scores of the per-problem tests (femu.reports.stats.run_scores).
 COMPARISON_METRICS = ("auc", "final")
@@ -153,6 +154,10 @@ def design(runs, alpha: float = 0.05) -> dict:
         out["wilcoxon_holm"] = st.smallest_p("wilcoxon", len(shared), n_tests=math.comb(len(solvers), 2))
         if len(solvers) >= 3:
             out["friedman"] = st.smallest_p("friedman", len(shared), len(solvers))
+    if len(solvers) >= 2:  # what a comparison on the problems can detect, and how many it needs
+        out["power"] = st.wilcoxon_power(len(shared), math.comb(len(solvers), 2), alpha)
+        if len(solvers) >= 3:
+            out["friedman_min_problems"] = st.min_blocks("friedman", alpha, k=len(solvers))
     return out
 
 
@@ -201,6 +206,30 @@ def not_anytime(runs) -> dict[str, int]:
     return dict(sorted(out.items()))
 
 
+def first_levels(targets: dict[str, st.Targets]) -> dict[str, int]:
+    """{group: the first target level below J(x0) - f_opt of every instance of the group}: the
+    levels above are reached by the initial model itself (at evaluation 1 by any solver that
+    starts there), and the ECDFs start below them."""
+    out: dict[str, int] = {}
+    for pid, t in targets.items():
+        gap = t.f_start - t.f_opt
+        k = next((i for i, d in enumerate(t.deltas) if d < gap), len(t.deltas) - 1)
+        g = st.group_of(pid)
+        out[g] = max(out.get(g, 0), k)
+    return dict(sorted(out.items()))
+
+
+def one_budget_reached(traces, targets: dict[str, st.Targets], one_budget: dict[str, int]) -> dict:
+    """{solver: {group: fraction of (run, target) pairs reached at the end of the run}} for the
+    solvers that are not anytime: their one honest point of an ECDF."""
+    out: dict = {}
+    for (solver, group), rs in st.by_key([t for t in traces if t.solver in one_budget],
+                                         lambda r: (r.solver, st.group_of(r.problem))).items():
+        times = np.concatenate([st.hitting_times(r, targets[r.problem]) for r in rs])
+        out.setdefault(solver, {})[group] = float(np.isfinite(times).mean())
+    return out
+
+
 def benchmark_statistics(runs) -> dict:
     """Every number of the benchmark report of `runs` (RunResults, suite problems or variants):
     problems and targets, ERT per solver, group and target level with its bootstrapped range,
@@ -219,6 +248,12 @@ def benchmark_statistics(runs) -> dict:
     # a solver that is not anytime has no honest value below its budget: left out
     fixed = [fb for fb in st.fixed_budget(traces, targets, budgets)
              if fb.solver not in one_budget or fb.budget >= one_budget[fb.solver]]
+    # the anytime aggregates (ECDFs over budgets, the aggregated ECDF, the profiles, the ERT
+    # figure) are of the anytime solvers only (of all when none is), on the target levels
+    # below every instance's start (`first_levels`)
+    anytime = [t for t in traces if t.solver not in one_budget] or traces
+    first = first_levels(targets)
+    below = {pid: replace(t, deltas=t.deltas[first[st.group_of(pid)]:]) for pid, t in targets.items()}
     comparisons, not_compared = {}, None
     for value in BLOCK_VALUES:
         try:
@@ -233,12 +268,16 @@ def benchmark_statistics(runs) -> dict:
     return {"format": "femu.benchmark/2", "solvers": sorted({r.optimizer for r in runs}),
             "budget": max(r.budget for r in runs), "n_runs": len(runs), "problems": problems,
             "target_levels": list(st.target_levels()),
-            "ert": st.ert_table(traces, targets), "ert_block_level": ERT_BLOCK_LEVEL, "ecdf": st.ecdfs(traces, targets),
+            "ert": st.ert_table(traces, targets), "ert_block_level": ERT_BLOCK_LEVEL,
+            "ecdf": st.ecdfs(anytime, below), "first_levels": first,
+            "anytime_aggregates": sorted({t.solver for t in anytime}),
+            "one_budget_reached": one_budget_reached(traces, below, one_budget),
             "fixed_budget": fixed, "one_budget": one_budget, "comparisons": comparisons,
             "not_compared": not_compared if not comparisons else None, "per_problem": per_problem,
             "design": design(runs), "below_f_opt": below_f_opt(runs),
-            "aggregate": st.aggregate_ecdf(traces, targets, n_var), "profiles": st.profiles(traces, targets, n_var),
-            "costs": costs(runs), "convergence": convergence(traces, targets)}
+            "aggregate": st.aggregate_ecdf(anytime, below, n_var), "profiles": st.profiles(anytime, targets, n_var),
+            "costs": costs(runs), "convergence": convergence(traces, targets),
+            "provenance": report_provenance(runs)}
 
 
 def convergence(traces, targets, points: int = 40) -> list[dict]:
@@ -276,7 +315,7 @@ def _ert_lines(s: dict) -> list[str]:
                            if math.isfinite(per[group][i]) else "")
                     cells.append(f"{_g(per[group][i])}{rng}{mark} ({table.successes[solver][group][i]}/"
                                  f"{table.runs[solver][group]})")
-                rows.append([solver] + cells)
+                rows.append([solver + (" (one budget)" if solver in s.get("one_budget", {}) else "")] + cells)
         out += [f"**{group}**: ERT in FE evaluations [10 %, 90 % of COCO's bootstrapped run lengths with restarts] "
                 "(runs that hit / runs) per target; *beyond budget*: the ERT exceeds every run's budget (an "
                 "extrapolation from restarts no run made)", ""]
@@ -303,10 +342,21 @@ def _one_budget_lines(s: dict) -> list[str]:
     if not one:
         return []
     names = ", ".join(f"`{k}` (budget {b})" for k, b in one.items())
-    return [f"Not anytime: {names}. Their schedule follows the budget (`femu optimizers` lists each "
-            "optimizer's capabilities), so their ECDF, ERT and convergence curves below the budget are from one "
-            "budget's runs, not what runs of a smaller budget would find; their fixed-budget values below it are "
-            "left out.", ""]
+    kept_out = set(one) - set(s.get("anytime_aggregates", one))
+    reached = s.get("one_budget_reached", {})
+    lines = [f"Not anytime: {names}. Their schedule follows the budget (`femu optimizers` lists each "
+             "optimizer's capabilities), so their convergence curves and ERT below the budget are from one "
+             "budget's runs, not what runs of a smaller budget would find (marked *one budget* in the ERT tables); "
+             "their fixed-budget values below it are left out"
+             + (", and so are they from the ECDFs over budgets, the aggregated ECDF, the profiles and the ERT figure"
+                if kept_out else "") + ".", ""]
+    if reached:
+        lines += ["Their one honest ECDF point: the fraction of (run, target) pairs reached at the end of the budget.", ""]
+        lines += markdown_table(["solver", "budget"] + sorted({g for per in reached.values() for g in per}),
+                                [[k, one[k]] + [f"{per.get(g, float('nan')):.3f}" for g in
+                                                sorted({g for per in reached.values() for g in per})]
+                                 for k, per in reached.items()]) + [""]
+    return lines
 
 
 def _comparison_lines(c: st.BlockComparison) -> list[str]:
@@ -354,7 +404,24 @@ def _design_lines(d: dict) -> list[str]:
     weak = [names[k] for k in names if k in d and d[k] > d["alpha"]]
     return ["Smallest p-values this design can reach: " + "; ".join(parts) + "."
             + (f" **No {' and no '.join(weak)} test can separate two solvers at alpha {d['alpha']}.**"
-               if weak else ""), ""]
+               if weak else ""), ""] + _power_lines(d)
+
+
+def _power_lines(d: dict) -> list[str]:
+    """The power statement of the comparison on problems as blocks (`stats.wilcoxon_power`)."""
+    w = d.get("power")
+    if not w:
+        return []
+    now = (f"with these {w['problems']} shared problems it detects, with power {w['power']:.0%}, a standardized "
+           f"per-problem difference dz >= {w['detectable_dz']:.2f} (mean over sd of the pair's differences)"
+           if w["detectable_dz"] is not None else f"these {w['problems']} shared problems are too few for any")
+    need = ", ".join(f"dz {k:g}: {v}" for k, v in w["problems_needed"].items())
+    fried = (f"; Friedman's test over the {d['solvers']} solvers needs at least {d['friedman_min_problems']} problems"
+             if "friedman_min_problems" in d else "")
+    return [f"Power: a Wilcoxon-Holm pair ({w['pairs']} pairs, Holm's first step at alpha {w['level']:.3g}) needs at "
+            f"least {w['min_problems']} problems to be separable at all; {now}. Problems needed for power "
+            f"{w['power']:.0%} at a given dz (normal differences; Wilcoxon as {st.WILCOXON_ARE:.3f} times the "
+            f"paired t-test's problems): {need}{fried}.", ""]
 
 
 def _aggregate_lines(s: dict) -> list[str]:
@@ -394,7 +461,11 @@ def render_benchmark(s: dict, figures: dict, source: str) -> str:
                       "every target, and a run that reached it only counts as the best of these runs."]
     lines += [""] + _one_budget_lines(s)
     lines += ["## Expected running time (ERT)", ""] + _ert_lines(s)
+    first = s.get("first_levels", {})
     lines += [f"![ERT]({figures['ert']})", "", "## Fixed-target ECDFs (instances pooled)", "",
+              "The ECDFs (here and aggregated) count the target levels below every instance's J(x0) - f_opt "
+              "(the initial model reaches the others at evaluation 1): from level "
+              + ", ".join(f"{k} on {g}" for g, k in first.items()) + " of 0 ... 50.", "",
               f"![ECDF]({figures['ecdf']})", "", "## Aggregated ECDF over all problems and targets", ""]
     lines += _aggregate_lines(s) + [f"![aggregated ECDF]({figures['aggregate']})", "",
                                     "## Data and performance profiles", "",
@@ -428,6 +499,7 @@ def render_benchmark(s: dict, figures: dict, source: str) -> str:
                               ", ".join(f"{n} {st_}" for st_, n in c["statuses"].items())]
                              for k, c in s["costs"].items()])
     lines += ["", "## Convergence per problem", ""] + [f"![convergence {g}]({f})" for g, f in figures["convergence"].items()]
+    lines += [""] + provenance_lines(s["provenance"])
     return "\n".join(lines) + "\n"
 
 
@@ -438,7 +510,10 @@ def write_benchmark(runs, out_dir, source: str, name: str = "report.md") -> Path
     s = benchmark_statistics(runs)
     out = make_out_dir(out_dir)
     groups = sorted({st.group_of(p["id"]) for p in s["problems"]})
-    figures = {"ert": sf.plot_ert(s["ert"], out / "ert.png").name,
+    keep = set(s["anytime_aggregates"])
+    ert_anytime = replace(s["ert"], **{f: {k: v for k, v in getattr(s["ert"], f).items() if k in keep}
+                                       for f in ("ert", "successes", "runs", "lower", "upper", "beyond_budget")})
+    figures = {"ert": sf.plot_ert(ert_anytime, out / "ert.png").name,
                "ecdf": sf.plot_ecdf(s["ecdf"], out / "ecdf.png").name,
                "aggregate": sf.plot_aggregate(s["aggregate"], out / "aggregate_ecdf.png").name,
                "profiles": sf.plot_profiles(s["profiles"], out / "profiles.png").name,

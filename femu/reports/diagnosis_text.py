@@ -95,7 +95,10 @@ def answer_lines(diag: Diagnosis) -> list[str]:
     lines = [f"{'best class by evidence' if best else 'answer, though not the best class by evidence'}: {a.label} "
              f"({a.family}), log evidence {fmt(a.log_evidence)}"
              + (", decisive (the next answer more than a factor of 10 below)" if a.decisive and ru else "")]
-    if not a.decisive and ru is not None and best:
+    because = getattr(a, "not_decisive_because", None)
+    if because:
+        lines.append(f"not decisive: {because}")
+    elif not a.decisive and ru is not None and best:
         lines.append(f"cannot tell apart {a.label} from {ru['label']} (log evidence {fmt(a.log_evidence)} against "
                      f"{fmt(ru['log_evidence'])})")
     elif ru is not None and not best:
@@ -162,7 +165,14 @@ def data_check_lines(diag: Diagnosis) -> list[str]:
         return []
     lines = [f"DATA CHECKS: {len(diag.data_checks)} fault(s) of the data found"]
     lines += [f"  - {c.kind}: {c.text}" for c in diag.data_checks]
-    lines.append("  the diagnosis below ran on the data as given; the fault(s) may explain its misfit and causes")
+    leave = getattr(diag, "left_out", None) or {}
+    if leave:
+        what = "; ".join(f"{k} " + ", ".join("".join(map(str, v)) if isinstance(v, list) else str(v) for v in vals)
+                         for k, vals in leave.items())
+        lines.append(f"  the diagnosis below left out of its fit: {what} (--keep-faulty fits them); its answer is "
+                     "not decisive")
+    else:
+        lines.append("  the diagnosis below ran on the data as given; the fault(s) may explain its misfit and causes")
     return lines + [""]
 
 

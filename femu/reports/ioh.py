@@ -13,8 +13,11 @@ Two ways in, one file format:
   batch's best, so an improvement is dated at that best's evaluation, never earlier.
 
 raw_y is the precision J - f_opt, as ioh's own Analyzer logs its BBOB problems (f - f_opt,
-0 at the optimum), in units of the problem's top target (`IOHTerms.scale`, the power of ten at
-or above J(x0) - f_opt), at full precision: ioh's Analyzer writes its raw_y column with 10
+0 at the optimum), in units of the family's top target (`IOHTerms.scale`: 100 times the
+family's fixed `fe_problem.suite.TARGET_SCALE`, the same on every instance and dimension of a
+function id, so that a target in IOHanalyzer means one precision per function; a family with
+no fixed scale, the ``synthetic`` variant, the power of ten at or above J(x0) - f_opt), at full
+precision: ioh's Analyzer writes its raw_y column with 10
 fixed decimals (1e-14 would read 0), so ioh's own RawY property is logged a second time with
 17 significant digits and put in raw_y's place when the logger closes (`full_precision`).
 f_opt is the suite's (the paper's certified minimum for ``paper``); a problem without a known optimum (the ``synthetic``
@@ -65,9 +68,13 @@ OLD_FUNCTION_IDS = {"paper": 1, "synthetic": 2, "hframe-freq": 11, "hframe-shape
 #: The extra column ioh logs raw_y into at full precision (its own RawY property, format {:.17g});
 #: it replaces ioh's raw_y column (10 fixed decimals) once a logger is closed (`full_precision`).
 FULL = "raw_y_full"
+#: The experiment attribute that says what raw_y is (named unlike any data column or metadata field).
+ATTRIBUTE = "femu_raw_y_definition"
 _PROPERTIES: list = []
 
-_FEEDS: dict[str, object] = {}
+_FEEDS: dict[tuple, object] = {}
+#: The instance ioh last evaluated per family (`_family_functions`).
+_SEEN: dict[str, int] = {}
 #: The optimum (x in [0, 1]^n, raw_y) ioh reports per (family, instance, n_var): x NaN where
 #: not known, raw_y 0 where f_opt is known (NaN otherwise).
 _OPTIMA: dict[tuple, tuple] = {}
@@ -77,7 +84,8 @@ _KEEP: dict[str, tuple] = {}
 @dataclass(frozen=True, eq=False)
 class IOHTerms:
     """How one problem is written for ioh: function id, name and instance; f_opt (J units, 0
-    where unknown) and how it is known; scale (raw_y = (J - f_opt) / scale); the bounds xl, xu
+    where unknown) and how it is known; scale (raw_y = (J - f_opt) / scale, one per function
+    id: `raw_y_scale`); the bounds xl, xu
     (Pa) of x's normalisation; x_opt, the optimum in [0, 1]^n where known (else None)."""
 
     function_id: int
@@ -118,12 +126,24 @@ def ioh_terms(variant: str) -> IOHTerms:
     family, instance = (variant.split("/")[0], int(variant.split("/")[2])) if is_suite_id(variant) else (variant, 1)
     f_opt = getattr(p, "f_opt", PAPER_F_OPT if variant == "paper" else None)
     kind = getattr(p, "f_opt_kind", "certified" if variant == "paper" else "unknown")
-    gap = float(p.evaluate(p.x0)[0]) - (f_opt or 0.0)
     xl, xu = np.asarray(p.xl, float), np.asarray(p.xu, float)
     truth = getattr(p, "truth", None)
     return IOHTerms(FUNCTION_IDS[family], family, instance, int(p.n_var), float(f_opt or 0.0), kind,
-                    10.0 ** math.ceil(math.log10(gap) - 1e-12), xl, xu,
+                    raw_y_scale(family, p, f_opt or 0.0), xl, xu,
                     None if truth is None or f_opt is None else (np.asarray(truth, float) - xl) / (xu - xl))
+
+
+def raw_y_scale(family: str, problem=None, f_opt: float = 0.0) -> float:
+    """The raw_y unit of a family's function id: its top target, 100 * TARGET_SCALE[family]
+    (one value for every instance and dimension); for a family without a fixed scale (a
+    variant that is its own only instance) the power of ten at or above J(x0) - f_opt of
+    `problem`."""
+    from fe_problem.suite import TARGET_SCALE
+
+    if family in TARGET_SCALE:
+        return 100.0 * TARGET_SCALE[family]
+    gap = float(problem.evaluate(problem.x0)[0]) - f_opt
+    return 10.0 ** math.ceil(math.log10(gap) - 1e-12)
 
 
 def _register(family: str) -> None:
@@ -132,32 +152,41 @@ def _register(family: str) -> None:
     # every family registered at once, before any problem is made: ioh 0.3 crashes making a
     # problem of a family wrapped after another family's problem was made
     for family in (*FUNCTION_IDS, family):
-        if family in _FEEDS:
+        if family in _KEEP:
             continue
-        _FEEDS[family] = None
-        feed, optimum = _KEEP[family] = _family_functions(family)  # ioh does not hold them: freed, they crash
-        ioh.wrap_problem(feed, name=PREFIX + family, dimension=1, lb=0.0, ub=1.0, calculate_objective=optimum)
+        feed, optimum, seen = _KEEP[family] = _family_functions(family)  # ioh does not hold them: freed, they crash
+        ioh.wrap_problem(feed, name=PREFIX + family, dimension=1, lb=0.0, ub=1.0, calculate_objective=optimum,
+                         transform_variables=seen)
 
 
 def _family_functions(family: str):
-    """The objective (one argument: x) and optimum (instance, dimension) of a family for ioh."""
+    """The objective (one argument: x), optimum (instance, dimension) and the variables'
+    transformation (x, instance) of a family for ioh. ioh hands the instance to the
+    transformation only, just before it calls the objective: it is noted there, and the
+    objective answers with the feed of (family, instance, dimension), so that problems of one
+    family coexist."""
     def feed(x):
-        return _FEEDS[family](x)
+        return _FEEDS[(family, _SEEN[family], len(x))](x)
 
     def optimum(instance, dimension):
         return _OPTIMA.get((family, instance, dimension), ([math.nan] * dimension, math.nan))
 
-    return feed, optimum
+    def seen(x, instance):
+        _SEEN[family] = instance
+        return x
+
+    return feed, optimum, seen
 
 
 def ioh_problem(terms: IOHTerms, feed):
     """An ioh RealSingleObjective (minimisation) named femu_<family>, with our function id and
     the problem's instance and dimension, bounds [0, 1], whose value at each call is `feed(x)`
-    (one feed per family at a time); its optimum (x*, 0) where x* is known."""
+    (one feed per family, instance and dimension at a time: the latest); its optimum (x*, 0)
+    where x* is known."""
     import ioh
 
     _register(terms.family)
-    _FEEDS[terms.family] = feed
+    _FEEDS[(terms.family, terms.instance, terms.n_var)] = feed
     x_opt = [math.nan] * terms.n_var if terms.x_opt is None else terms.x_opt.tolist()
     _OPTIMA[(terms.family, terms.instance, terms.n_var)] = (x_opt, 0.0 if terms.f_opt_kind != "unknown" else math.nan)
     p = ioh.get_problem(PREFIX + terms.family, terms.instance, terms.n_var, ioh.ProblemClass.REAL)
@@ -179,8 +208,10 @@ def _analyzer(root: Path, algorithm: str, info: str, triggers: list):
                              folder_name=safe_name(algorithm), algorithm_name=algorithm, algorithm_info=info,
                              store_positions=False)
     lg.add_run_attribute("seed", 0.0)
-    lg.add_experiment_attribute("raw_y", "(J - f_opt) / scale, J the objective; f_opt and scale per function "
-                                         "and instance in femu-ioh.json")
+    # not named like a data column or a metadata field (raw_y, evals, best_y ...): IOHprofiler's
+    # readers join attributes to the data by name (iohinspector moved raw_y to raw_y_right)
+    lg.add_experiment_attribute(ATTRIBUTE, "(J - f_opt) / raw_y_scale with J the objective; f_opt per "
+                                           "instance and raw_y_scale per function in femu-ioh.json")
     return lg
 
 

@@ -20,6 +20,33 @@ def markdown_table(header: list[str], rows: list[list]) -> list[str]:
     return out + ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
 
 
+def report_provenance(runs) -> dict:
+    """The provenance a report states: this process's (`adapters.provenance.provenance`: femu-bench
+    version and commit, suite version, host, date, library versions) and the runs' own
+    (`runs_provenance`: hosts, suite and femu-bench versions recorded in them)."""
+    from adapters.provenance import provenance, runs_provenance
+
+    return {**provenance(), "records": runs_provenance(runs)}
+
+
+def provenance_lines(p: dict) -> list[str]:
+    """A report's "Provenance" section (Markdown lines) from `report_provenance`'s dict."""
+    def counts(d: dict) -> str:
+        return ", ".join(f"{k} ({n})" for k, n in d.items()) or "none"
+
+    commit = "not in a git work tree" if p["commit"] is None else p["commit"][:12] + (" (with local changes)"
+                                                                                     if p["commit_dirty"] else "")
+    libs = ", ".join(f"{k} {v}" for k, v in p["versions"].items() if v is not None)
+    rec = p["records"]
+    return ["## Provenance", "",
+            f"- made with femu-bench {p['femu_bench']}, commit {commit}, suite version {p['suite_version']}",
+            f"- on {p['host']} ({p['platform']}, {p.get('cpus')} CPUs, load average "
+            f"{'unknown' if not p.get('load_average') else ' / '.join(map(str, p['load_average']))}), {p['date_utc']}",
+            f"- libraries: {libs}",
+            f"- the {rec['runs']} runs: hosts {counts(rec['hosts'])}; suite versions {counts(rec['suite_versions'])}; "
+            f"femu-bench {counts(rec['femu_bench'])}", ""]
+
+
 def figure(width: float = 7.5, height: float = 4.6, nrows: int = 1, ncols: int = 1, **subplots):
     """A new figure of ``width`` x ``height`` inches and its axes as a (nrows, ncols) array."""
     from matplotlib.figure import Figure

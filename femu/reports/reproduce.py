@@ -37,6 +37,11 @@ def render_text(res: dict) -> str:
               + ", ".join(f"{k} {v} %" for k, v in res["paper"]["mean_error_pct_text"].items())
               + " (not all consistent with the table). The H-frame geometry is a reconstruction.",
               f"Report: {res['report']}   store: {res['store']}   ({res['wall_s']:.1f} s)"]
+    if res.get("provenance"):
+        p = res["provenance"]
+        commit = "no git commit" if p["commit"] is None else "commit " + p["commit"][:12] + ("+" if p["commit_dirty"] else "")
+        lines.append(f"femu-bench {p['femu_bench']} ({commit}), suite version {p['suite_version']}, {p['host']}, "
+                     f"{p['date_utc']}")
     return "\n".join(lines)
 
 

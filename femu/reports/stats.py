@@ -428,6 +428,48 @@ def smallest_p(test: str, *sizes: int, n_tests: int = 1) -> float:
     return float(min(1.0, p * n_tests))
 
 
+#: Asymptotic relative efficiency of Wilcoxon's signed-rank test to the paired t-test when the
+#: differences are normal (3 / pi, Hodges and Lehmann 1956): n problems under Wilcoxon weigh as
+#: n * 3 / pi under the t-test.
+WILCOXON_ARE = 3.0 / math.pi
+#: Standardized per-problem differences the report says the problems needed for (Cohen's dz:
+#: mean / standard deviation of a pair's differences over problems; 0.5 medium, 0.8 large).
+EFFECTS = (0.5, 0.8, 1.2)
+
+
+def min_blocks(test: str, alpha: float = 0.05, n_tests: int = 1, k: int = 2) -> int:
+    """The fewest blocks (problems) with which `test` can reach p <= alpha at all (after Holm
+    over `n_tests`): ``wilcoxon`` 2 / 2^n <= alpha / n_tests; ``friedman`` (k solvers) the
+    chi-square tail at n (k - 1) <= alpha (`smallest_p`)."""
+    n = 1
+    while smallest_p(test, *((n,) if test == "wilcoxon" else (n, k)), n_tests=n_tests) > alpha:
+        n += 1
+    return n
+
+
+def wilcoxon_power(n_problems: int, n_pairs: int, alpha: float = 0.05, power: float = 0.8,
+                   effects=EFFECTS) -> dict:
+    """What a Wilcoxon-Holm comparison on `n_problems` blocks can detect, for normal per-problem
+    differences: `min_problems` (the fewest with which a pair can be separated at all),
+    `detectable_dz` (the smallest standardized difference dz found with probability `power` at
+    Holm's first step, alpha / n_pairs; None below min_problems) and `problems_needed` {dz: the
+    problems that power needs}. The paired t-test's power (statsmodels, noncentral t) on the
+    problems' Wilcoxon-equivalent number n * `WILCOXON_ARE`; tests/test_stats_power.py checks it
+    against simulated Wilcoxon tests."""
+    from statsmodels.stats.power import TTestPower
+
+    level = alpha / max(n_pairs, 1)
+    floor = min_blocks("wilcoxon", alpha, n_tests=max(n_pairs, 1))
+    t = TTestPower()
+    dz = None
+    if n_problems >= floor and n_problems * WILCOXON_ARE > 2:
+        dz = float(t.solve_power(effect_size=None, nobs=n_problems * WILCOXON_ARE, alpha=level, power=power))
+    needed = {float(d): max(floor, math.ceil(float(t.solve_power(effect_size=d, nobs=None, alpha=level, power=power))
+                                             / WILCOXON_ARE)) for d in effects}
+    return {"alpha": alpha, "level": level, "power": power, "problems": n_problems, "pairs": n_pairs,
+            "min_problems": floor, "detectable_dz": dz, "problems_needed": needed}
+
+
 def block_table(runs: list[RunTrace], targets: dict[str, Targets], value: str = "median_final",
                 level: int = 0):
     """(solvers, problems, table (n_problems, n_solvers), dropped problems): one value per

@@ -4,7 +4,7 @@ femu.reports.render. A report renders records and computes nothing new.
 
 `write_report(store_or_runs, out_dir)` writes DIR/report.md, DIR/summary.json and the figures
 (convergence, ECDF, overhead, mean error vs the paper, updated parameters, the frame in its
-first modes, MAC matrices); with ``ioh`` also DIR/ioh. Runs on suite
+first modes, MAC matrices); with ``ioh`` also DIR/ioh, with ``coco`` DIR/coco. Runs on suite
 problems (`femu study --suite`) get the benchmark report instead (femu.reports.benchmark:
 DIR/report.md, DIR/stats.json), and runs on variants beside them DIR/variants.md; a study of
 variants only where two solvers share a problem gets the benchmark report as DIR/benchmark.md.
@@ -25,15 +25,16 @@ from .figures import (plot_convergence, plot_ecdf, plot_errors, plot_mac, plot_m
                       plot_parameters)
 from .markdown import render_markdown
 from .records import GroupSummary
-from .render import make_out_dir
+from .render import make_out_dir, provenance_lines, report_provenance
 from .summary import best_so_far, paper_comparison, summarize  # noqa: F401  (the report's public names)
 
 __all__ = ["best_so_far", "paper_comparison", "render_files", "render_markdown", "summarize", "write_report"]
 
 
-def write_report(store_or_runs, out_dir, ioh: bool = False, source: str | None = None) -> Path:
+def write_report(store_or_runs, out_dir, ioh: bool = False, source: str | None = None, coco: bool = False) -> Path:
     """Write OUT/report.md, OUT/summary.json and PNG figures for a Store, a store path or a
-    list of RunResults; with `ioh`, also OUT/ioh (IOHprofiler files). `source` says in the
+    list of RunResults; with `ioh`, also OUT/ioh (IOHprofiler files); with `coco`, OUT/coco
+    (COCO data for cocopp). `source` says in the
     report where the runs come from (default: the store's path). Returns report.md's path."""
     if isinstance(store_or_runs, (str, Path)):
         store_or_runs = Store(store_or_runs)
@@ -50,11 +51,11 @@ def write_report(store_or_runs, out_dir, ioh: bool = False, source: str | None =
     if suite:  # the benchmark report; runs on the named variants get theirs in variants.md
         path = write_benchmark(suite, out_dir, source)
         if variants:
-            other = render_files(summarize(variants), out_dir, source, name="variants.md")
+            other = render_files(summarize(variants), out_dir, source, name="variants.md", runs=variants)
             with path.open("a") as f:
                 f.write(f"\nThe runs on problem variants (not suite problems) are reported in [{other.name}]({other.name}).\n")
     else:
-        path = render_files(summarize(runs), out_dir, source)
+        path = render_files(summarize(runs), out_dir, source, runs=runs)
         if shared_problem(runs):  # the benchmark statistics of any study with a comparison to make
             other = write_benchmark(runs, out_dir, source, name="benchmark.md")
             with path.open("a") as f:
@@ -66,6 +67,9 @@ def write_report(store_or_runs, out_dir, ioh: bool = False, source: str | None =
     if ioh:
         from .ioh import export_runs
         export_runs(runs, Path(out_dir) / "ioh")
+    if coco:
+        from .coco import export_coco
+        export_coco(runs, Path(out_dir) / "coco")
     return path
 
 
@@ -112,9 +116,12 @@ def settings_apart(runs) -> tuple[list, list[str]]:
     return out, notes
 
 
-def render_files(groups: list[GroupSummary], out_dir, source: str, name: str = "report.md") -> Path:
-    """Render summary records as OUT/<name> (report.md), OUT/summary.json and the PNG figures."""
+def render_files(groups: list[GroupSummary], out_dir, source: str, name: str = "report.md", runs=()) -> Path:
+    """Render summary records as OUT/<name> (report.md), OUT/summary.json and the PNG figures,
+    each with its provenance (`render.report_provenance` of `runs`, the runs summarised): in
+    report.md a section, in summary.json each group's "provenance"."""
     out = make_out_dir(out_dir)
+    prov = report_provenance(runs)
     figures = {}
     for g in groups:
         stem = f"{variant_stem(g.variant)}_b{g.budget}"
@@ -130,7 +137,7 @@ def render_files(groups: list[GroupSummary], out_dir, source: str, name: str = "
                 made["modes"] = plot_mode_shapes(g, out / f"modes_{stem}.png")
             made["mac"] = plot_mac(g, out / f"mac_{stem}.png")
         figures[(g.variant, g.budget)] = {k: p.name for k, p in made.items()}
-    write_text(out / "summary.json", dumps([g.to_dict() for g in groups]))
+    write_text(out / "summary.json", dumps([{**g.to_dict(), "provenance": prov} for g in groups]))
     path = out / name
-    write_text(path, render_markdown(groups, figures, source))
+    write_text(path, render_markdown(groups, figures, source) + "\n" + "\n".join(provenance_lines(prov)))
     return path

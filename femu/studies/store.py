@@ -118,6 +118,8 @@ def check_record(d, key: str) -> str | None:
                            ("distribution_version", d.get("distribution_version") is None
                             or isinstance(d["distribution_version"], str), "a string or null"),
                            ("effective_options", isinstance(d.get("effective_options", {}), dict), "an object"),
+                           ("suite_version", d.get("suite_version") is None or isinstance(d["suite_version"], str),
+                            "a string or null"),
                            ("capabilities", isinstance(d.get("capabilities", {}), dict)
                             and all(isinstance(v, bool) for v in d.get("capabilities", {}).values()),
                             "an object of capability -> true or false"),
