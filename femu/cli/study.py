@@ -30,7 +30,7 @@ def add_arguments(s) -> None:
                         "(`femu suite` lists them)")
     s.add_argument("--model", default=None,
                    help="a user's own problem: this model file (with --data, and --parameters or each element's "
-                        "modulus within +-30 %%), benchmarked with the objective of `femu update`; its f_opt is the "
+                        "modulus within +-30 %%; or a matrix model's manifest, its own parameters), benchmarked with the objective of `femu update`; its f_opt is the "
                         "best J the study's runs found (best known, not certified)")
     s.add_argument("--data", default=None, help="the measured modes of --model (femu.modal-data/1)")
     s.add_argument("--parameters", default=None, help="the parameter file of --model (femu.parameters/1)")

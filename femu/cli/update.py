@@ -3,8 +3,10 @@
 Fits the parameters (a femu.parameters/1 file, docs/parameters-format.md; without one each
 element's modulus within +-30 %) to the measured modes of DATA (femu.modal-data/1, with the
 per-mode deviations where stated) and writes into --out: updated-model.json (the model with the
-estimates), update.json (format femu.update/1: estimates, 95 % intervals, paired modes before
-and after, the misfit against the noise), report.md and mac.png. Example:
+estimates; a matrix model's manifest with its matrices copied; a model imported from Nastran also
+as updated-model.bdf, its deck with the new values), update.json (format femu.update/1:
+estimates, 95 % intervals, paired modes before and after, the misfit against the noise),
+report.md and mac.png. Example:
 
   femu update frame.json measured.json --out updated/ --parameters params.json --hold-out 1
 
@@ -23,12 +25,13 @@ def add_arguments(s) -> None:
     """The arguments of `femu update`."""
     from femu.cli._args import directory, positive_int
 
-    s.add_argument("model", help="the model file (femu.model/1 JSON) or a shipped model's name")
+    s.add_argument("model", help="the model file (femu.model/1 JSON, or a femu.matrix-model/1 manifest of matrices) "
+                   "or a shipped model's name")
     s.add_argument("data", help="the measured modes (femu.modal-data/1 JSON or UFF dataset 55)")
     s.add_argument("--out", required=True, type=directory, help="directory for the updated model and the report")
     s.add_argument("--parameters", default=None,
                    help="a femu.parameters/1 file naming what may change (default: each element's modulus within "
-                        "+-30 %% of the model's own)")
+                        "+-30 %% of the model's own; a matrix model takes its manifest's, and no file)")
     s.add_argument("--optimizer", default="sensitivity", help="a registered optimizer or package.module:Class "
                    "(`femu optimizers` lists them)")
     s.add_argument("--budget", type=positive_int, default=1000, help="FE evaluations the optimizer may spend")
