@@ -340,3 +340,20 @@ def test_one_parameter_with_shapes_gets_its_jacobian(objective):
     ls = problem.least_squares(problem.x0, charged=1, jacobian=True)
     assert ls.jacobian is not None and ls.jacobian.shape == (ls.residuals.size, 1)
     assert problem.least_squares(problem.x0, charged=1).jacobian is None
+
+
+def test_report_says_when_no_run_beat_the_start(frame3d_files, tmp_path, capsys):
+    """frame3d's matrices from random starts (no x0) with a small budget: no run goes below J at
+    the initial model (close modes swap far from it), so there is no best-known value; the
+    report says so in one line (it said "the initial J must be above f_opt" before)."""
+    d, manifest, _ = frame3d_files
+    store = tmp_path / "S"
+    assert main(["study", "--model", str(manifest), "--data", str(d / "matrix-data.json"), "--optimizers",
+                 "sensitivity,random-search", "--seeds", "0", "--budget", "20", "--store", str(store),
+                 "--workers", "0"]) == 0
+    capsys.readouterr()
+    best = min(json.loads(p.read_text())["best_f"] for p in (store / "runs").glob("*.json"))
+    start = json.loads((d / "matrix-out" / "update.json").read_text())["objective"]["initial"]
+    assert best > start
+    line = _one_line_error(capsys, ["report", str(store), "--out", str(tmp_path / "R")])
+    assert "no run went below the initial model's J" in line and "--x0 all" in line

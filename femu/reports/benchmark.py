@@ -105,6 +105,10 @@ def targets_of(runs) -> dict[str, st.Targets]:
         if facts["f_opt"] is None:  # best known: the lowest J of the study's runs on the problem
             f_opt = min((x.best_f for x in runs if x.variant == r.variant and math.isfinite(x.best_f)),
                         default=facts["f_start"])
+            if not f_opt < facts["f_start"]:
+                raise ValueError(f"problem {r.variant!r}: no run went below the initial model's J "
+                                 f"({facts['f_start']:.6g}; best of the runs {f_opt:.6g}), so there is no best known "
+                                 "value to set targets by: run the study with --x0 all or a larger budget")
             out[r.variant] = st.fixed_targets(r.variant, float(f_opt), facts["f_start"], scale=facts["target_scale"])
             continue
         stored = getattr(r, "f_opt", None)
