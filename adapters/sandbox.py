@@ -45,6 +45,7 @@ import fcntl
 import json
 import os
 import pickle
+import re
 import shutil
 import signal
 import stat
@@ -81,16 +82,41 @@ CLAIMS_LOCK_S = 1.0
 MESSAGE_BYTES = 1 << 20
 
 
+#: The deepest nesting of arrays and objects read in a worker's JSON message (its descriptions
+#: are 3 deep): a deeper one is a protocol fault, refused before it is parsed (Python's parser
+#: recurses, and a deep enough message raised RecursionError here).
+MESSAGE_DEPTH = 32
+
+# a JSON string (escapes included), matched without backtracking: its brackets are not nesting
+_JSON_STRING = re.compile(rb'"[^"\\]*(?:\\.[^"\\]*)*"', re.S)
+
+
+def json_depth(raw: bytes) -> int:
+    """The deepest nesting of arrays and objects in the JSON text `raw` (its strings' brackets
+    not counted), in linear time and memory, without parsing it."""
+    bare = np.frombuffer(_JSON_STRING.sub(b'""', raw), dtype=np.uint8)
+    step = (np.isin(bare, (ord("["), ord("{"))).astype(np.int64) - np.isin(bare, (ord("]"), ord("}"))))
+    return int(np.cumsum(step).max(initial=0))
+
+
+def loads_bounded(raw: bytes, depth: int = MESSAGE_DEPTH):
+    """`raw` read as JSON if it nests at most `depth` deep, else ValueError ("protocol: ..."),
+    as for a message that is not JSON: what a worker sends is never allowed to raise anything
+    else here (no RecursionError, whatever its shape)."""
+    if json_depth(raw) > depth:
+        raise ValueError(f"protocol: the optimizer's process sent a message nested more than {depth} deep")
+    try:
+        return json.loads(raw)
+    except (ValueError, RecursionError):  # not UTF-8 JSON (json's own error is a ValueError too)
+        raise ValueError("protocol: the optimizer's process sent a message that is not JSON") from None
+
+
 def _receive(conn, limit: int = MESSAGE_BYTES):
     """A worker's message, read as JSON: the worker is the plugin's process, so what comes from
     it is data only, never a pickle (unpickling runs code, here, beside the problem). ValueError
-    ("protocol: ...") when it is not JSON or longer than `limit` bytes; EOFError/OSError when the
-    process is gone."""
-    raw = _receive_bytes(conn, limit)
-    try:
-        return json.loads(raw)
-    except ValueError:  # not UTF-8 JSON (json's own error is a ValueError too)
-        raise ValueError("protocol: the optimizer's process sent a message that is not JSON") from None
+    ("protocol: ...") when it is not JSON, longer than `limit` bytes or nested deeper than
+    `MESSAGE_DEPTH`; EOFError/OSError when the process is gone."""
+    return loads_bounded(_receive_bytes(conn, limit))
 
 
 def _receive_bytes(conn, limit: int) -> bytes:
@@ -391,16 +417,20 @@ def describe(name: str, n_vars, options: dict | None = None) -> dict:
                           "options": dict(options or {}), "output_path": worker.output_path,
                           "sys_path": list(sys.path), "cwd": os.getcwd()})
         if not worker.conn.poll(READY_S):
-            raise ValueError(f"optimizer {name!r}: loading it took more than {READY_S:.0f} s")
+            raise PluginFault(f"optimizer {name!r}: loading it took more than {READY_S:.0f} s")
         kind, answer = _pair(_receive(worker.conn))
     except (EOFError, OSError):
-        raise ValueError(f"optimizer {name!r}: its process ended while it was loaded") from None
-    except ValueError as exc:
-        raise ValueError(f"optimizer {name!r}: {exc}") from None
+        raise PluginFault(f"optimizer {name!r}: its process ended while it was loaded") from None
+    except PluginFault:
+        raise
+    except ValueError as exc:  # a protocol fault
+        raise PluginFault(f"optimizer {name!r}: {exc}") from None
     finally:
         worker.end()
+    if kind == "refused" and isinstance(answer, str):
+        raise ValueError(answer)
     if kind != "described":
-        raise ValueError(str(answer))
+        raise PluginFault(f"optimizer {name!r}: protocol: its process sent a message of the wrong shape")
     return _facts(name, n_vars, answer)
 
 
@@ -413,7 +443,7 @@ def _facts(name: str, n_vars, answer) -> dict:
         if not all(type(v) is int for v in need.values()) or not (refused is None or isinstance(refused, str)):
             raise TypeError
     except (KeyError, TypeError, ValueError):
-        raise ValueError(f"optimizer {name!r}: protocol: its process sent a description of the wrong shape") from None
+        raise PluginFault(f"optimizer {name!r}: protocol: its process sent a description of the wrong shape") from None
     return {"min_budget": need, "x0_refused": refused}
 
 
@@ -438,11 +468,18 @@ def optimizer_facts(name: str, n_vars, options: dict | None = None) -> dict:
     return {"min_budget": {int(n): min_budget(cls, int(n), **(options or {})) for n in n_vars}, "x0_refused": refused}
 
 
-def _preload(name: str) -> list[str]:
-    from .registry import module_of
+def preloads(names) -> list[str]:
+    """The modules a worker server may import before it forks its workers, for optimizers
+    `names`: those of the built-ins only. A plugin's module is never imported there: its
+    import-time code would run in the server and so in every worker forked after it (it could
+    patch what later runs of other optimizers see); it is imported in its own run's worker."""
+    from .registry import BUILTINS, module_of
 
-    module = module_of(name)
-    return [module] if module else []
+    return list(dict.fromkeys(module_of(n) for n in names if n in BUILTINS))
+
+
+def _preload(name: str) -> list[str]:
+    return preloads([name])
 
 
 def run_isolated(name: str, problem, budget: int, seed: int, time_limit_s: float | None = None,
@@ -469,24 +506,32 @@ def run_isolated(name: str, problem, budget: int, seed: int, time_limit_s: float
         # on one core from the start: the worker loads its optimizer while this thread waits,
         # instead of waiting for a wake-up on another core of a loaded machine
         with _one_core(worker.pid, claims_path()) as core:
+            objective = _Lazy(lambda: BudgetedObjective(problem, budget, time_limit_s))
             try:
-                described = _load(worker, name, spec(worker))
-            except _NeverGotItsRun:
-                # it died before it answered its run's spec (a process a plugin left running killed
-                # the spare between `_fresh_worker`'s look and the spec): nothing was evaluated; the
-                # run takes a worker forked now, once (an optimizer that ends its process as it is
-                # loaded does so again, and that is the run's error)
-                worker.end()
-                worker = _Worker(_preload(name))
-                _pin(worker.pid, core)
-                described = _load(worker, name, spec(worker))
+                try:
+                    described = _load(worker, name, spec(worker))
+                except _NeverGotItsRun:
+                    # it died before it answered its run's spec (a process a plugin left running killed
+                    # the spare between `_fresh_worker`'s look and the spec): nothing was evaluated; the
+                    # run takes a worker forked now, once (an optimizer that ends its process as it is
+                    # loaded does so again, and that is the run's error)
+                    worker.end()
+                    worker = _Worker(_preload(name))
+                    _pin(worker.pid, core)
+                    described = _load(worker, name, spec(worker))
+            except PluginFault as exc:  # its own fault as it was loaded: its run fails, nothing evaluated
+                described, fault = {}, str(exc)
+            else:
+                fault = None
             cpu0, worker_cpu0 = time.process_time(), worker.cpu_s()
             wall0 = time.perf_counter()
             # the cooperative clock (BudgetedObjective's) starts at the optimizer's first request, so
             # that the wake-ups of a loaded machine between two processes do not eat its time; the
             # hard deadline counts from now, its optimizer loaded
-            objective = _Lazy(lambda: BudgetedObjective(problem, budget, time_limit_s))
-            status, error = _serve(worker, objective, problem, time_limit_s, budget)
+            if fault is None:
+                status, error = _serve(worker, objective, problem, time_limit_s, budget)
+            else:
+                status, error = "failed", fault
             wall = time.perf_counter() - wall0
             worker.freeze()  # nothing of the run goes on; its live descendants' CPU is counted
             cpu = time.process_time() - cpu0 + max(worker.cpu_s() - worker_cpu0, 0.0)
@@ -523,7 +568,14 @@ def _interrupt_after():
             raise KeyboardInterrupt
 
 
-class _NeverGotItsRun(ValueError):
+class PluginFault(ValueError):
+    """An optimizer's process that broke the protocol, or ended or hung while it was loaded or
+    described: the plugin's own fault, never its caller's. Its runs fail with this error, named
+    (`run_isolated` returns a failed record, nothing evaluated), and a study goes on with the
+    others (femu.studies.study.check_budget_for)."""
+
+
+class _NeverGotItsRun(PluginFault):
     """A worker that ended before it answered its run's spec (`_load`): nothing was evaluated.
     (A worker killed as it waits may still take the spec: its process shows as ended while a
     thread of it has not yet closed its connection.)"""
@@ -537,15 +589,19 @@ def _load(worker: _Worker, name: str, spec: dict) -> dict:
     except OSError:
         raise _NeverGotItsRun(f"optimizer {name!r}: its process ended before it was loaded") from None
     if not worker.conn.poll(READY_S):
-        raise ValueError(f"optimizer {name!r}: loading it took more than {READY_S:.0f} s")
+        raise PluginFault(f"optimizer {name!r}: loading it took more than {READY_S:.0f} s")
     try:
         kind, why = _pair(_receive(worker.conn))
     except (EOFError, OSError):
         raise _NeverGotItsRun(f"optimizer {name!r}: its process ended while it was loaded: "
                               f"{worker.output()[-500:]}") from None
-    if kind != "ready":
-        raise ValueError(why)
-    return _description(why)
+    except ValueError as exc:  # a protocol fault (not JSON, too long, too deep, wrong shape)
+        raise PluginFault(f"optimizer {name!r}: {exc}") from None
+    if kind == "ready":
+        return _description(why)
+    if kind != "refused" or not isinstance(why, str):
+        raise PluginFault(f"optimizer {name!r}: protocol: its process sent a message of the wrong shape")
+    raise ValueError(why[:MESSAGE_BYTES])
 
 
 def _description(answer) -> dict:
@@ -749,9 +805,9 @@ def _serve(worker: _Worker, lazy: _Lazy, problem, time_limit_s, budget: int) -> 
                 conn.send_bytes(VALUES + pickle.dumps((objective.n_evals, out.f, out.residuals, out.jacobian)))
             elif tag == DONE:
                 try:  # JSON, never a pickle: unpickling would run the plugin's code here
-                    kind, text = _pair(json.loads(body))
-                except ValueError:
-                    return "failed", "protocol: the optimizer's process sent an unreadable end of run"
+                    kind, text = _pair(loads_bounded(body))
+                except ValueError as exc:
+                    return "failed", f"{exc} (its end of run)"
                 if kind == "returned":
                     return ("ok" if objective.n_evals >= objective.budget else "stopped"), None
                 return "failed", str(text)

@@ -463,7 +463,12 @@ def serve(address: str, preload: list[str]) -> None:
     import adapters.harness  # noqa: F401
     import adapters.registry  # noqa: F401
 
+    from adapters.registry import BUILTINS
+
+    builtin = {target.split(":")[0] for target in BUILTINS.values()}
     for module in preload:
+        if module not in builtin:  # a plugin's import-time code never runs here (sandbox.preloads)
+            continue
         try:
             __import__(module)
         except BaseException:  # a broken plugin module fails its own runs, with its own error

@@ -351,3 +351,16 @@ class ExitsLeavingSessions:
             open(os.path.join(pid_dir, str(child.pid)), "w").close()
         objective(_points(bounds, rng, 3))
         os._exit(3)
+
+
+# -- issue 39: plugins that reach for each other, the store or the truth -----------------------------
+
+
+class EndsWithDeepJSON:
+    """Ends its run with a message nested 200,000 deep: a parser that recurses raises
+    RecursionError, which `adapters.run` would let out (it is meant never to raise)."""
+
+    def minimize(self, objective, bounds, budget, rng):
+        objective(_points(bounds, rng, 3))
+        objective._conn.send_bytes(b"D" + b"[" * 200_000 + b"]" * 200_000)
+        time.sleep(60)

@@ -33,8 +33,8 @@ from pathlib import Path
 from adapters.budget import check_budget, check_budget_covers, check_x0_mode
 from adapters.capabilities import check_options
 from adapters.harness import RunResult
-from adapters.registry import BUILTINS, check_name, get, module_of
-from adapters.sandbox import optimizer_facts, server_address
+from adapters.registry import BUILTINS, check_name, get
+from adapters.sandbox import PluginFault, optimizer_facts, preloads, server_address
 from adapters.variants import VARIANTS
 from fe_problem.suite import select_suite
 from fe_problem.jsonutil import dumps
@@ -128,7 +128,10 @@ def check_budget_for(optimizers: list[str], budget, variants: list[str], options
     budget = check_budget(budget, "--budget")
     n_vars = sorted({n_var_of(v) for v in variants})
     for name in optimizers:
-        facts = optimizer_facts(name, n_vars, options.get(name, {}))  # a plugin is asked in a worker
+        try:
+            facts = optimizer_facts(name, n_vars, options.get(name, {}))  # a plugin is asked in a worker
+        except PluginFault:  # its process broke the protocol or died: its own runs fail, named; the study goes on
+            continue
         for n_var in n_vars:
             try:
                 check_budget_covers(name, facts["min_budget"][n_var], budget, n_var, **options.get(name, {}))
@@ -181,7 +184,7 @@ def _check_inputs(optimizers, seeds, budget, variants, workers, scheduler, time_
         check_name(name)  # ValueError naming the known ones, before the options are looked at (no import)
     # the sandbox's server, its workers finding the study's optimizers imported: for the checks
     # below (a plugin is asked in a worker) and the runs
-    server_address([m for m in map(module_of, optimizers) if m])
+    server_address(preloads(optimizers))
     options = _check_options(options, optimizers)
     budget = check_budget_for(optimizers, budget, variants, options)
     if time_limit_s is not None and not (isinstance(time_limit_s, (int, float)) and math.isfinite(time_limit_s)
@@ -207,7 +210,7 @@ def _executor(todo: list[Task], optimizers: list[str], workers, cluster):
     if workers == 0:
         return InProcess()
     n = workers if workers is not None else _n_cores()
-    return LocalPool(max(1, min(n, len(todo))), preload=[m for m in map(module_of, optimizers) if m])
+    return LocalPool(max(1, min(n, len(todo))), preload=preloads(optimizers))
 
 
 def _stored_runs(store: Store, grid: list[Task]) -> dict[str, RunResult]:
@@ -255,7 +258,10 @@ def run_study(optimizers, seeds, budget: int, store, variants=None, workers: int
     if x0 == "all":
         n_vars = sorted({n_var_of(v) for v in variants})
         for name in optimizers:
-            refused = optimizer_facts(name, n_vars, options.get(name, {}))["x0_refused"]
+            try:
+                refused = optimizer_facts(name, n_vars, options.get(name, {}))["x0_refused"]
+            except PluginFault:  # as in check_budget_for: its runs fail, named
+                continue
             if refused:
                 raise ValueError(refused)
     grid = [Task(o, v, budget, s, options.get(o, {}), time_limit_s, x0, bool(isolated))
