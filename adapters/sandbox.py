@@ -149,7 +149,11 @@ class WorkerServer:
     temporary directory; `preload`: modules its workers find imported (the optimizers)."""
 
     def __init__(self, preload=()):
-        self._dir = tempfile.mkdtemp(prefix="femu-sandbox-")  # mode 0700: this user only
+        self._dir = tempfile.mkdtemp(prefix="femu-sandbox-")
+        # others may pass through to their own temporary directory (`sandbox_worker._confine`),
+        # never list it nor connect to the socket (and the server takes this user's connections only)
+        os.chmod(self._dir, 0o711)
+        _undumpable()
         self.address = os.path.join(self._dir, "server")
         self.owner = os.getpid()
         # the mark fe_problem refuses to import under, inherited by every process a plugin starts
@@ -228,12 +232,15 @@ class _Worker:
         self._pidfd: int | None = None  # opened as soon as the pid is read (`pid`)
         self._frozen: list | None = None  # the stopped descendants once `freeze` has run
         self.output_path = None
+        self.place: dict | None = None  # what it was confined to at its prepare (`confinement_place`)
+        self.confinement: dict | None = None  # what held, once read (`confinement_of`)
         try:
             fd, self.output_path = tempfile.mkstemp(prefix="femu-run-", suffix=".out")
             os.close(fd)
             if prepare:
+                self.place = confinement_place()
                 self.conn.send({"prepare": True, "output_path": self.output_path, "sys_path": list(sys.path),
-                                "cwd": os.getcwd()})
+                                "cwd": os.getcwd(), "confine": self.place})
             else:
                 self.pid  # noqa: B018  (waits for the fork)
         except BaseException:  # nothing left behind: the connection, the output file, the pidfd
@@ -392,7 +399,8 @@ def _fresh_worker(preload=()) -> _Worker:
     address = server_address(preload)
     with _spare_lock:
         spare, _spare = _spare, None
-    if spare is not None and spare.owner == os.getpid() and spare.address == address:
+    if spare is not None and spare.owner == os.getpid() and spare.address == address and \
+            spare.place == confinement_place():  # confined as a run now would be
         try:
             spare.pid  # noqa: B018  (forked, and said so)
             if not spare.conn.poll(0):  # and quiet since: not ended by anyone (its end would read as EOF)
@@ -415,7 +423,8 @@ def describe(name: str, n_vars, options: dict | None = None) -> dict:
     try:
         worker.conn.send({"describe": True, "name": name, "n_vars": [int(n) for n in n_vars],
                           "options": dict(options or {}), "output_path": worker.output_path,
-                          "sys_path": list(sys.path), "cwd": os.getcwd()})
+                          "sys_path": list(sys.path), "cwd": os.getcwd(), "confine": confinement_place()})
+        confinement_of(worker, name)
         if not worker.conn.poll(READY_S):
             raise PluginFault(f"optimizer {name!r}: loading it took more than {READY_S:.0f} s")
         kind, answer = _pair(_receive(worker.conn))
@@ -500,6 +509,7 @@ def run_isolated(name: str, problem, budget: int, seed: int, time_limit_s: float
         return {"name": name, "n_var": n_var, "xl": xl.tolist(), "xu": xu.tolist(), "budget": budget, "seed": seed,
                 "options": dict(options), "time_limit_s": time_limit_s, "jacobian_cost": jacobian_cost(n_var),
                 "output_path": w.output_path, "sys_path": list(sys.path), "cwd": os.getcwd(),
+                "confine": w.place or confinement_place(),
                 "x0": None if x0 == "none" else np.asarray(problem.x0, dtype=float).tolist()}
 
     try:
@@ -545,7 +555,7 @@ def run_isolated(name: str, problem, budget: int, seed: int, time_limit_s: float
     if _spares_after_runs:
         fork_spare(_preload(name))  # the next run's worker, forked while this process makes the record
     return record(name, problem, counted0, objective, seed, budget, options, x0, status, error, variant, wall, cpu,
-                  verified=True, output=output, **described)
+                  verified=True, output=output, confinement=worker.confinement or {}, **described)
 
 
 @contextmanager
@@ -568,6 +578,97 @@ def _interrupt_after():
             raise KeyboardInterrupt
 
 
+_hidden: list[str] = []
+
+
+def hide_from_workers(paths) -> None:
+    """Paths this process's workers may never read, whatever directory they are in (a study's
+    store: femu.studies.study); added to `confine.HIDDEN_ENV`'s."""
+    _hidden.extend(os.path.realpath(p) for p in paths if os.path.realpath(p) not in _hidden)
+
+
+def confinement_place() -> dict:
+    """What a worker may read, write and never read (adapters.confine), as real paths: it reads
+    the import path and this directory (where registry._import_here finds a plugin module), Python's installation and the system's
+    directories; it writes its own temporary directory and those named in `confine.WRITABLE_ENV`;
+    it never reads those in `confine.HIDDEN_ENV` (a study's store) nor the FE package (its data,
+    the suite)."""
+    from importlib.util import find_spec
+
+    from .confine import HIDDEN_ENV, SYSTEM_DIRS, WRITABLE_ENV
+
+    def real(paths):
+        return list(dict.fromkeys(os.path.realpath(p or os.getcwd()) for p in paths))
+
+    fe = find_spec("fe_problem")
+    hidden = [p for p in os.environ.get(HIDDEN_ENV, "").split(os.pathsep) if p] + _hidden
+    hidden += list(fe.submodule_search_locations or []) if fe is not None else []
+    return {"readable": real([*sys.path, os.getcwd(), sys.prefix, sys.base_prefix, sys.exec_prefix, os.path.dirname(sys.executable),
+                              *SYSTEM_DIRS]),
+            "writable": real(p for p in os.environ.get(WRITABLE_ENV, "").split(os.pathsep) if p),
+            "hidden": real(hidden)}
+
+
+#: What `RunResult.confinement` says of a run, each True when it held: ``filesystem`` (Landlock:
+#: reads and writes as `confinement_place` says), ``signals`` (no signal to another run's worker,
+#: its server or this process: its own uid, or Landlock's signal scope), ``own_uid`` (checked here),
+#: ``limits`` (resource limits), ``session`` (its own session and process group, checked here),
+#: ``undumpable`` (this process: no ptrace, no /proc/PID/mem), ``peer_checked`` (the server took
+#: its connection from this process only, SO_PEERCRED); ``landlock_abi`` the kernel's (0: none).
+CONFINEMENT = ("filesystem", "signals", "own_uid", "limits", "session", "undumpable", "peer_checked")
+#: What a run must have held to count as confined (`is_confined`); ``own_uid`` is one way to
+#: ``signals``, not required where Landlock scopes signals.
+REQUIRED = ("filesystem", "signals", "limits", "session", "undumpable", "peer_checked")
+
+
+def is_confined(confinement: dict) -> bool:
+    """Whether a record's `confinement` says every `REQUIRED` mechanism held."""
+    return all(confinement.get(k) is True for k in REQUIRED)
+
+
+def confinement_of(worker: _Worker, name: str) -> dict:
+    """Read the worker's word on its confinement (sent before any optimizer code ran in it) and
+    check here what can be checked from outside (its uid, its session, this process not
+    dumpable); kept on `worker.confinement`. EOFError/OSError when its process is gone."""
+    if worker.confinement is not None:
+        return worker.confinement
+    pid = worker.pid
+    if not worker.conn.poll(SERVER_START_S):
+        raise PluginFault(f"optimizer {name!r}: its process did not say how it was confined")
+    try:
+        kind, held = _pair(_receive(worker.conn))
+    except ValueError as exc:
+        raise PluginFault(f"optimizer {name!r}: {exc}") from None
+    if kind != "confined" or not isinstance(held, dict):
+        raise PluginFault(f"optimizer {name!r}: protocol: its process did not say how it was confined")
+    try:
+        proc = psutil.Process(pid)
+        own_uid = held.get("own_uid") is True and proc.uids().real != os.getuid() and proc.uids().effective != 0
+        session = os.getsid(pid) == pid
+    except (psutil.Error, OSError):
+        own_uid = session = False
+    abi = held.get("landlock_abi")
+    worker.confinement = {
+        "filesystem": held.get("filesystem") is True, "own_uid": own_uid,
+        "signals": own_uid or held.get("signal_scope") is True, "limits": held.get("limits") is True,
+        "session": session, "undumpable": _undumpable(), "peer_checked": True,
+        "landlock_abi": abi if type(abi) is int else 0}
+    return worker.confinement
+
+
+_undumpable_held: bool | None = None
+
+
+def _undumpable() -> bool:
+    """Make this process (the evaluating side) not dumpable, once (adapters.confine)."""
+    global _undumpable_held
+    if _undumpable_held is None:
+        from .confine import make_undumpable
+
+        _undumpable_held = make_undumpable()
+    return _undumpable_held
+
+
 class PluginFault(ValueError):
     """An optimizer's process that broke the protocol, or ended or hung while it was loaded or
     described: the plugin's own fault, never its caller's. Its runs fail with this error, named
@@ -587,6 +688,10 @@ def _load(worker: _Worker, name: str, spec: dict) -> dict:
     try:
         worker.conn.send(spec)
     except OSError:
+        raise _NeverGotItsRun(f"optimizer {name!r}: its process ended before it was loaded") from None
+    try:
+        confinement_of(worker, name)
+    except (EOFError, OSError):
         raise _NeverGotItsRun(f"optimizer {name!r}: its process ended before it was loaded") from None
     if not worker.conn.poll(READY_S):
         raise PluginFault(f"optimizer {name!r}: loading it took more than {READY_S:.0f} s")

@@ -102,3 +102,104 @@ def test_a_plugins_import_time_code_never_reaches_another_optimizers_worker(tmp_
     assert runs["cma-es"].best_f == alone.best_f and runs["cma-es"].best_x == alone.best_x
     flipped = runs["flips_signs_on_import:FlipsSigns"]  # its own run: it harmed only its own view
     assert flipped.status == "ok" and flipped.n_evals == BUDGET
+
+
+# -- 3. confinement by the kernel's means ---------------------------------------------------------------
+
+
+def _probe(r) -> dict:
+    import json
+
+    line = next(line for line in r.output.splitlines() if line.startswith("PROBE "))
+    return json.loads(line[len("PROBE "):])
+
+
+@pytest.fixture(scope="module")
+def probed(tmp_path_factory):
+    """A run of ProbesItsConfinement through adapters.run: a secret file in a directory the
+    worker may not read (outside every readable one), another in a hidden one under a writable
+    directory (as a study's store is hidden), the FE package's data, and places to write."""
+    import tempfile
+
+    from adapters.confine import HIDDEN_ENV
+
+    outside = Path(tempfile.mkdtemp(prefix="femu-test-outside-"))  # /tmp, not the tests' writable basetemp
+    (outside / "secret.json").write_text("{}")
+    hidden = tmp_path_factory.mktemp("hidden")
+    (hidden / "record.json").write_text("{}")
+    fe_data = next((Path(adapters.__file__).parent.parent / "fe_problem").glob("*.json"))
+    old = os.environ.get(HIDDEN_ENV)
+    os.environ[HIDDEN_ENV] = str(hidden)
+    try:
+        problem = make_problem("paper")
+        r = adapters.run(plugin(cp.ProbesItsConfinement), problem, BUDGET, 0, evaluator=os.getpid(),
+                         read=[str(outside / "secret.json"), str(hidden / "record.json"), str(fe_data)],
+                         write=[str(outside / "planted"), str(hidden / "planted"), str(Path.cwd() / "planted"),
+                                str(tmp_path_factory.mktemp("allowed") / "file")])
+    finally:
+        if old is None:
+            del os.environ[HIDDEN_ENV]
+        else:
+            os.environ[HIDDEN_ENV] = old
+    yield r, problem, outside, hidden, fe_data
+    import shutil
+
+    shutil.rmtree(outside)
+
+
+def test_a_probing_plugin_runs_honestly_and_its_record_says_what_held(probed):
+    r, problem, *_ = probed
+    assert r.status == "ok" and r.n_evals == problem.points_evaluated == BUDGET, r.error
+    held = r.confinement
+    assert held["session"] and held["undumpable"] and held["limits"] and held["peer_checked"], held
+    from adapters.confine import landlock_abi
+
+    assert held["landlock_abi"] == landlock_abi() and held["filesystem"] == (landlock_abi() > 0), held
+    assert held["own_uid"] == (os.geteuid() == 0), held
+
+
+def test_a_worker_signals_no_process_but_its_own_and_reads_no_memory(probed):
+    r, *_ = probed
+    found = _probe(r)
+    # where neither a uid of its own nor Landlock's signal scope is offered, the record says so
+    assert r.confinement["signals"] == (os.geteuid() == 0 or r.confinement["landlock_abi"] >= 6)
+    assert r.confinement["signals"] or found["signalled"] > 0
+    if r.confinement["signals"]:
+        assert found["signalled"] == 0 and not found["evaluator_signalled"] and not found["server_signalled"], found
+    assert found["evaluator_mem"] == "PermissionError" and found["server_mem"] == "PermissionError", found
+
+
+def test_a_worker_cannot_have_its_server_start_a_process_for_it(probed):
+    r, *_ = probed
+    found = _probe(r)
+    assert not found["new_worker"].startswith("pid"), found  # the server closed its connection unanswered
+
+
+def test_a_worker_reads_and_writes_only_where_it_is_allowed(probed):
+    r, problem, outside, hidden, fe_data = probed
+    found = _probe(r)
+    assert r.confinement["filesystem"] == (r.confinement["landlock_abi"] > 0)  # where none is offered, it says so
+    assert found["own_tmp"] == "ok"
+    assert list(found["write"].values()).count("ok") == 1, found  # the tests' writable directory
+    if r.confinement["filesystem"]:
+        assert found["read"] == {str(outside / "secret.json"): "PermissionError",
+                                 str(hidden / "record.json"): "PermissionError", str(fe_data): "PermissionError"}
+        writes = found["write"]
+        assert [writes[str(outside / "planted")], writes[str(hidden / "planted")],
+                writes[str(Path.cwd() / "planted")]] == ["PermissionError"] * 3, found
+        assert not (outside / "planted").exists() and not (hidden / "planted").exists()
+
+
+def test_a_plugin_finds_its_studys_store_and_can_neither_read_nor_change_it(tmp_path):
+    import json
+
+    store = tmp_path / "s"
+    done, runs = _study(store, [plugin(cp.ReachesForTheStore), "random-search"])
+    assert done.returncode == 0, done.stderr
+    r = runs[plugin(cp.ReachesForTheStore)]
+    assert r.status == "ok", r.error
+    line = next(line for line in r.output.splitlines() if line.startswith("STORE "))
+    found = json.loads(line[len("STORE "):])
+    assert found["store"] == str(store), found  # it found it: the path is no secret
+    assert (found["read"], found["write"]) == ("PermissionError", "PermissionError"), found
+    assert not (store / "runs" / "planted.json").exists()

@@ -121,7 +121,8 @@ def check_record(d, key: str) -> str | None:
                            ("capabilities", isinstance(d.get("capabilities", {}), dict)
                             and all(isinstance(v, bool) for v in d.get("capabilities", {}).values()),
                             "an object of capability -> true or false"),
-                           ("versions", isinstance(d.get("versions", {}), dict), "an object of library -> version")):
+                           ("versions", isinstance(d.get("versions", {}), dict), "an object of library -> version"),
+                           ("confinement", isinstance(d.get("confinement", {}), dict), "an object")):
         if not ok:
             return f"field {name!r}: must be {need}, got {shown(d.get(name))}"
     expected = run_key(d["variant"], d["optimizer"], d["budget"], d["seed"])

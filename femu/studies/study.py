@@ -34,7 +34,7 @@ from adapters.budget import check_budget, check_budget_covers, check_x0_mode
 from adapters.capabilities import check_options
 from adapters.harness import RunResult
 from adapters.registry import BUILTINS, check_name, get
-from adapters.sandbox import PluginFault, optimizer_facts, preloads, server_address
+from adapters.sandbox import PluginFault, hide_from_workers, optimizer_facts, preloads, server_address
 from adapters.variants import VARIANTS
 from fe_problem.suite import select_suite
 from fe_problem.jsonutil import dumps
@@ -198,7 +198,7 @@ def _check_inputs(optimizers, seeds, budget, variants, workers, scheduler, time_
     return optimizers, seeds, budget, variants, options
 
 
-def _executor(todo: list[Task], optimizers: list[str], workers, cluster):
+def _executor(todo: list[Task], optimizers: list[str], workers, cluster, store: Store | None = None):
     """The executor for the runs to do: none needed, the Dask `cluster` (already reached), this
     process or a local pool."""
     if not todo:  # every run is stored: no pool to start
@@ -210,7 +210,8 @@ def _executor(todo: list[Task], optimizers: list[str], workers, cluster):
     if workers == 0:
         return InProcess()
     n = workers if workers is not None else _n_cores()
-    return LocalPool(max(1, min(n, len(todo))), preload=preloads(optimizers))
+    return LocalPool(max(1, min(n, len(todo))), preload=preloads(optimizers),
+                     hidden=[str(store.path)] if store is not None else [])
 
 
 def _stored_runs(store: Store, grid: list[Task]) -> dict[str, RunResult]:
@@ -251,6 +252,8 @@ def run_study(optimizers, seeds, budget: int, store, variants=None, workers: int
     are unverified, and reports say so.
     Raises ValueError (StoreError for the store) before running anything on bad input.
     """
+    # no worker of this process reads or writes the store, from the first (a plugin's description)
+    hide_from_workers([store.path if isinstance(store, Store) else store])
     optimizers, seeds, budget, variants, options = _check_inputs(
         optimizers, seeds, budget, variants, workers, scheduler, time_limit_s, options, suite)
     store = store if isinstance(store, Store) else Store(store)
@@ -278,7 +281,7 @@ def run_study(optimizers, seeds, budget: int, store, variants=None, workers: int
             cluster.client.close()
         raise
     try:
-        executor = _executor(todo, optimizers, workers, cluster)
+        executor = _executor(todo, optimizers, workers, cluster, store)
         t0 = time.perf_counter()
         write_manifest(store, {"optimizers": optimizers, "seeds": seeds, "budget": budget, "variants": variants,
                                "suite": suite if suite is None or isinstance(suite, str) else list(suite),
