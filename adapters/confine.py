@@ -11,8 +11,7 @@ file and directory, before any of its optimizer's code is imported, and returns 
   own temporary directory (and the directories named in `WRITABLE_ENV`, which the caller sets);
 - ``signal_scope``: from Landlock ABI 6, no signal to a process outside its own domain;
 - ``own_uid``: when the server runs as root, a uid of its own from `UID_BASE` (no capability
-  left but CAP_DAC_OVERRIDE, and that only under Landlock, which then alone decides file
-  access): it cannot signal, ptrace or read the memory of another run's worker, its server or
+  left but CAP_DAC_OVERRIDE: Landlock, where it holds, alone decides file access): it cannot signal, ptrace or read the memory of another run's worker, its server or
   its evaluating process, and the server refuses its connections (SO_PEERCRED).
 
 Where a mechanism is missing (another kernel, not root), the worker runs without it and the run's
@@ -238,7 +237,10 @@ def confine(readable: list[str], writable: list[str], hidden: list[str], tmp_dir
         tempfile.tempdir = tmp_dir
         writable = [tmp_dir, *writable]
     filesystem = bool(abi) and _landlock(abi, readable, [*writable, os.devnull], hidden)
-    own = _own_uid(keep_dac_override=filesystem)
+    # CAP_DAC_OVERRIDE kept: Python and the plugins may sit in directories of root's alone (a
+    # pyenv under /root, pytest's directories), and file access is Landlock's to decide (without
+    # Landlock, the record says the filesystem is not confined)
+    own = _own_uid(keep_dac_override=True)
     if own is not None:
         resource.setrlimit(resource.RLIMIT_NPROC, (PROCESSES, PROCESSES))  # its own uid's processes only
     return {"landlock_abi": abi, "filesystem": filesystem, "signal_scope": filesystem and abi >= 6,

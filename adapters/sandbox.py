@@ -621,6 +621,21 @@ CONFINEMENT = ("filesystem", "signals", "own_uid", "limits", "session", "undumpa
 REQUIRED = ("filesystem", "signals", "limits", "session", "undumpable", "peer_checked")
 
 
+def confinement_missing() -> str | None:
+    """What this machine cannot give a worker of `REQUIRED` (adapters.confine), in words, or None
+    when it can give all: Landlock for the filesystem, and for signals a uid of its own (root)
+    or Landlock's signal scope (ABI 6)."""
+    from .confine import LANDLOCK_ENV, landlock_abi
+
+    abi = landlock_abi()
+    missing = []
+    if abi == 0:
+        missing.append(f"no Landlock (kernel without it, or {LANDLOCK_ENV}=off): no filesystem confinement")
+    if not (os.geteuid() == 0 or abi >= 6):
+        missing.append("not root and no Landlock signal scope (ABI 6): a worker may signal other runs' workers")
+    return "; ".join(missing) or None
+
+
 def is_confined(confinement: dict) -> bool:
     """Whether a record's `confinement` says every `REQUIRED` mechanism held."""
     return all(confinement.get(k) is True for k in REQUIRED)

@@ -203,3 +203,27 @@ def test_a_plugin_finds_its_studys_store_and_can_neither_read_nor_change_it(tmp_
     assert found["store"] == str(store), found  # it found it: the path is no secret
     assert (found["read"], found["write"]) == ("PermissionError", "PermissionError"), found
     assert not (store / "runs" / "planted.json").exists()
+
+
+def test_a_study_that_cannot_be_confined_needs_unconfined_and_its_report_marks_the_runs(tmp_path):
+    """FEMU_LANDLOCK=off stands for a kernel without Landlock: the study is refused, naming the
+    flag; with --unconfined it runs, its records say the filesystem was not confined, and the
+    report marks them."""
+    store = tmp_path / "s"
+    args = ["study", "--optimizers", "random-search", "--seeds", "0", "--budget", "20", "--store", str(store),
+            "--workers", "0", "--no-progress"]
+    refused = _femu(*args, FEMU_LANDLOCK="off")
+    assert refused.returncode == 2 and "--unconfined" in refused.stderr and "no Landlock" in refused.stderr
+    assert refused.stderr.count("\n") == 1 and not store.exists()
+    done = _femu(*args, "--unconfined", FEMU_LANDLOCK="off")
+    assert done.returncode == 0, done.stderr
+    (r,) = Store(store).runs()
+    assert r.status == "ok" and r.verified and r.confinement["filesystem"] is False and r.confinement["session"]
+    report = _femu("report", str(store), "--out", str(tmp_path / "r"))
+    assert report.returncode == 0, report.stderr
+    text = (tmp_path / "r" / "report.md").read_text()
+    assert "**unconfined**" in text and "without filesystem" in text
+    confined = tmp_path / "c"
+    assert _femu(*args[:8], str(confined), *args[9:]).returncode == 0
+    assert _femu("report", str(confined), "--out", str(tmp_path / "rc")).returncode == 0
+    assert "unconfined" not in (tmp_path / "rc" / "report.md").read_text()

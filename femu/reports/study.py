@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from adapters.sandbox import REQUIRED, is_confined
 from fe_problem.jsonutil import dumps
 from fe_problem.safe_files import write_text
 from femu.studies.store import Store
@@ -109,6 +110,13 @@ def settings_apart(runs) -> tuple[list, list[str]]:
                      f"{'are' if n != 1 else 'is'} **unverified**: the optimizer ran in the problem's own process "
                      f"(adapters.run(..., isolated=False), or a record made before the sandbox), where a plugin "
                      f"can reach the problem behind its budget")
+    unconfined = [r for r in out if r.verified and r.confinement and not is_confined(r.confinement)]
+    if unconfined:
+        n = len(unconfined)
+        held = lambda r: ", ".join(k for k in REQUIRED if r.confinement.get(k) is not True)  # noqa: E731
+        notes.append(f"{n} run{'s' if n != 1 else ''} of {', '.join(f'`{u}`' for u in sorted({r.optimizer for r in unconfined}))} "
+                     f"{'were' if n != 1 else 'was'} **unconfined** (`femu study --unconfined`): its worker ran "
+                     f"without {held(unconfined[0])}, where a plugin can reach other runs, the store or the machine")
     return out, notes
 
 

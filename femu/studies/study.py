@@ -34,7 +34,7 @@ from adapters.budget import check_budget, check_budget_covers, check_x0_mode
 from adapters.capabilities import check_options
 from adapters.harness import RunResult
 from adapters.registry import BUILTINS, check_name, get
-from adapters.sandbox import PluginFault, hide_from_workers, optimizer_facts, preloads, server_address
+from adapters.sandbox import PluginFault, confinement_missing, hide_from_workers, optimizer_facts, preloads, server_address
 from adapters.variants import VARIANTS
 from fe_problem.suite import select_suite
 from fe_problem.jsonutil import dumps
@@ -233,7 +233,7 @@ def _stored_runs(store: Store, grid: list[Task]) -> dict[str, RunResult]:
 def run_study(optimizers, seeds, budget: int, store, variants=None, workers: int | None = None,
               scheduler: str | None = None, time_limit_s: float | None = None, progress: bool = True,
               options: dict | None = None, retry_failed: bool = False, suite=None, x0: str = "none",
-              isolated: bool = True) -> StudyResult:
+              isolated: bool = True, unconfined: bool = False) -> StudyResult:
     """Run the grid optimizers x variants x seeds with `budget` FE evaluations per run into
     `store` (a directory), skipping the runs already stored.
 
@@ -250,8 +250,16 @@ def run_study(optimizers, seeds, budget: int, store, variants=None, workers: int
     isolated: each optimizer in a worker process without the problem (adapters.sandbox); False
     runs it in its run's own process, for debugging (`femu study --in-process`): its records
     are unverified, and reports say so.
+    unconfined: run even where this machine cannot confine the workers (adapters.confine:
+    no Landlock, or neither root nor Landlock's signal scope); without it such a study is refused
+    (ValueError naming --unconfined). Each record says what held; reports mark unconfined runs.
     Raises ValueError (StoreError for the store) before running anything on bad input.
     """
+    if isolated and not unconfined:
+        missing = confinement_missing()
+        if missing:
+            raise ValueError(f"--unconfined: this machine cannot confine the optimizers' workers ({missing}); "
+                             f"pass --unconfined to run and rank them anyway (their records and reports say so)")
     # no worker of this process reads or writes the store, from the first (a plugin's description)
     hide_from_workers([store.path if isinstance(store, Store) else store])
     optimizers, seeds, budget, variants, options = _check_inputs(
