@@ -15,7 +15,7 @@ file and directory, before any of its optimizer's code is imported, and returns 
   its evaluating process, and the server refuses its connections (SO_PEERCRED).
 
 Where a mechanism is missing (another kernel, not root), the worker runs without it and the run's
-record says so (`RunResult.confinement`). The syscalls are made through ctypes: Python has no
+record says so (`RunResult.sandbox`). The syscalls are made through ctypes: Python has no
 binding of Landlock's three calls or of capset, and no well-kept package covers ABI 6's scopes.
 """
 

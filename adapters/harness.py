@@ -70,7 +70,7 @@ class RunResult:
     `options` (what the run ran with); capabilities: the optimizer's declared flags
     (adapters.capabilities: anytime, uses_gradients, batch, supports_x0). Records written before
     these fields have them empty.
-    confinement: which of the kernel's confinements held for its worker (adapters.sandbox.CONFINEMENT:
+    sandbox: which of the kernel's confinements held for its worker (adapters.sandbox.CONFINEMENT:
     filesystem, signals, own_uid, limits, session, undumpable, peer_checked -> true or false, and
     landlock_abi); empty for in-process runs and records made before it.
     """
@@ -104,7 +104,7 @@ class RunResult:
     distribution_version: str | None = None
     effective_options: dict = field(default_factory=dict)
     capabilities: dict = field(default_factory=dict)
-    confinement: dict = field(default_factory=dict)
+    sandbox: dict = field(default_factory=dict)
 
     @property
     def overhead_s(self) -> float:

@@ -555,7 +555,7 @@ def run_isolated(name: str, problem, budget: int, seed: int, time_limit_s: float
     if _spares_after_runs:
         fork_spare(_preload(name))  # the next run's worker, forked while this process makes the record
     return record(name, problem, counted0, objective, seed, budget, options, x0, status, error, variant, wall, cpu,
-                  verified=True, output=output, confinement=worker.confinement or {}, **described)
+                  verified=True, output=output, sandbox=worker.confinement or {}, **described)
 
 
 @contextmanager
@@ -583,8 +583,9 @@ _hidden: list[str] = []
 
 def hide_from_workers(paths) -> None:
     """Paths this process's workers may never read, whatever directory they are in (a study's
-    store: femu.studies.study); added to `confine.HIDDEN_ENV`'s."""
-    _hidden.extend(os.path.realpath(p) for p in paths if os.path.realpath(p) not in _hidden)
+    store: femu.studies.study), from now on, instead of those set before (one study at a time
+    in a process); added to `confine.HIDDEN_ENV`'s. An empty path is no path."""
+    _hidden[:] = list(dict.fromkeys(os.path.realpath(p) for p in map(str, paths) if p.strip()))
 
 
 def confinement_place() -> dict:
@@ -609,7 +610,7 @@ def confinement_place() -> dict:
             "hidden": real(hidden)}
 
 
-#: What `RunResult.confinement` says of a run, each True when it held: ``filesystem`` (Landlock:
+#: What `RunResult.sandbox` says of a run, each True when it held: ``filesystem`` (Landlock:
 #: reads and writes as `confinement_place` says), ``signals`` (no signal to another run's worker,
 #: its server or this process: its own uid, or Landlock's signal scope), ``own_uid`` (checked here),
 #: ``limits`` (resource limits), ``session`` (its own session and process group, checked here),
@@ -637,7 +638,7 @@ def confinement_missing() -> str | None:
 
 
 def is_confined(confinement: dict) -> bool:
-    """Whether a record's `confinement` says every `REQUIRED` mechanism held."""
+    """Whether a record's `sandbox` (its `confinement`) says every `REQUIRED` mechanism held."""
     return all(confinement.get(k) is True for k in REQUIRED)
 
 

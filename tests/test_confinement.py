@@ -150,7 +150,7 @@ def probed(tmp_path_factory):
 def test_a_probing_plugin_runs_honestly_and_its_record_says_what_held(probed):
     r, problem, *_ = probed
     assert r.status == "ok" and r.n_evals == problem.points_evaluated == BUDGET, r.error
-    held = r.confinement
+    held = r.sandbox
     assert held["session"] and held["undumpable"] and held["limits"] and held["peer_checked"], held
     from adapters.confine import landlock_abi
 
@@ -162,9 +162,9 @@ def test_a_worker_signals_no_process_but_its_own_and_reads_no_memory(probed):
     r, *_ = probed
     found = _probe(r)
     # where neither a uid of its own nor Landlock's signal scope is offered, the record says so
-    assert r.confinement["signals"] == (os.geteuid() == 0 or r.confinement["landlock_abi"] >= 6)
-    assert r.confinement["signals"] or found["signalled"] > 0
-    if r.confinement["signals"]:
+    assert r.sandbox["signals"] == (os.geteuid() == 0 or r.sandbox["landlock_abi"] >= 6)
+    assert r.sandbox["signals"] or found["signalled"] > 0
+    if r.sandbox["signals"]:
         assert found["signalled"] == 0 and not found["evaluator_signalled"] and not found["server_signalled"], found
     assert found["evaluator_mem"] == "PermissionError" and found["server_mem"] == "PermissionError", found
 
@@ -178,10 +178,10 @@ def test_a_worker_cannot_have_its_server_start_a_process_for_it(probed):
 def test_a_worker_reads_and_writes_only_where_it_is_allowed(probed):
     r, problem, outside, hidden, fe_data = probed
     found = _probe(r)
-    assert r.confinement["filesystem"] == (r.confinement["landlock_abi"] > 0)  # where none is offered, it says so
+    assert r.sandbox["filesystem"] == (r.sandbox["landlock_abi"] > 0)  # where none is offered, it says so
     assert found["own_tmp"] == "ok"
     assert list(found["write"].values()).count("ok") == 1, found  # the tests' writable directory
-    if r.confinement["filesystem"]:
+    if r.sandbox["filesystem"]:
         assert found["read"] == {str(outside / "secret.json"): "PermissionError",
                                  str(hidden / "record.json"): "PermissionError", str(fe_data): "PermissionError"}
         writes = found["write"]
@@ -218,7 +218,7 @@ def test_a_study_that_cannot_be_confined_needs_unconfined_and_its_report_marks_t
     done = _femu(*args, "--unconfined", FEMU_LANDLOCK="off")
     assert done.returncode == 0, done.stderr
     (r,) = Store(store).runs()
-    assert r.status == "ok" and r.verified and r.confinement["filesystem"] is False and r.confinement["session"]
+    assert r.status == "ok" and r.verified and r.sandbox["filesystem"] is False and r.sandbox["session"]
     report = _femu("report", str(store), "--out", str(tmp_path / "r"))
     assert report.returncode == 0, report.stderr
     text = (tmp_path / "r" / "report.md").read_text()
@@ -227,3 +227,36 @@ def test_a_study_that_cannot_be_confined_needs_unconfined_and_its_report_marks_t
     assert _femu(*args[:8], str(confined), *args[9:]).returncode == 0
     assert _femu("report", str(confined), "--out", str(tmp_path / "rc")).returncode == 0
     assert "unconfined" not in (tmp_path / "rc" / "report.md").read_text()
+
+
+# -- 4. a tamper-evident store ---------------------------------------------------------------------------
+
+
+def test_a_changed_record_is_refused_by_femu_report_named_and_a_stripped_one_flagged(tmp_path):
+    import hashlib
+    import hmac
+    import json
+    import stat
+
+    store = tmp_path / "s"
+    done, runs = _study(store, ["random-search"])
+    assert done.returncode == 0, done.stderr
+    key = store / ".key"
+    assert stat.S_IMODE(key.stat().st_mode) == 0o600
+    (path,) = (store / "runs").glob("*.json")
+    record = json.loads(path.read_text())
+    # the MAC checked by a second, independent computation: HMAC-SHA256 of the canonical JSON
+    body = json.dumps({k: v for k, v in record.items() if k != "mac"}, sort_keys=True, separators=(",", ":"))
+    assert record["mac"] == hmac.new(key.read_bytes(), body.encode(), hashlib.sha256).hexdigest()
+    assert _femu("report", str(store), "--out", str(tmp_path / "r0")).returncode == 0
+    # a better best_f, still a valid record: refused, the file named
+    changed = dict(record, best_f=record["best_f"] / 10)
+    path.write_text(json.dumps(changed))
+    refused = _femu("report", str(store), "--out", str(tmp_path / "r1"))
+    assert refused.returncode == 2 and str(path) in refused.stderr and "MAC does not match" in refused.stderr
+    assert refused.stderr.count("\n") == 1, refused.stderr
+    # the MAC stripped: read, and flagged in the report
+    path.write_text(json.dumps({k: v for k, v in changed.items() if k != "mac"}))
+    flagged = _femu("report", str(store), "--out", str(tmp_path / "r2"))
+    assert flagged.returncode == 0, flagged.stderr
+    assert "**no MAC**" in (tmp_path / "r2" / "report.md").read_text()
