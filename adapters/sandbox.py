@@ -228,6 +228,10 @@ class _Worker:
         self.address = server_address(preload)
         self.owner = os.getpid()
         self.conn = Client(self.address, family="AF_UNIX")
+        try:  # the built-ins' modules its server imports before forking it (and keeps for later workers)
+            self.conn.send_bytes(json.dumps({"preload": list(preloads_of(preload))}).encode())
+        except OSError:  # a server that hung up: it sends no pid either (`pid`), said there
+            pass
         self._pid: int | None = None
         self._pidfd: int | None = None  # opened as soon as the pid is read (`pid`)
         self._frozen: list | None = None  # the stopped descendants once `freeze` has run
@@ -485,6 +489,14 @@ def preloads(names) -> list[str]:
     from .registry import BUILTINS, module_of
 
     return list(dict.fromkeys(module_of(n) for n in names if n in BUILTINS))
+
+
+def preloads_of(modules) -> list[str]:
+    """The built-ins' modules among `modules` (what a worker server may import)."""
+    from .registry import BUILTINS
+
+    builtin = {target.split(":")[0] for target in BUILTINS.values()}
+    return [m for m in modules if m in builtin]
 
 
 def _preload(name: str) -> list[str]:

@@ -500,6 +500,33 @@ def adopt_orphans() -> None:
         _prctl(PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0)
 
 
+def _preload_asked(sock, builtin: set) -> None:
+    """Import here, before forking the connection's worker, the built-in optimizers' modules its
+    evaluating process names first (``{"preload": [module, ...]}``, adapters.sandbox._Worker),
+    so that its run and every later one find them imported (a plugin's module: never here)."""
+    try:
+        sock.settimeout(5.0)
+        header = sock.recv(4, socket.MSG_PEEK | socket.MSG_WAITALL)
+        size = struct.unpack("!i", header)[0] if len(header) == 4 else -1
+        if not 0 < size <= 65536:
+            return
+        raw = sock.recv(4 + size, socket.MSG_PEEK | socket.MSG_WAITALL)[4:]
+        asked = json.loads(raw)
+        if not (isinstance(asked, dict) and isinstance(asked.get("preload"), list)):
+            return  # not this message: left for the worker
+        sock.recv(4 + size, socket.MSG_WAITALL)  # taken off the connection
+    except (OSError, ValueError, struct.error):
+        return
+    finally:
+        sock.settimeout(None)
+    for module in asked["preload"]:
+        if module in builtin and module not in sys.modules:
+            try:
+                __import__(module)
+            except BaseException:  # a broken library fails the runs that need it, in their workers
+                pass
+
+
 def _from_a_worker(pid: int) -> bool:
     """Whether process `pid` is one of this server's workers or descends from one (its parents
     read from /proc up to init or this server): a worker may not have the server start a process
@@ -555,6 +582,7 @@ def serve(address: str, preload: list[str]) -> None:
         if uid != os.getuid() or _from_a_worker(peer):  # only the evaluating side starts a worker
             sock.close()
             continue
+        _preload_asked(sock, builtin)
         with _workers_lock:  # a worker is in `_workers` before the reaper can see it
             pid = os.fork()
             if pid:

@@ -316,6 +316,7 @@ def test_results_json_and_table(tmp_path, capsys):
         assert len(r["best_x"]) == 12 and r["best_f"] == r["trace"][-1][1]
         assert r["wall_s"] >= r["fe_s"] > 0 and r["cpu_s"] > 0
     stored = json.loads((store / "runs" / "synthetic__random-search__b30__s1.json").read_text())
+    assert isinstance(stored.pop("mac"), str)  # the store's seal on the record (Store.sign), not a field of it
     assert rows[3] == stored
 
     assert main(["results", str(store)]) == 0
