@@ -405,12 +405,26 @@ class ProbesItsConfinement:
                  "server_mem": _probe(lambda: _read(f"/proc/{server}/mem")),
                  "read": {p: _probe(lambda: _read(p)) for p in read},
                  "write": {p: _probe(lambda: _write(p)) for p in write},
-                 "own_tmp": _probe(lambda: _write(os.path.join(tempfile.gettempdir(), "mine")))}
+                 "own_tmp": _probe(lambda: _write(os.path.join(tempfile.gettempdir(), "mine"))),
+                 "files_opened": self._open_many(4000)}
         with open(f"/proc/{server}/cmdline", "rb") as fh:
             address = fh.read().split(b"\0")[3].decode()  # python -m adapters.sandbox_worker ADDRESS
         found["new_worker"] = self._ask_for_a_worker(address)
         print("PROBE", json.dumps(found), flush=True)
         objective(_points(bounds, rng, budget))
+
+    @staticmethod
+    def _open_many(n: int) -> int:
+        """How many of `n` files it could hold open at once (then all closed)."""
+        held = []
+        try:
+            for _ in range(n):
+                held.append(os.open(os.devnull, os.O_RDONLY))
+        except OSError:
+            pass
+        for fd in held:
+            os.close(fd)
+        return len(held)
 
     @staticmethod
     def _ask_for_a_worker(address: str) -> str:

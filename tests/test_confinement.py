@@ -169,6 +169,14 @@ def test_a_worker_signals_no_process_but_its_own_and_reads_no_memory(probed):
     assert found["evaluator_mem"] == "PermissionError" and found["server_mem"] == "PermissionError", found
 
 
+def test_a_worker_holds_no_more_open_files_than_its_limit(probed):
+    from adapters.confine import OPEN_FILES
+
+    r, *_ = probed
+    assert r.sandbox["limits"]
+    assert _probe(r)["files_opened"] < OPEN_FILES < 4000  # its own few already open count too
+
+
 def test_a_worker_cannot_have_its_server_start_a_process_for_it(probed):
     r, *_ = probed
     found = _probe(r)
