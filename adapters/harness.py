@@ -74,6 +74,9 @@ class RunResult:
     set by studies; None otherwise.
     suite_version: the benchmark suite's version (fe_problem.suite.SUITE_VERSION) the problem
     was defined by; None in records written before it was recorded.
+    sandbox: which of the kernel's confinements held for its worker (adapters.sandbox.CONFINEMENT:
+    filesystem, signals, own_uid, limits, session, undumpable, peer_checked -> true or false, and
+    landlock_abi); empty for in-process runs and records made before it.
     """
 
     optimizer: str
@@ -107,6 +110,7 @@ class RunResult:
     capabilities: dict = field(default_factory=dict)
     problem_source: dict | None = None
     suite_version: str | None = None
+    sandbox: dict = field(default_factory=dict)
 
     @property
     def overhead_s(self) -> float:

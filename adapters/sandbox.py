@@ -45,6 +45,7 @@ import fcntl
 import json
 import os
 import pickle
+import re
 import shutil
 import signal
 import stat
@@ -81,16 +82,41 @@ CLAIMS_LOCK_S = 1.0
 MESSAGE_BYTES = 1 << 20
 
 
+#: The deepest nesting of arrays and objects read in a worker's JSON message (its descriptions
+#: are 3 deep): a deeper one is a protocol fault, refused before it is parsed (Python's parser
+#: recurses, and a deep enough message raised RecursionError here).
+MESSAGE_DEPTH = 32
+
+# a JSON string (escapes included), matched without backtracking: its brackets are not nesting
+_JSON_STRING = re.compile(rb'"[^"\\]*(?:\\.[^"\\]*)*"', re.S)
+
+
+def json_depth(raw: bytes) -> int:
+    """The deepest nesting of arrays and objects in the JSON text `raw` (its strings' brackets
+    not counted), in linear time and memory, without parsing it."""
+    bare = np.frombuffer(_JSON_STRING.sub(b'""', raw), dtype=np.uint8)
+    step = (np.isin(bare, (ord("["), ord("{"))).astype(np.int64) - np.isin(bare, (ord("]"), ord("}"))))
+    return int(np.cumsum(step).max(initial=0))
+
+
+def loads_bounded(raw: bytes, depth: int = MESSAGE_DEPTH):
+    """`raw` read as JSON if it nests at most `depth` deep, else ValueError ("protocol: ..."),
+    as for a message that is not JSON: what a worker sends is never allowed to raise anything
+    else here (no RecursionError, whatever its shape)."""
+    if json_depth(raw) > depth:
+        raise ValueError(f"protocol: the optimizer's process sent a message nested more than {depth} deep")
+    try:
+        return json.loads(raw)
+    except (ValueError, RecursionError):  # not UTF-8 JSON (json's own error is a ValueError too)
+        raise ValueError("protocol: the optimizer's process sent a message that is not JSON") from None
+
+
 def _receive(conn, limit: int = MESSAGE_BYTES):
     """A worker's message, read as JSON: the worker is the plugin's process, so what comes from
     it is data only, never a pickle (unpickling runs code, here, beside the problem). ValueError
-    ("protocol: ...") when it is not JSON or longer than `limit` bytes; EOFError/OSError when the
-    process is gone."""
-    raw = _receive_bytes(conn, limit)
-    try:
-        return json.loads(raw)
-    except ValueError:  # not UTF-8 JSON (json's own error is a ValueError too)
-        raise ValueError("protocol: the optimizer's process sent a message that is not JSON") from None
+    ("protocol: ...") when it is not JSON, longer than `limit` bytes or nested deeper than
+    `MESSAGE_DEPTH`; EOFError/OSError when the process is gone."""
+    return loads_bounded(_receive_bytes(conn, limit))
 
 
 def _receive_bytes(conn, limit: int) -> bytes:
@@ -123,7 +149,11 @@ class WorkerServer:
     temporary directory; `preload`: modules its workers find imported (the optimizers)."""
 
     def __init__(self, preload=()):
-        self._dir = tempfile.mkdtemp(prefix="femu-sandbox-")  # mode 0700: this user only
+        self._dir = tempfile.mkdtemp(prefix="femu-sandbox-")
+        # others may pass through to their own temporary directory (`sandbox_worker._confine`),
+        # never list it nor connect to the socket (and the server takes this user's connections only)
+        os.chmod(self._dir, 0o711)
+        _undumpable()
         self.address = os.path.join(self._dir, "server")
         self.owner = os.getpid()
         # the mark fe_problem refuses to import under, inherited by every process a plugin starts
@@ -198,16 +228,23 @@ class _Worker:
         self.address = server_address(preload)
         self.owner = os.getpid()
         self.conn = Client(self.address, family="AF_UNIX")
+        try:  # the built-ins' modules its server imports before forking it (and keeps for later workers)
+            self.conn.send_bytes(json.dumps({"preload": list(preloads_of(preload))}).encode())
+        except OSError:  # a server that hung up: it sends no pid either (`pid`), said there
+            pass
         self._pid: int | None = None
         self._pidfd: int | None = None  # opened as soon as the pid is read (`pid`)
         self._frozen: list | None = None  # the stopped descendants once `freeze` has run
         self.output_path = None
+        self.place: dict | None = None  # what it was confined to at its prepare (`confinement_place`)
+        self.confinement: dict | None = None  # what held, once read (`confinement_of`)
         try:
             fd, self.output_path = tempfile.mkstemp(prefix="femu-run-", suffix=".out")
             os.close(fd)
             if prepare:
+                self.place = confinement_place()
                 self.conn.send({"prepare": True, "output_path": self.output_path, "sys_path": list(sys.path),
-                                "cwd": os.getcwd()})
+                                "cwd": os.getcwd(), "confine": self.place})
             else:
                 self.pid  # noqa: B018  (waits for the fork)
         except BaseException:  # nothing left behind: the connection, the output file, the pidfd
@@ -366,7 +403,8 @@ def _fresh_worker(preload=()) -> _Worker:
     address = server_address(preload)
     with _spare_lock:
         spare, _spare = _spare, None
-    if spare is not None and spare.owner == os.getpid() and spare.address == address:
+    if spare is not None and spare.owner == os.getpid() and spare.address == address and \
+            spare.place == confinement_place():  # confined as a run now would be
         try:
             spare.pid  # noqa: B018  (forked, and said so)
             if not spare.conn.poll(0):  # and quiet since: not ended by anyone (its end would read as EOF)
@@ -389,18 +427,23 @@ def describe(name: str, n_vars, options: dict | None = None) -> dict:
     try:
         worker.conn.send({"describe": True, "name": name, "n_vars": [int(n) for n in n_vars],
                           "options": dict(options or {}), "output_path": worker.output_path,
-                          "sys_path": list(sys.path), "cwd": os.getcwd()})
+                          "sys_path": list(sys.path), "cwd": os.getcwd(), "confine": confinement_place()})
+        confinement_of(worker, name)
         if not worker.conn.poll(READY_S):
-            raise ValueError(f"optimizer {name!r}: loading it took more than {READY_S:.0f} s")
+            raise PluginFault(f"optimizer {name!r}: loading it took more than {READY_S:.0f} s")
         kind, answer = _pair(_receive(worker.conn))
     except (EOFError, OSError):
-        raise ValueError(f"optimizer {name!r}: its process ended while it was loaded") from None
-    except ValueError as exc:
-        raise ValueError(f"optimizer {name!r}: {exc}") from None
+        raise PluginFault(f"optimizer {name!r}: its process ended while it was loaded") from None
+    except PluginFault:
+        raise
+    except ValueError as exc:  # a protocol fault
+        raise PluginFault(f"optimizer {name!r}: {exc}") from None
     finally:
         worker.end()
+    if kind == "refused" and isinstance(answer, str):
+        raise ValueError(answer)
     if kind != "described":
-        raise ValueError(str(answer))
+        raise PluginFault(f"optimizer {name!r}: protocol: its process sent a message of the wrong shape")
     return _facts(name, n_vars, answer)
 
 
@@ -413,7 +456,7 @@ def _facts(name: str, n_vars, answer) -> dict:
         if not all(type(v) is int for v in need.values()) or not (refused is None or isinstance(refused, str)):
             raise TypeError
     except (KeyError, TypeError, ValueError):
-        raise ValueError(f"optimizer {name!r}: protocol: its process sent a description of the wrong shape") from None
+        raise PluginFault(f"optimizer {name!r}: protocol: its process sent a description of the wrong shape") from None
     return {"min_budget": need, "x0_refused": refused}
 
 
@@ -438,11 +481,26 @@ def optimizer_facts(name: str, n_vars, options: dict | None = None) -> dict:
     return {"min_budget": {int(n): min_budget(cls, int(n), **(options or {})) for n in n_vars}, "x0_refused": refused}
 
 
-def _preload(name: str) -> list[str]:
-    from .registry import module_of
+def preloads(names) -> list[str]:
+    """The modules a worker server may import before it forks its workers, for optimizers
+    `names`: those of the built-ins only. A plugin's module is never imported there: its
+    import-time code would run in the server and so in every worker forked after it (it could
+    patch what later runs of other optimizers see); it is imported in its own run's worker."""
+    from .registry import BUILTINS, module_of
 
-    module = module_of(name)
-    return [module] if module else []
+    return list(dict.fromkeys(module_of(n) for n in names if n in BUILTINS))
+
+
+def preloads_of(modules) -> list[str]:
+    """The built-ins' modules among `modules` (what a worker server may import)."""
+    from .registry import BUILTINS
+
+    builtin = {target.split(":")[0] for target in BUILTINS.values()}
+    return [m for m in modules if m in builtin]
+
+
+def _preload(name: str) -> list[str]:
+    return preloads([name])
 
 
 def run_isolated(name: str, problem, budget: int, seed: int, time_limit_s: float | None = None,
@@ -463,30 +521,39 @@ def run_isolated(name: str, problem, budget: int, seed: int, time_limit_s: float
         return {"name": name, "n_var": n_var, "xl": xl.tolist(), "xu": xu.tolist(), "budget": budget, "seed": seed,
                 "options": dict(options), "time_limit_s": time_limit_s, "jacobian_cost": jacobian_cost(n_var),
                 "output_path": w.output_path, "sys_path": list(sys.path), "cwd": os.getcwd(),
+                "confine": w.place or confinement_place(),
                 "x0": None if x0 == "none" else np.asarray(problem.x0, dtype=float).tolist()}
 
     try:
         # on one core from the start: the worker loads its optimizer while this thread waits,
         # instead of waiting for a wake-up on another core of a loaded machine
         with _one_core(worker.pid, claims_path()) as core:
+            objective = _Lazy(lambda: BudgetedObjective(problem, budget, time_limit_s))
             try:
-                described = _load(worker, name, spec(worker))
-            except _NeverGotItsRun:
-                # it died before it answered its run's spec (a process a plugin left running killed
-                # the spare between `_fresh_worker`'s look and the spec): nothing was evaluated; the
-                # run takes a worker forked now, once (an optimizer that ends its process as it is
-                # loaded does so again, and that is the run's error)
-                worker.end()
-                worker = _Worker(_preload(name))
-                _pin(worker.pid, core)
-                described = _load(worker, name, spec(worker))
+                try:
+                    described = _load(worker, name, spec(worker))
+                except _NeverGotItsRun:
+                    # it died before it answered its run's spec (a process a plugin left running killed
+                    # the spare between `_fresh_worker`'s look and the spec): nothing was evaluated; the
+                    # run takes a worker forked now, once (an optimizer that ends its process as it is
+                    # loaded does so again, and that is the run's error)
+                    worker.end()
+                    worker = _Worker(_preload(name))
+                    _pin(worker.pid, core)
+                    described = _load(worker, name, spec(worker))
+            except PluginFault as exc:  # its own fault as it was loaded: its run fails, nothing evaluated
+                described, fault = {}, str(exc)
+            else:
+                fault = None
             cpu0, worker_cpu0 = time.process_time(), worker.cpu_s()
             wall0 = time.perf_counter()
             # the cooperative clock (BudgetedObjective's) starts at the optimizer's first request, so
             # that the wake-ups of a loaded machine between two processes do not eat its time; the
             # hard deadline counts from now, its optimizer loaded
-            objective = _Lazy(lambda: BudgetedObjective(problem, budget, time_limit_s))
-            status, error = _serve(worker, objective, problem, time_limit_s, budget)
+            if fault is None:
+                status, error = _serve(worker, objective, problem, time_limit_s, budget)
+            else:
+                status, error = "failed", fault
             wall = time.perf_counter() - wall0
             worker.freeze()  # nothing of the run goes on; its live descendants' CPU is counted
             cpu = time.process_time() - cpu0 + max(worker.cpu_s() - worker_cpu0, 0.0)
@@ -500,7 +567,7 @@ def run_isolated(name: str, problem, budget: int, seed: int, time_limit_s: float
     if _spares_after_runs:
         fork_spare(_preload(name))  # the next run's worker, forked while this process makes the record
     return record(name, problem, counted0, objective, seed, budget, options, x0, status, error, variant, wall, cpu,
-                  verified=True, output=output, **described)
+                  verified=True, output=output, sandbox=worker.confinement or {}, **described)
 
 
 @contextmanager
@@ -523,7 +590,121 @@ def _interrupt_after():
             raise KeyboardInterrupt
 
 
-class _NeverGotItsRun(ValueError):
+_hidden: list[str] = []
+
+
+def hide_from_workers(paths) -> None:
+    """Paths this process's workers may never read, whatever directory they are in (a study's
+    store: femu.studies.study), from now on, instead of those set before (one study at a time
+    in a process); added to `confine.HIDDEN_ENV`'s. An empty path is no path."""
+    _hidden[:] = list(dict.fromkeys(os.path.realpath(p) for p in map(str, paths) if p.strip()))
+
+
+def confinement_place() -> dict:
+    """What a worker may read, write and never read (adapters.confine), as real paths: it reads
+    the import path and this directory (where registry._import_here finds a plugin module), Python's installation and the system's
+    directories; it writes its own temporary directory and those named in `confine.WRITABLE_ENV`;
+    it never reads those in `confine.HIDDEN_ENV` (a study's store) nor the FE package (its data,
+    the suite)."""
+    from importlib.util import find_spec
+
+    from .confine import HIDDEN_ENV, SYSTEM_DIRS, WRITABLE_ENV
+
+    def real(paths):
+        return list(dict.fromkeys(os.path.realpath(p or os.getcwd()) for p in paths))
+
+    fe = find_spec("fe_problem")
+    hidden = [p for p in os.environ.get(HIDDEN_ENV, "").split(os.pathsep) if p] + _hidden
+    hidden += list(fe.submodule_search_locations or []) if fe is not None else []
+    return {"readable": real([*sys.path, os.getcwd(), sys.prefix, sys.base_prefix, sys.exec_prefix, os.path.dirname(sys.executable),
+                              *SYSTEM_DIRS]),
+            "writable": real(p for p in os.environ.get(WRITABLE_ENV, "").split(os.pathsep) if p),
+            "hidden": real(hidden)}
+
+
+#: What `RunResult.sandbox` says of a run, each True when it held: ``filesystem`` (Landlock:
+#: reads and writes as `confinement_place` says), ``signals`` (no signal to another run's worker,
+#: its server or this process: its own uid, or Landlock's signal scope), ``own_uid`` (checked here),
+#: ``limits`` (resource limits), ``session`` (its own session and process group, checked here),
+#: ``undumpable`` (this process: no ptrace, no /proc/PID/mem), ``peer_checked`` (the server took
+#: its connection from this process only, SO_PEERCRED); ``landlock_abi`` the kernel's (0: none).
+CONFINEMENT = ("filesystem", "signals", "own_uid", "limits", "session", "undumpable", "peer_checked")
+#: What a run must have held to count as confined (`is_confined`); ``own_uid`` is one way to
+#: ``signals``, not required where Landlock scopes signals.
+REQUIRED = ("filesystem", "signals", "limits", "session", "undumpable", "peer_checked")
+
+
+def confinement_missing() -> str | None:
+    """What this machine cannot give a worker of `REQUIRED` (adapters.confine), in words, or None
+    when it can give all: Landlock for the filesystem, and for signals a uid of its own (root)
+    or Landlock's signal scope (ABI 6)."""
+    from .confine import LANDLOCK_ENV, landlock_abi
+
+    abi = landlock_abi()
+    missing = []
+    if abi == 0:
+        missing.append(f"no Landlock (kernel without it, or {LANDLOCK_ENV}=off): no filesystem confinement")
+    if not (os.geteuid() == 0 or abi >= 6):
+        missing.append("not root and no Landlock signal scope (ABI 6): a worker may signal other runs' workers")
+    return "; ".join(missing) or None
+
+
+def is_confined(confinement: dict) -> bool:
+    """Whether a record's `sandbox` (its `confinement`) says every `REQUIRED` mechanism held."""
+    return all(confinement.get(k) is True for k in REQUIRED)
+
+
+def confinement_of(worker: _Worker, name: str) -> dict:
+    """Read the worker's word on its confinement (sent before any optimizer code ran in it) and
+    check here what can be checked from outside (its uid, its session, this process not
+    dumpable); kept on `worker.confinement`. EOFError/OSError when its process is gone."""
+    if worker.confinement is not None:
+        return worker.confinement
+    pid = worker.pid
+    if not worker.conn.poll(SERVER_START_S):
+        raise PluginFault(f"optimizer {name!r}: its process did not say how it was confined")
+    try:
+        kind, held = _pair(_receive(worker.conn))
+    except ValueError as exc:
+        raise PluginFault(f"optimizer {name!r}: {exc}") from None
+    if kind != "confined" or not isinstance(held, dict):
+        raise PluginFault(f"optimizer {name!r}: protocol: its process did not say how it was confined")
+    try:
+        proc = psutil.Process(pid)
+        own_uid = held.get("own_uid") is True and proc.uids().real != os.getuid() and proc.uids().effective != 0
+        session = os.getsid(pid) == pid
+    except (psutil.Error, OSError):
+        own_uid = session = False
+    abi = held.get("landlock_abi")
+    worker.confinement = {
+        "filesystem": held.get("filesystem") is True, "own_uid": own_uid,
+        "signals": own_uid or held.get("signal_scope") is True, "limits": held.get("limits") is True,
+        "session": session, "undumpable": _undumpable(), "peer_checked": True,
+        "landlock_abi": abi if type(abi) is int else 0}
+    return worker.confinement
+
+
+_undumpable_held: bool | None = None
+
+
+def _undumpable() -> bool:
+    """Make this process (the evaluating side) not dumpable, once (adapters.confine)."""
+    global _undumpable_held
+    if _undumpable_held is None:
+        from .confine import make_undumpable
+
+        _undumpable_held = make_undumpable()
+    return _undumpable_held
+
+
+class PluginFault(ValueError):
+    """An optimizer's process that broke the protocol, or ended or hung while it was loaded or
+    described: the plugin's own fault, never its caller's. Its runs fail with this error, named
+    (`run_isolated` returns a failed record, nothing evaluated), and a study goes on with the
+    others (femu.studies.study.check_budget_for)."""
+
+
+class _NeverGotItsRun(PluginFault):
     """A worker that ended before it answered its run's spec (`_load`): nothing was evaluated.
     (A worker killed as it waits may still take the spec: its process shows as ended while a
     thread of it has not yet closed its connection.)"""
@@ -536,16 +717,24 @@ def _load(worker: _Worker, name: str, spec: dict) -> dict:
         worker.conn.send(spec)
     except OSError:
         raise _NeverGotItsRun(f"optimizer {name!r}: its process ended before it was loaded") from None
+    try:
+        confinement_of(worker, name)
+    except (EOFError, OSError):
+        raise _NeverGotItsRun(f"optimizer {name!r}: its process ended before it was loaded") from None
     if not worker.conn.poll(READY_S):
-        raise ValueError(f"optimizer {name!r}: loading it took more than {READY_S:.0f} s")
+        raise PluginFault(f"optimizer {name!r}: loading it took more than {READY_S:.0f} s")
     try:
         kind, why = _pair(_receive(worker.conn))
     except (EOFError, OSError):
         raise _NeverGotItsRun(f"optimizer {name!r}: its process ended while it was loaded: "
                               f"{worker.output()[-500:]}") from None
-    if kind != "ready":
-        raise ValueError(why)
-    return _description(why)
+    except ValueError as exc:  # a protocol fault (not JSON, too long, too deep, wrong shape)
+        raise PluginFault(f"optimizer {name!r}: {exc}") from None
+    if kind == "ready":
+        return _description(why)
+    if kind != "refused" or not isinstance(why, str):
+        raise PluginFault(f"optimizer {name!r}: protocol: its process sent a message of the wrong shape")
+    raise ValueError(why[:MESSAGE_BYTES])
 
 
 def _description(answer) -> dict:
@@ -749,9 +938,9 @@ def _serve(worker: _Worker, lazy: _Lazy, problem, time_limit_s, budget: int) -> 
                 conn.send_bytes(VALUES + pickle.dumps((objective.n_evals, out.f, out.residuals, out.jacobian)))
             elif tag == DONE:
                 try:  # JSON, never a pickle: unpickling would run the plugin's code here
-                    kind, text = _pair(json.loads(body))
-                except ValueError:
-                    return "failed", "protocol: the optimizer's process sent an unreadable end of run"
+                    kind, text = _pair(loads_bounded(body))
+                except ValueError as exc:
+                    return "failed", f"{exc} (its end of run)"
                 if kind == "returned":
                     return ("ok" if objective.n_evals >= objective.budget else "stopped"), None
                 return "failed", str(text)

@@ -32,7 +32,9 @@ import importlib
 import importlib.abc
 import importlib.metadata
 import json
+import math
 import pickle
+import shutil
 import signal
 import socket
 import struct
@@ -256,8 +258,30 @@ def _settle(spec: dict) -> None:
         pass
 
 
+def _confine(conn, spec: dict) -> None:
+    """Confine this worker (adapters.confine) as the evaluating side asks in `spec`, before any
+    optimizer code is imported, tell it what held (``["confined", {...}]``), then watch that
+    process (`_watch_evaluator`): every thread of this process is started after the
+    confinement, which holds for the thread that makes it and those it starts only."""
+    from .confine import confine
+
+    place = spec.get("confine") or {}
+    tmp_dir = f"{_address}.run.{os.getpid()}"
+    try:
+        os.mkdir(tmp_dir, 0o700)
+    except OSError:
+        tmp_dir = None
+    try:
+        held = confine(list(place.get("readable", [])), list(place.get("writable", [])),
+                       list(place.get("hidden", [])), tmp_dir)
+    except OSError as exc:  # a mechanism that failed half-way: none is claimed
+        held = {"error": f"{type(exc).__name__}: {exc}"}
+    send_json(conn, ["confined", held])
+    threading.Thread(target=_watch_evaluator, args=(_evaluator_pidfd,), daemon=True).start()
+
+
 def _same_place(a: dict, b: dict) -> bool:
-    return all(a.get(k) == b.get(k) for k in ("output_path", "sys_path", "cwd"))
+    return all(a.get(k) == b.get(k) for k in ("output_path", "sys_path", "cwd", "confine"))
 
 
 def worker(conn) -> None:
@@ -273,6 +297,7 @@ def worker(conn) -> None:
     prepared = None
     if spec.get("prepare"):
         _settle(spec)
+        _confine(conn, spec)
         prepared, spec = spec, conn.recv()
     if prepared is not None and _same_place(prepared, spec):
         for finder in list(sys.path_importer_cache.values()):  # a file written since the prepare
@@ -280,6 +305,12 @@ def worker(conn) -> None:
                 finder.invalidate_caches()
     else:
         _settle(spec)
+        if prepared is None:
+            _confine(conn, spec)
+    if spec.get("time_limit_s") is not None:  # its CPU bounded too, once its limit is known
+        from .confine import limit_cpu
+
+        limit_cpu(math.ceil(2 * float(spec["time_limit_s"]) + 60))
     if spec.get("describe"):
         try:
             send_json(conn, ["described", _describe(spec)])
@@ -320,18 +351,33 @@ def worker(conn) -> None:
     conn.recv()  # the evaluating process ends this process and every one it started
 
 
-def _watch_evaluator(pid: int) -> None:
-    """End this worker and every process it started once the evaluating process `pid` is gone
+#: The evaluating process of this worker, as a pidfd opened when the worker is forked (None: no
+#: pidfd on this system; then its pid, `_evaluator_pid`).
+_evaluator_pidfd: int | None = None
+_evaluator_pid: int | None = None
+#: The worker server's socket address (its workers' temporary directories are beside it).
+_address = ""
+
+
+def _watch_evaluator(pidfd: int | None) -> None:
+    """End this worker and every process it started once its evaluating process is gone
     (killed at a hard deadline, or its study stopped): a worker without its evaluating side has
-    nothing left to do (`_end_this_worker`)."""
+    nothing left to do (`_end_this_worker`). Watched on its pidfd (readable once it has exited,
+    whichever uid this worker has now), else by its pid."""
+    if pidfd is not None:
+        import select
+
+        select.select([pidfd], [], [])
+        _end_this_worker()
     while True:
         time.sleep(0.25)
         try:
-            os.kill(pid, 0)
+            os.kill(_evaluator_pid, 0)
         except ProcessLookupError:
             _end_this_worker()
         except PermissionError:  # the pid was taken by another user's process: ours is gone
-            _end_this_worker()
+            if os.getuid() < 1_000_000_000:  # (a worker of its own uid may signal no one: alive)
+                _end_this_worker()
 
 
 def _end_this_worker() -> None:
@@ -385,6 +431,7 @@ def _reap(address: str) -> None:
                 continue
             _workers.discard(pid)
             _end_adopted()
+        shutil.rmtree(f"{address}.run.{pid}", ignore_errors=True)  # its temporary directory (`_confine`)
         try:
             os.unlink(f"{address}.ended.{pid}")
             continue
@@ -453,9 +500,56 @@ def adopt_orphans() -> None:
         _prctl(PR_SET_CHILD_SUBREAPER, 1, 0, 0, 0)
 
 
+def _preload_asked(sock, builtin: set) -> None:
+    """Import here, before forking the connection's worker, the built-in optimizers' modules its
+    evaluating process names first (``{"preload": [module, ...]}``, adapters.sandbox._Worker),
+    so that its run and every later one find them imported (a plugin's module: never here)."""
+    try:
+        sock.settimeout(5.0)
+        header = sock.recv(4, socket.MSG_PEEK | socket.MSG_WAITALL)
+        size = struct.unpack("!i", header)[0] if len(header) == 4 else -1
+        if not 0 < size <= 65536:
+            return
+        raw = sock.recv(4 + size, socket.MSG_PEEK | socket.MSG_WAITALL)[4:]
+        asked = json.loads(raw)
+        if not (isinstance(asked, dict) and isinstance(asked.get("preload"), list)):
+            return  # not this message: left for the worker
+        sock.recv(4 + size, socket.MSG_WAITALL)  # taken off the connection
+    except (OSError, ValueError, struct.error):
+        return
+    finally:
+        sock.settimeout(None)
+    for module in asked["preload"]:
+        if module in builtin and module not in sys.modules:
+            try:
+                __import__(module)
+            except BaseException:  # a broken library fails the runs that need it, in their workers
+                pass
+
+
+def _from_a_worker(pid: int) -> bool:
+    """Whether process `pid` is one of this server's workers or descends from one (its parents
+    read from /proc up to init or this server): a worker may not have the server start a process
+    for it, which would be no descendant of its own and outlive its run."""
+    seen = 0
+    while pid > 1 and pid != os.getpid() and seen < 4096:
+        with _workers_lock:
+            if pid in _workers:
+                return True
+        try:
+            with open(f"/proc/{pid}/stat", "rb") as fh:
+                stat = fh.read()
+            pid = int(stat[stat.rindex(b")") + 2:].split()[1])
+        except (OSError, ValueError, IndexError):
+            return False
+        seen += 1
+    return False
+
+
 def serve(address: str, preload: list[str]) -> None:
     """The worker server: import hook, preloads, then one forked worker per connection."""
-    global _prctl
+    global _prctl, _address, _evaluator_pid, _evaluator_pidfd
+    _address = address
     sys.meta_path.insert(0, _Refused())
     _prctl = _find_prctl()
     import numpy  # noqa: F401
@@ -463,7 +557,12 @@ def serve(address: str, preload: list[str]) -> None:
     import adapters.harness  # noqa: F401
     import adapters.registry  # noqa: F401
 
+    from adapters.registry import BUILTINS
+
+    builtin = {target.split(":")[0] for target in BUILTINS.values()}
     for module in preload:
+        if module not in builtin:  # a plugin's import-time code never runs here (sandbox.preloads)
+            continue
         try:
             __import__(module)
         except BaseException:  # a broken plugin module fails its own runs, with its own error
@@ -479,6 +578,11 @@ def serve(address: str, preload: list[str]) -> None:
     adopt_orphans()  # what a dead worker left running comes here (`_end_adopted`), not to init
     while True:
         sock, _ = listener.accept()
+        peer, uid, _ = struct.unpack("3i", sock.getsockopt(socket.SOL_SOCKET, socket.SO_PEERCRED, struct.calcsize("3i")))
+        if uid != os.getuid() or _from_a_worker(peer):  # only the evaluating side starts a worker
+            sock.close()
+            continue
+        _preload_asked(sock, builtin)
         with _workers_lock:  # a worker is in `_workers` before the reaper can see it
             pid = os.fork()
             if pid:
@@ -488,9 +592,11 @@ def serve(address: str, preload: list[str]) -> None:
             signal.signal(signal.SIGINT, signal.SIG_IGN)  # a Ctrl-C is the evaluating process's
             os.setsid()  # its own process group: ended as one when the evaluating side is gone
             adopt_orphans()
-            pid, _, _ = struct.unpack("3i", sock.getsockopt(socket.SOL_SOCKET, socket.SO_PEERCRED,
-                                                           struct.calcsize("3i")))
-            threading.Thread(target=_watch_evaluator, args=(pid,), daemon=True).start()
+            _evaluator_pid = peer
+            try:
+                _evaluator_pidfd = os.pidfd_open(peer)
+            except (AttributeError, OSError):
+                _evaluator_pidfd = None
             null = os.open(os.devnull, os.O_RDONLY)
             os.dup2(null, 0)
             os.close(null)

@@ -97,12 +97,14 @@ def _seed_text(seeds: list[int]) -> str:
 
 
 def reproduce(seeds=DEFAULT_SEEDS, budget: int = DEFAULT_BUDGET, out="femu-reproduce",
-              workers: int | None = None, log=None, time_limit_s: float | None = DEFAULT_TIME_LIMIT_S) -> dict:
+              workers: int | None = None, log=None, time_limit_s: float | None = DEFAULT_TIME_LIMIT_S,
+              unconfined: bool = False) -> dict:
     """Run the comparison into OUT/store, write OUT/report.md, return the summary dict
     described in the module doc. `seeds`: a count N (seeds 0..N-1), a list of seeds or a
     spec such as "0-4,10". Progress goes to `log` (default: stderr; a progress bar when it is
     a terminal). time_limit_s: wall-clock seconds per run (None: none). Every optimizer runs in a
-    worker process of its own (adapters.sandbox): what it prints is in its run record."""
+    worker process of its own (adapters.sandbox): what it prints is in its run record.
+    unconfined: run even where the workers cannot be confined (run_study's)."""
     # the optimizers, the problem and the reports load here, not with the module (whose
     # defaults `femu reproduce --help` shows at once, issue 25)
     from adapters.budget import check_budget
@@ -129,7 +131,7 @@ def reproduce(seeds=DEFAULT_SEEDS, budget: int = DEFAULT_BUDGET, out="femu-repro
     # comes from fe_problem._threads, imported with the packages
     with contextlib.redirect_stdout(log):
         study = run_study(names, seed_list, budget, out / "store", variants=(VARIANT,), workers=workers,
-                          progress=True, time_limit_s=time_limit_s)
+                          progress=True, time_limit_s=time_limit_s, unconfined=unconfined)
     print(study.summary(), file=log, flush=True)
     groups = summarize(list(study.runs))  # this reproduction's runs only, whatever else the store holds
     report = render_files(groups, out, f"store `{out / 'store'}`, the runs of `femu reproduce --seeds "

@@ -351,3 +351,117 @@ class ExitsLeavingSessions:
             open(os.path.join(pid_dir, str(child.pid)), "w").close()
         objective(_points(bounds, rng, 3))
         os._exit(3)
+
+
+# -- issue 39: plugins that reach for each other, the store or the truth -----------------------------
+
+
+class EndsWithDeepJSON:
+    """Ends its run with a message nested 200,000 deep: a parser that recurses raises
+    RecursionError, which `adapters.run` would let out (it is meant never to raise)."""
+
+    def minimize(self, objective, bounds, budget, rng):
+        objective(_points(bounds, rng, 3))
+        objective._conn.send_bytes(b"D" + b"[" * 200_000 + b"]" * 200_000)
+        time.sleep(60)
+
+
+def _probe(action) -> str:
+    """``ok`` when `action` ran, else the name of what stopped it."""
+    try:
+        action()
+        return "ok"
+    except BaseException as exc:  # noqa: BLE001  (what stopped it is the finding)
+        return type(exc).__name__
+
+
+def _write(path: str) -> None:
+    with open(path, "w") as fh:
+        fh.write("PLUGIN WAS HERE")
+
+
+def _read(path: str) -> None:
+    with open(path, "rb") as fh:
+        fh.read(1)
+
+
+class ProbesItsConfinement:
+    """Tries, from its worker, what issue 39 found open: signals (0: harmless) to every process
+    not its own, its server and its evaluating process's memory, a new worker from its server
+    (whose address is in its own command line), reading `read` and writing `write`; prints one
+    line ``PROBE {json}`` with what it reached, and evaluates honestly."""
+
+    def minimize(self, objective, bounds, budget, rng, evaluator=0, read=(), write=()):
+        mine = {os.getpid()} | {int(p) for p in os.listdir(f"/proc/{os.getpid()}/task")}
+        signalled = []
+        for p in os.listdir("/proc"):
+            if p.isdigit() and int(p) not in mine:
+                if _probe(lambda: os.kill(int(p), 0)) == "ok":
+                    signalled.append(int(p))
+        server = os.getppid()
+        found = {"signalled": len(signalled), "evaluator_signalled": int(evaluator) in signalled,
+                 "server_signalled": server in signalled,
+                 "evaluator_mem": _probe(lambda: _read(f"/proc/{int(evaluator)}/mem")),
+                 "server_mem": _probe(lambda: _read(f"/proc/{server}/mem")),
+                 "read": {p: _probe(lambda: _read(p)) for p in read},
+                 "write": {p: _probe(lambda: _write(p)) for p in write},
+                 "own_tmp": _probe(lambda: _write(os.path.join(tempfile.gettempdir(), "mine"))),
+                 "files_opened": self._open_many(4000)}
+        with open(f"/proc/{server}/cmdline", "rb") as fh:
+            address = fh.read().split(b"\0")[3].decode()  # python -m adapters.sandbox_worker ADDRESS
+        found["new_worker"] = self._ask_for_a_worker(address)
+        print("PROBE", json.dumps(found), flush=True)
+        objective(_points(bounds, rng, budget))
+
+    @staticmethod
+    def _open_many(n: int) -> int:
+        """How many of `n` files it could hold open at once (then all closed)."""
+        held = []
+        try:
+            for _ in range(n):
+                held.append(os.open(os.devnull, os.O_RDONLY))
+        except OSError:
+            pass
+        for fd in held:
+            os.close(fd)
+        return len(held)
+
+    @staticmethod
+    def _ask_for_a_worker(address: str) -> str:
+        """A worker from its server, as the evaluating side asks: ``pid N`` if it got one."""
+        from multiprocessing.connection import Client
+
+        try:
+            conn = Client(address, family="AF_UNIX")
+            if not conn.poll(5):
+                return "no answer"
+            return f"pid {json.loads(conn.recv_bytes())}"
+        except BaseException as exc:  # noqa: BLE001
+            return type(exc).__name__
+
+
+class ReachesForTheStore:
+    """Finds its study's store in an ancestor's command line (``--store PATH``), reads a record
+    there and writes one of its own; prints ``STORE {json}`` with what it reached."""
+
+    def minimize(self, objective, bounds, budget, rng):
+        store, pid = None, os.getpid()
+        while pid > 1 and store is None:
+            with open(f"/proc/{pid}/stat", "rb") as fh:
+                stat = fh.read()
+            pid = int(stat[stat.rindex(b")") + 2:].split()[1])
+            try:
+                with open(f"/proc/{pid}/cmdline", "rb") as fh:
+                    argv = [a.decode() for a in fh.read().split(b"\0")]
+            except OSError:
+                continue
+            if "--store" in argv:
+                store = argv[argv.index("--store") + 1]
+        found = {"store": store}
+        if store is not None:
+            runs = os.path.join(store, "runs")
+            found["list"] = _probe(lambda: os.listdir(runs))
+            found["read"] = _probe(lambda: _read(os.path.join(store, "study.json")))
+            found["write"] = _probe(lambda: _write(os.path.join(runs, "planted.json")))
+        print("STORE", json.dumps(found), flush=True)
+        objective(_points(bounds, rng, budget))

@@ -132,7 +132,8 @@ def test_a_plugin_that_ends_its_process_leaves_a_failed_record_and_the_study_goe
 
 
 def test_a_timed_out_plugin_takes_its_own_processes_with_it(tmp_path):
-    pid_file = tmp_path / "child.pid"
+    (tmp_path / "pids").mkdir()  # not beside the store: a directory that holds a store is list-only to workers
+    pid_file = tmp_path / "pids" / "child.pid"
     res = run_study([plugin(SpawnsAndHangs)], "0", 100, tmp_path / "s", workers=1, time_limit_s=1.0, progress=False,
                     options={plugin(SpawnsAndHangs): {"pid_file": str(pid_file)}})
     assert res.runs[0].status == "timeout", res.runs[0].error

@@ -120,7 +120,8 @@ def test_a_study_killed_mid_run_leaves_a_stale_claim_that_the_next_study_retakes
 
 
 def test_a_worker_ends_the_processes_its_plugin_left_behind(tmp_path):
-    pid_file = tmp_path / "child.pid"
+    (tmp_path / "pids").mkdir()  # not beside the store: a directory that holds a store is list-only to workers
+    pid_file = tmp_path / "pids" / "child.pid"
     res = run_study([plugin(SpawnsAndReturns)], "0", 50, tmp_path / "s", workers=1, progress=False,
                     options={plugin(SpawnsAndReturns): {"pid_file": str(pid_file)}})
     assert res.runs[0].status == "stopped" and res.runs[0].n_evals == 2, res.runs[0].error

@@ -230,7 +230,8 @@ def test_hanging_plugin_is_terminated_and_recorded_as_timeout(tmp_path):
     evaluations kept, and its process (which would sleep an hour) is gone."""
     from adapters.sandbox import worker_deadline_s
 
-    pid_file = tmp_path / "hangs.pid"
+    (tmp_path / "pids").mkdir()  # not beside the store: a directory that holds a store is list-only to workers
+    pid_file = tmp_path / "pids" / "hangs.pid"
     hangs = plugin(HangsTellingPid)
     res = run_study([hangs, plugin(Slow), "random-search"], "0", 100, tmp_path / "s", workers=2,
                     time_limit_s=2.0, progress=False, options={hangs: {"pid_file": str(pid_file)}})
@@ -315,6 +316,7 @@ def test_results_json_and_table(tmp_path, capsys):
         assert len(r["best_x"]) == 12 and r["best_f"] == r["trace"][-1][1]
         assert r["wall_s"] >= r["fe_s"] > 0 and r["cpu_s"] > 0
     stored = json.loads((store / "runs" / "synthetic__random-search__b30__s1.json").read_text())
+    assert isinstance(stored.pop("mac"), str)  # the store's seal on the record (Store.sign), not a field of it
     assert rows[3] == stored
 
     assert main(["results", str(store)]) == 0

@@ -42,10 +42,10 @@ def run(args) -> int:
 
         stats = benchmark_statistics(runs)
         if args.out is not None:
-            write_report(runs, args.out, ioh=args.ioh, coco=args.coco, source=f"store `{store.path}`")
+            write_report(runs, args.out, ioh=args.ioh, coco=args.coco, source=f"store `{store.path}`", unsigned=store.unsigned())
         print(dumps(stats))
         return 0
-    path = write_report(runs, args.out, ioh=args.ioh, coco=args.coco, source=f"store `{store.path}`")
+    path = write_report(runs, args.out, ioh=args.ioh, coco=args.coco, source=f"store `{store.path}`", unsigned=store.unsigned())
     print(f"report written to {path}")
     if args.ioh:
         print(f"IOHprofiler files in {path.parent / 'ioh'}")

@@ -25,6 +25,9 @@ def add_arguments(rr) -> None:
                     help="local worker processes (0: run in this process; default: every core)")
     rr.add_argument("--time-limit", type=float, default=DEFAULT_TIME_LIMIT_S,
                     help="wall-clock seconds per run before it is stopped (status timeout); default: %(default)s")
+    rr.add_argument("--unconfined", action="store_true",
+                    help="run even where this machine cannot confine the optimizers' workers (as femu study "
+                         "--unconfined: the records say what did not hold)")
     out = rr.add_mutually_exclusive_group()
     out.add_argument("--json", action="store_true",
                      help="print the result as one JSON object (medians over seeds) instead of a table")
@@ -39,7 +42,8 @@ def run(args) -> int:
     from femu.reproduce import DEFAULT_TIME_LIMIT_S, reproduce
 
     res = reproduce(seeds=args.seeds, budget=args.budget, out=args.out, workers=args.workers,
-                    time_limit_s=getattr(args, "time_limit", DEFAULT_TIME_LIMIT_S))
+                    time_limit_s=getattr(args, "time_limit", DEFAULT_TIME_LIMIT_S),
+                    unconfined=getattr(args, "unconfined", False))
     if args.json:
         sys.stdout.write(dumps(res) + "\n")
     elif args.markdown:

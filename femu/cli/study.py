@@ -50,6 +50,10 @@ def add_arguments(s) -> None:
                         "the problem behind its budget, so every such run is recorded as unverified and reports "
                         "say so; what it prints is not captured, and with --workers 0 its time limit is only checked when "
                         "it asks for an evaluation")
+    s.add_argument("--unconfined", action="store_true",
+                   help="run and rank plugins even where this machine cannot confine their workers (no Landlock, "
+                        "or neither root nor Landlock's signal scope: docs/plugins.md); every such run's record "
+                        "says what did not hold, and reports mark it")
     s.add_argument("--retry-failed", action="store_true",
                    help="run again the runs stored as failed or timeout (they are kept otherwise)")
 
@@ -117,7 +121,8 @@ def run(args) -> int:
                            progress=not args.no_progress, retry_failed=getattr(args, "retry_failed", False),
                            x0=getattr(args, "x0", "none"), options=options or None,
                            isolated=not getattr(args, "in_process", False), model=getattr(args, "model", None),
-                           data=getattr(args, "data", None), parameters=getattr(args, "parameters", None))
+                           data=getattr(args, "data", None), parameters=getattr(args, "parameters", None),
+                           unconfined=getattr(args, "unconfined", False))
     except KeyboardInterrupt:
         print(f"femu study: interrupted; the finished runs are in {args.store}: the same command resumes the study",
               file=sys.stderr)

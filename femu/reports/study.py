@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from adapters.sandbox import REQUIRED, is_confined
 from fe_problem.jsonutil import dumps
 from fe_problem.safe_files import write_text
 from femu.studies.store import Store
@@ -31,11 +32,13 @@ from .summary import best_so_far, paper_comparison, summarize  # noqa: F401  (th
 __all__ = ["best_so_far", "paper_comparison", "render_files", "render_markdown", "summarize", "write_report"]
 
 
-def write_report(store_or_runs, out_dir, ioh: bool = False, source: str | None = None, coco: bool = False) -> Path:
+def write_report(store_or_runs, out_dir, ioh: bool = False, source: str | None = None, coco: bool = False,
+                 unsigned: list[str] | None = None) -> Path:
     """Write OUT/report.md, OUT/summary.json and PNG figures for a Store, a store path or a
     list of RunResults; with `ioh`, also OUT/ioh (IOHprofiler files); with `coco`, OUT/coco
-    (COCO data for cocopp). `source` says in the
-    report where the runs come from (default: the store's path). Returns report.md's path."""
+    (COCO data for cocopp). `source` says in the report where the runs come from (default: the
+    store's path); `unsigned`: keys of records without a MAC, flagged in the notes (default:
+    the store's). Returns report.md's path."""
     if isinstance(store_or_runs, (str, Path)):
         store_or_runs = Store(store_or_runs)
     if isinstance(store_or_runs, Store):
@@ -46,6 +49,13 @@ def write_report(store_or_runs, out_dir, ioh: bool = False, source: str | None =
     if not runs:
         raise ValueError(f"{source}: no finished runs to report on")
     runs, notes = settings_apart(runs)
+    if unsigned is None:  # the keys of the store's records without a MAC (Store.unsigned)
+        unsigned = store_or_runs.unsigned() if isinstance(store_or_runs, Store) else []
+    if unsigned:  # a changed record is refused (Store.read); one without its MAC is flagged here
+        notes.append(f"{len(unsigned)} record{'s' if len(unsigned) != 1 else ''} of this store carr"
+                     f"{'y' if len(unsigned) != 1 else 'ies'} **no MAC** (written before the store signed its "
+                     f"records, or stripped of it): {', '.join(f'`{k}`' for k in unsigned[:5])}"
+                     f"{' ...' if len(unsigned) > 5 else ''}")
     suite = [r for r in runs if is_suite_id(r.variant)]
     variants = [r for r in runs if not is_suite_id(r.variant)]
     if suite:  # the benchmark report; runs on the named variants get theirs in variants.md
@@ -113,6 +123,13 @@ def settings_apart(runs) -> tuple[list, list[str]]:
                      f"{'are' if n != 1 else 'is'} **unverified**: the optimizer ran in the problem's own process "
                      f"(adapters.run(..., isolated=False), or a record made before the sandbox), where a plugin "
                      f"can reach the problem behind its budget")
+    unconfined = [r for r in out if r.verified and r.sandbox and not is_confined(r.sandbox)]
+    if unconfined:
+        n = len(unconfined)
+        held = lambda r: ", ".join(k for k in REQUIRED if r.sandbox.get(k) is not True)  # noqa: E731
+        notes.append(f"{n} run{'s' if n != 1 else ''} of {', '.join(f'`{u}`' for u in sorted({r.optimizer for r in unconfined}))} "
+                     f"{'were' if n != 1 else 'was'} **unconfined** (`femu study --unconfined`): its worker ran "
+                     f"without {held(unconfined[0])}, where a plugin can reach other runs, the store or the machine")
     return out, notes
 
 

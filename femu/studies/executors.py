@@ -44,7 +44,7 @@ import time
 from collections import deque
 from typing import Callable, Iterable, Iterator
 
-from adapters.sandbox import drop_spare, server_address, use_server
+from adapters.sandbox import drop_spare, hide_from_workers, server_address, use_server
 
 from .kill import kill_descendants, kill_tree
 from .tasks import STARTUP_LIMIT_S, Task, hard_deadline_s, hard_timeout_error, lost_record, run_task, startup_error
@@ -62,10 +62,12 @@ class InProcess:
         running(0)
 
 
-def _child(conn, task: Task, server: str) -> None:
+def _child(conn, task: Task, server: str, hidden: list) -> None:
     """Body of a local-pool process: says when the run starts, then sends its record. The run's
-    optimizer runs in a worker of the study's worker server at `server` (adapters.sandbox)."""
+    optimizer runs in a worker of the study's worker server at `server` (adapters.sandbox),
+    which may not read the paths `hidden` (the study's store)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's: it stops the children
+    hide_from_workers(hidden)
     use_server(server)  # its worker forked now, while it builds its problem
     try:
         record = run_task(task, on_start=lambda: conn.send(None))
@@ -108,7 +110,7 @@ class LocalPool:
     """At most `workers` runs at once, each in its own forkserver process; a run past its hard
     deadline is terminated and recorded as ``timeout``, one whose process dies as ``failed``."""
 
-    def __init__(self, workers: int, preload: Iterable[str] = ()):
+    def __init__(self, workers: int, preload: Iterable[str] = (), hidden: Iterable[str] = ()):
         self.workers = int(workers)
         self.name = f"local pool, {self.workers} worker{'s' if self.workers != 1 else ''}"
         self.ctx = multiprocessing.get_context("forkserver")
@@ -119,6 +121,7 @@ class LocalPool:
         main = [spec.name] if spec is not None and spec.name else []
         self.ctx.set_forkserver_preload(["__main__", *main, "femu.studies.study"])
         self.preload = list(preload)  # the optimizers' modules: imported by the workers' server
+        self.hidden = list(hidden)  # what their workers may not read (the store)
 
     def run(self, tasks: list[Task], running: Callable[[int], None]) -> Iterator[tuple[Task, dict]]:
         queue = deque(tasks)
@@ -129,7 +132,7 @@ class LocalPool:
                 while queue and len(live) < self.workers:
                     task = queue.popleft()
                     recv, send = self.ctx.Pipe(duplex=False)
-                    proc = self.ctx.Process(target=_child, args=(send, task, server), name=f"femu {task.key}",
+                    proc = self.ctx.Process(target=_child, args=(send, task, server, self.hidden), name=f"femu {task.key}",
                                             daemon=True)
                     proc.start()
                     send.close()  # so that recv sees EOF if the child dies

@@ -16,6 +16,7 @@ process, told apart by its start time) is stale and taken over, with a warning.
 from __future__ import annotations
 
 import hashlib
+import hmac
 import json
 import math
 import os
@@ -26,6 +27,8 @@ import warnings
 from contextlib import contextmanager
 from pathlib import Path
 from urllib.parse import quote
+
+import secrets
 
 import psutil
 
@@ -65,7 +68,10 @@ J_ROUNDING = 1e-12
 #: The keys of a run record (format femu.run/1): RunResult's fields, defined there once. Records
 #: written before a field existed lack it (it reads as its default); a key not listed here
 #: (a misspelt ``best_fx``, a hand-added field) is refused, never ignored.
-RECORD_KEYS = tuple(RunResult.__dataclass_fields__)
+RECORD_KEYS = (*RunResult.__dataclass_fields__, "mac")
+#: The store's secret key for its records' MACs (`Store.sign`): made with the store, mode 0600,
+#: read by the evaluating side only (a worker may not read the store: adapters.confine).
+KEY_FILE = ".key"
 #: The keys of a record's ``capabilities`` object (adapters.capabilities).
 CAPABILITY_KEYS = CAPABILITIES
 
@@ -125,7 +131,9 @@ def check_record(d, key: str) -> str | None:
                             "an object of capability -> true or false"),
                            ("versions", isinstance(d.get("versions", {}), dict), "an object of library -> version"),
                            ("problem_source", d.get("problem_source") is None or isinstance(d["problem_source"], dict),
-                            "an object (a user problem's files and their SHA-256) or null")):
+                            "an object (a user problem's files and their SHA-256) or null"),
+                           ("sandbox", isinstance(d.get("sandbox", {}), dict), "an object (what confined its worker)"),
+                           ("mac", isinstance(d.get("mac", ""), str), "a string (the record's HMAC)")):
         if not ok:
             return f"field {name!r}: must be {need}, got {shown(d.get(name))}"
     expected = run_key(d["variant"], d["optimizer"], d["budget"], d["seed"])
@@ -234,11 +242,59 @@ class Store:
         return {p.stem for p in self.runs_dir.glob("*.json")}
 
     def write(self, result: RunResult) -> Path:
-        """Store one run's record (atomically); StoreError if the store cannot be written."""
+        """Store one run's record (atomically), with its MAC (`sign`); StoreError if the store
+        cannot be written."""
         path = self.runs_dir / f"{run_key(result.variant, result.optimizer, result.budget, result.seed)}.json"
         with self._writing():
-            atomic_write_json(path, result.to_dict())
+            record = json.loads(dumps(result.to_dict()))  # signed as it will be read back
+            atomic_write_json(path, dict(record, mac=self.sign(record, make=True)))
         return path
+
+    def _key(self, make: bool = False) -> bytes | None:
+        """The store's secret key (STORE/.key, 32 random bytes, mode 0600), made when `make` and
+        missing; None when there is none."""
+        path = self.path / KEY_FILE
+        try:
+            key = path.read_bytes()
+        except FileNotFoundError:
+            if not make:
+                return None
+            path.parent.mkdir(parents=True, exist_ok=True)
+            try:
+                fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o600)
+            except FileExistsError:  # another study on this store made it first
+                return self._key()
+            with os.fdopen(fd, "wb") as fh:
+                fh.write(secrets.token_bytes(32))
+                fh.flush()
+                os.fsync(fh.fileno())
+            return self._key()
+        if len(key) != 32:
+            raise StoreError(f"{path}: not this store's key (32 bytes); a changed key makes every record unverifiable")
+        return key
+
+    def sign(self, record: dict, make: bool = False) -> str | None:
+        """HMAC-SHA256 of `record` (its canonical JSON, without its ``mac``) by the store's key;
+        None when the store has no key (and `make` is False)."""
+        key = self._key(make)
+        if key is None:
+            return None
+        body = json.dumps({k: v for k, v in record.items() if k != "mac"}, sort_keys=True, separators=(",", ":"))
+        return hmac.new(key, body.encode(), hashlib.sha256).hexdigest()
+
+    def unsigned(self) -> list[str]:
+        """Keys of records without a MAC in a store that has a key (written before the store
+        signed its records, or stripped of it): reports flag them."""
+        if self._key() is None:
+            return []
+        out = []
+        for k in sorted(self.keys()):
+            try:
+                if "mac" not in read_json_file(self.runs_dir / f"{k}.json", StoreError):
+                    out.append(k)
+            except StoreError:
+                pass
+        return out
 
     @contextmanager
     def _writing(self):
@@ -345,6 +401,10 @@ class Store:
             problem = str(exc).removeprefix(f"{path}: ")
         else:
             problem = check_record(data, key)
+            if problem is None and isinstance(data.get("mac"), str) and \
+                    not hmac.compare_digest(data["mac"], self.sign(data) or ""):
+                problem = ("changed since it was written: its MAC does not match its content under this store's key "
+                           "(or the key was changed)")
         if problem:
             hint = f"correct or remove that key, or {REDO_HINT}" if problem.startswith("unknown key") else REDO_HINT
             raise StoreError(f"{path}: not a readable run record ({problem}); {hint}")

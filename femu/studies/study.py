@@ -33,8 +33,8 @@ from pathlib import Path
 from adapters.budget import check_budget, check_budget_covers, check_x0_mode
 from adapters.capabilities import check_options
 from adapters.harness import RunResult
-from adapters.registry import BUILTINS, check_name, get, module_of
-from adapters.sandbox import optimizer_facts, server_address
+from adapters.registry import BUILTINS, check_name, get
+from adapters.sandbox import PluginFault, confinement_missing, hide_from_workers, optimizer_facts, preloads, server_address
 from adapters.variants import USER_PREFIX, VARIANTS
 from fe_problem.suite import select_suite
 from fe_problem.jsonutil import dumps
@@ -128,7 +128,10 @@ def check_budget_for(optimizers: list[str], budget, variants: list[str], options
     budget = check_budget(budget, "--budget")
     n_vars = sorted({n_var_of(v) for v in variants})
     for name in optimizers:
-        facts = optimizer_facts(name, n_vars, options.get(name, {}))  # a plugin is asked in a worker
+        try:
+            facts = optimizer_facts(name, n_vars, options.get(name, {}))  # a plugin is asked in a worker
+        except PluginFault:  # its process broke the protocol or died: its own runs fail, named; the study goes on
+            continue
         for n_var in n_vars:
             try:
                 check_budget_covers(name, facts["min_budget"][n_var], budget, n_var, **options.get(name, {}))
@@ -207,7 +210,7 @@ def _check_inputs(optimizers, seeds, budget, variants, workers, scheduler, time_
         check_name(name)  # ValueError naming the known ones, before the options are looked at (no import)
     # the sandbox's server, its workers finding the study's optimizers imported: for the checks
     # below (a plugin is asked in a worker) and the runs
-    server_address([m for m in map(module_of, optimizers) if m])
+    server_address(preloads(optimizers))
     options = _check_options(options, optimizers)
     budget = check_budget_for(optimizers, budget, variants, options)
     if time_limit_s is not None and not (isinstance(time_limit_s, (int, float)) and math.isfinite(time_limit_s)
@@ -221,7 +224,7 @@ def _check_inputs(optimizers, seeds, budget, variants, workers, scheduler, time_
     return optimizers, seeds, budget, variants, options
 
 
-def _executor(todo: list[Task], optimizers: list[str], workers, cluster):
+def _executor(todo: list[Task], optimizers: list[str], workers, cluster, store: Store | None = None):
     """The executor for the runs to do: none needed, the Dask `cluster` (already reached), this
     process or a local pool."""
     if not todo:  # every run is stored: no pool to start
@@ -233,7 +236,8 @@ def _executor(todo: list[Task], optimizers: list[str], workers, cluster):
     if workers == 0:
         return InProcess()
     n = workers if workers is not None else _n_cores()
-    return LocalPool(max(1, min(n, len(todo))), preload=[m for m in map(module_of, optimizers) if m])
+    return LocalPool(max(1, min(n, len(todo))), preload=preloads(optimizers),
+                     hidden=[str(store.path)] if store is not None else [])
 
 
 def _stored_runs(store: Store, grid: list[Task]) -> dict[str, RunResult]:
@@ -255,7 +259,7 @@ def _stored_runs(store: Store, grid: list[Task]) -> dict[str, RunResult]:
 def run_study(optimizers, seeds, budget: int, store, variants=None, workers: int | None = None,
               scheduler: str | None = None, time_limit_s: float | None = None, progress: bool = True,
               options: dict | None = None, retry_failed: bool = False, suite=None, x0: str = "none",
-              isolated: bool = True, model=None, data=None, parameters=None) -> StudyResult:
+              isolated: bool = True, model=None, data=None, parameters=None, unconfined: bool = False) -> StudyResult:
     """Run the grid optimizers x variants x seeds with `budget` FE evaluations per run into
     `store` (a directory), skipping the runs already stored.
 
@@ -276,8 +280,18 @@ def run_study(optimizers, seeds, budget: int, store, variants=None, workers: int
     [--parameters FILE]`, the balanced objective of `femu update`) run as a further variant
     ``user:PATH``: PATH the problem source file written into the store (`user_source`); only it
     when no variants or suite are given.
+    unconfined: run even where this machine cannot confine the workers (adapters.confine:
+    no Landlock, or neither root nor Landlock's signal scope); without it such a study is refused
+    (ValueError naming --unconfined). Each record says what held; reports mark unconfined runs.
     Raises ValueError (StoreError for the store) before running anything on bad input.
     """
+    if isolated and not unconfined:
+        missing = confinement_missing()
+        if missing:
+            raise ValueError(f"--unconfined: this machine cannot confine the optimizers' workers ({missing}); "
+                             f"pass --unconfined to run and rank them anyway (their records and reports say so)")
+    # no worker of this process reads or writes the store, from the first (a plugin's description)
+    hide_from_workers([store.path if isinstance(store, Store) else store])
     store = store if isinstance(store, Store) else Store(store)
     user = None
     if model is not None or data is not None or parameters is not None:
@@ -290,7 +304,10 @@ def run_study(optimizers, seeds, budget: int, store, variants=None, workers: int
     if x0 == "all":
         n_vars = sorted({n_var_of(v) for v in variants})
         for name in optimizers:
-            refused = optimizer_facts(name, n_vars, options.get(name, {}))["x0_refused"]
+            try:
+                refused = optimizer_facts(name, n_vars, options.get(name, {}))["x0_refused"]
+            except PluginFault:  # as in check_budget_for: its runs fail, named
+                continue
             if refused:
                 raise ValueError(refused)
     grid = [Task(o, v, budget, s, options.get(o, {}), time_limit_s, x0, bool(isolated))
@@ -307,7 +324,7 @@ def run_study(optimizers, seeds, budget: int, store, variants=None, workers: int
             cluster.client.close()
         raise
     try:
-        executor = _executor(todo, optimizers, workers, cluster)
+        executor = _executor(todo, optimizers, workers, cluster, store)
         t0 = time.perf_counter()
         write_manifest(store, {"optimizers": optimizers, "seeds": seeds, "budget": budget, "variants": variants,
                                "suite": suite if suite is None or isinstance(suite, str) else list(suite),
