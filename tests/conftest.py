@@ -4,6 +4,9 @@ imported before anything loads numpy."""
 import fe_problem._threads  # noqa: F401
 import pytest
 
+#: `--cpu-times FILE`: each test's CPU seconds (tests/cputime.py)
+pytest_plugins = ["cputime"]
+
 
 @pytest.fixture(scope="module")
 def random_search_store(tmp_path_factory):
