@@ -203,3 +203,15 @@ def test_the_study_report_says_which_curves_are_from_one_budget(tmp_path, capsys
     text = (tmp_path / "r" / "report.md").read_text()
     assert "Not anytime: `scipy-sa`. Their schedule follows the budget" in text
     assert "`random-search`. Their" not in text
+
+
+@pytest.mark.parametrize("isolated", [True, False])
+def test_adapters_run_refuses_an_option_the_optimizer_does_not_take_as_the_cli_does(isolated):
+    """`adapters.run('cma-es', p, 200, 0, sigma=0.3)` (cma-es's option is sigma0): one ValueError
+    before anything runs, the CLI's words (capabilities.check_options), not a failed run with a
+    TypeError inside."""
+    p = make_problem("paper")
+    with pytest.raises(ValueError, match=r"^optimizer 'cma-es' has no option 'sigma'; its options: .*sigma0"):
+        adapters.run("cma-es", p, 200, 0, sigma=0.3, isolated=isolated)
+    r = adapters.run("cma-es", p, 200, 0, sigma0=0.3, isolated=isolated)  # the option it takes still runs
+    assert r.status == "ok" and r.n_evals == 200
