@@ -16,7 +16,6 @@ Progress and warnings go to stderr. The method and its tests: docs/diagnosis.md.
 from __future__ import annotations
 
 
-import math
 import sys
 import warnings
 from pathlib import Path
@@ -39,10 +38,9 @@ def _stderr(msg: str) -> None:
 
 
 def _positive(value, option: str) -> float:
-    v = float(value)
-    if not (math.isfinite(v) and v > 0):
-        raise ValueError(f"{option} must be a number > 0 (a relative standard deviation, e.g. 0.002), got {value}")
-    return v
+    from fe_problem.diagnosis.core import check_noise
+
+    return check_noise(value, option)
 
 
 
