@@ -53,7 +53,7 @@ def non_negative_float(text: str) -> float:
 
 def add_arguments(p) -> None:
     """The arguments of `femu model`."""
-    p.add_argument("model", nargs="?", help="a shipped model name (hframe) or a model file (or give --frame)")
+    p.add_argument("model", nargs="?", help="a shipped model name (hframe, frame3d) or a model file (or give --frame)")
     g = p.add_argument_group("generated frames")
     g.add_argument("--frame", type=frame_size, metavar="BAYSxSTOREYS",
                    help="a regular steel frame instead of MODEL: planar BAYSxSTOREYS (fe_problem.regular_frame, "
