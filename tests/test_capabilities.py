@@ -142,9 +142,18 @@ class FalselyAnytime:
             objective(bounds[0] + u * (bounds[1] - bounds[0]))
 
 
+class IgnoresX0:
+    """Declares supports_x0 and never looks at x0 (the example plugin's trap, issue 41)."""
+    name = "ignores-x0"
+    supports_x0 = True
+
+    def minimize(self, objective, bounds, budget, rng, x0=None):
+        while True:
+            objective(rng.uniform(bounds[0], bounds[1], (10, len(bounds[0]))))
 
 
 @pytest.mark.parametrize("cls, message", [
+    (IgnoresX0, "x0 contract: a run given x0 evaluated exactly the points of the run without it"),
     (Loud, "silence contract: the run wrote to stdout/stderr: 'generation 1"),
     (Unseeded, "seeding contract: two runs with one seed evaluated different points"),
     (FalselyAnytime, "anytime contract: the run of budget 1 did not visit the first 1 points"),
