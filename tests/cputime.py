@@ -1,8 +1,9 @@
 """Opt-in pytest plugin: the CPU seconds each test costs, to plan the suite's wall time.
 
-`pytest --cpu-times FILE` records, for every test, its setup + call + teardown in CPU seconds:
-this process's (time.process_time) plus its waited-for children's (resource.getrusage
-RUSAGE_CHILDREN, user + system), and its wall seconds. Under pytest-xdist each worker appends
+`pytest --cpu-times FILE` records, for every test, its setup + call + teardown in CPU seconds of
+the whole process tree (this process's time.process_time, its reaped children's
+resource.getrusage RUSAGE_CHILDREN, and its live descendants' psutil cpu_times), and its wall
+seconds. Under pytest-xdist each worker appends
 to FILE.<worker>; the controller merges them into FILE, a table sorted by CPU, with totals per
 test file. CPU seconds do not depend on how busy the machine is, wall seconds do.
 """
@@ -25,8 +26,24 @@ def pytest_addoption(parser):
 
 
 def _cpu() -> float:
+    """CPU seconds of this process's tree so far: its own, its reaped children's (and theirs), and
+    those of its descendants still alive (a pool's workers, a sandbox's spare worker), with what
+    they reaped. A child that ends moves from the last term to the second, so the sum is steady."""
+    import psutil
+
     ch = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return time.process_time() + ch.ru_utime + ch.ru_stime
+    total = time.process_time() + ch.ru_utime + ch.ru_stime
+    try:
+        children = psutil.Process().children(recursive=True)
+    except psutil.Error:
+        children = []
+    for c in children:
+        try:
+            t = c.cpu_times()
+            total += t.user + t.system + t.children_user + t.children_system
+        except psutil.Error:  # ended meanwhile: counted once reaped
+            pass
+    return total
 
 
 @pytest.hookimpl(hookwrapper=True)

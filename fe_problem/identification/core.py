@@ -126,7 +126,6 @@ def identify(frfs: FRFSet, model=None, band_hz=None, n_modes: int | None = None,
     (frequencies Hz, real shapes at the measured coordinates, per-mode damping and uncertainty in meta).
     """
     from fe_problem import ModalData, load_model
-
     if not (isinstance(max_order, int) and 1 <= max_order <= P.MAX_ORDER_LIMIT):
         raise ValueError(f"--max-order: must be a whole number from 1 to {P.MAX_ORDER_LIMIT}, got {max_order!r}")
     named_by_file = model is None

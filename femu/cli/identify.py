@@ -55,6 +55,9 @@ def run(args) -> int:
     from femu.reports.identify import summary_record, write_report
     from femu.reports.render import make_out_dir
 
+    from adapters.extras import require
+
+    require("modal identification (femu identify)", "sdypy")  # before the work: the extra to install
     if not (math.isfinite(args.max_damping) and 0 < args.max_damping < 1):
         raise ValueError(f"--max-damping must lie in (0, 1), got {args.max_damping}")
     out = Path(args.out)

@@ -33,6 +33,10 @@ def run(args) -> int:
                          "benchmark statistics on stdout)")
     if args.out is None and args.ioh:
         raise ValueError("--ioh writes to OUT/ioh and needs --out DIR")
+    if args.ioh:
+        from adapters.extras import require
+
+        require("--ioh (IOHprofiler export)", "ioh")  # before the report: the extra to install
     store, runs = stored_runs(args, "report")
     if args.json:
         from fe_problem.jsonutil import dumps
