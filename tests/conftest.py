@@ -18,3 +18,35 @@ def random_search_store(tmp_path_factory):
     assert main(["study", "--optimizers", "random-search", "--seeds", "0-1", "--budget", "10", "--store", str(s),
                  "--workers", "0", "--no-progress"]) == 0
     return s
+
+
+
+# -- the order and grouping of the tests under pytest-xdist (.ci/run: --dist loadscope) --------------
+def pytest_xdist_make_scheduler(config, log):
+    """--dist loadscope with our units (cputime.group_of: a test module, its module-scoped fixtures
+    built once, or one docs page), sent out in the order the workers collected them (below)."""
+    if config.getvalue("dist") != "loadscope":
+        return None
+    from xdist.scheduler import LoadScopeScheduling
+
+    from cputime import group_of
+
+    class Grouped(LoadScopeScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            return group_of(nodeid)
+
+    return Grouped(config, log)
+
+
+def pytest_collection_modifyitems(config, items):
+    """In an xdist worker, the units run heaviest first by tests/scope_costs.json (longest
+    processing time first: the workers end together, no long unit is left for last); .ci/run
+    passes --no-loadscope-reorder so that xdist keeps this order."""
+    if not hasattr(config, "workerinput"):
+        return
+    import json
+
+    from cputime import COSTS_FILE, group_of
+
+    costs = json.loads(COSTS_FILE.read_text()) if COSTS_FILE.exists() else {}
+    items.sort(key=lambda item: -costs.get(group_of(item.nodeid), 0.0))  # stable: a unit's tests keep their order

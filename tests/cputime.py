@@ -5,7 +5,8 @@ the whole process tree (this process's time.process_time, its reaped children's
 resource.getrusage RUSAGE_CHILDREN, and its live descendants' psutil cpu_times), and its wall
 seconds. Under pytest-xdist each worker appends
 to FILE.<worker>; the controller merges them into FILE, a table sorted by CPU, with totals per
-test file. CPU seconds do not depend on how busy the machine is, wall seconds do.
+test file, and FILE.groups.json, the CPU of each group xdist sends to one worker (`group_of`):
+copied to tests/scope_costs.json, it orders the next runs' groups, heaviest first. CPU seconds do not depend on how busy the machine is, wall seconds do.
 """
 
 from __future__ import annotations
@@ -18,6 +19,20 @@ from collections import defaultdict
 from pathlib import Path
 
 import pytest
+
+
+#: each group's measured seconds, the order in which .ci/run's workers take the groups (conftest.py)
+COSTS_FILE = Path(__file__).with_name("scope_costs.json")
+
+
+def group_of(nodeid: str) -> str:
+    """The unit xdist sends to one worker (.ci/run; tests/conftest.py): a test module (its
+    module-scoped fixtures are built once), except the docs pages, each its own unit (each runs
+    in a fresh copy of the repository)."""
+    module = nodeid.split("::", 1)[0]
+    if module.endswith("tests/test_docs.py") and "[" in nodeid:
+        return nodeid
+    return module
 
 
 def pytest_addoption(parser):
@@ -57,8 +72,8 @@ def pytest_runtest_protocol(item, nextitem):
     cpu, wall = _cpu() - c0, time.perf_counter() - w0
     worker = os.environ.get("PYTEST_XDIST_WORKER", "main")
     with open(f"{path}.{worker}", "a") as f:
-        f.write(json.dumps({"test": item.nodeid, "cpu": round(cpu, 3), "wall": round(wall, 3),
-                            "worker": worker}) + "\n")
+        f.write(json.dumps({"test": item.nodeid, "group": group_of(item.nodeid), "cpu": round(cpu, 3),
+                            "wall": round(wall, 3), "worker": worker}) + "\n")
 
 
 def _merge(path: str) -> None:
@@ -83,6 +98,11 @@ def _merge(path: str) -> None:
     out += ["", "per test: CPU s, wall s, worker"]
     out += [f"{r['cpu']:9.2f} {r['wall']:9.2f} {r['worker']:>5}  {r['test']}" for r in rows]
     Path(path).write_text("\n".join(out) + "\n")
+    groups = defaultdict(float)
+    for r in rows:
+        groups[r.get("group") or r["test"].split("::")[0]] += r["cpu"]
+    Path(path + ".groups.json").write_text(json.dumps(
+        {g: round(c, 1) for g, c in sorted(groups.items(), key=lambda kv: -kv[1])}, indent=0) + "\n")
 
 
 def pytest_sessionfinish(session, exitstatus):
