@@ -224,3 +224,26 @@ def test_adapters_run_refuses_an_option_the_optimizer_does_not_take_as_the_cli_d
         adapters.run("cma-es", p, 200, 0, sigma=0.3, isolated=isolated)
     r = adapters.run("cma-es", p, 200, 0, sigma0=0.3, isolated=isolated)  # the option it takes still runs
     assert r.status == "ok" and r.n_evals == 200
+
+
+def test_a_plugin_installed_with_target_records_its_distribution_and_version(tmp_path, monkeypatch):
+    """`pip install --target DIR` of a distribution (femu-my-method 0.3) whose module has another
+    name (my_method): the run record names the distribution and its version, found in the
+    dist-info beside the module (before: none, the module's name is no distribution's)."""
+    target = tmp_path / "target"
+    (target / "my_method").mkdir(parents=True)
+    (target / "my_method" / "__init__.py").write_text(
+        "class MyMethod:\n    name = 'my-method'\n\n    def minimize(self, objective, bounds, budget, rng):\n"
+        "        while True:\n            objective(rng.uniform(bounds[0], bounds[1], (5, len(bounds[0]))))\n")
+    info = target / "femu_my_method-0.3.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: femu-my-method\nVersion: 0.3\n")
+    (info / "RECORD").write_text("my_method/__init__.py,,\nfemu_my_method-0.3.dist-info/METADATA,,\n")
+    monkeypatch.syspath_prepend(str(target))
+    from adapters.capabilities import distribution_of
+    from adapters.registry import get
+
+    assert distribution_of(get("my_method:MyMethod")) == ("femu-my-method", "0.3")
+    for isolated in (False, True):
+        r = adapters.run("my_method:MyMethod", make_problem("paper"), 20, 0, isolated=isolated)
+        assert r.status == "ok" and (r.distribution, r.distribution_version) == ("femu-my-method", "0.3"), r
