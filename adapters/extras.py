@@ -58,4 +58,4 @@ def require(what: str, *modules: str) -> None:
     if absent:
         extra = EXTRA_OF.get(absent[0].split(".")[0], "all")
         raise MissingExtra(f"{what} needs the {extra!r} extra: {install_hint(extra)} "
-                           f"({', '.join(absent)} is not installed)")
+                           f"({', '.join(absent)} {'is' if len(absent) == 1 else 'are'} not installed)")
