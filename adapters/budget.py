@@ -52,7 +52,7 @@ def jacobian_cost(n_var: int) -> int:
 def population_for_budget(n_var: int, budget: int) -> int:
     """A GA population for `budget` evaluations on `n_var` parameters: about 100 generations
     (budget // 100), at least 10 and n_var // 2, at most 100 (20 for 2,000 evaluations on up to
-    40 parameters, 48 on 96). See docs/suite.md, "Adapter settings"."""
+    40 parameters, 48 on 96). See docs/suite-adapters.md, "Adapter settings"."""
     return int(min(100, max(10, int(budget) // 100, int(n_var) // 2)))
 
 
@@ -60,7 +60,7 @@ def ga_population(n_var: int) -> int:
     """The GA population a budget does not change (so the GAs are anytime: a longer run
     continues a shorter one): 20, at least n_var // 2, at most 100 (20 on up to 41 parameters,
     48 on 96). 20 is `population_for_budget` at 2,000 evaluations, measured better than pymoo's
-    100 on the paper problem; see docs/suite.md, "Adapter settings"."""
+    100 on the paper problem; see docs/suite-adapters.md, "Adapter settings"."""
     return int(min(100, max(20, int(n_var) // 2)))
 
 

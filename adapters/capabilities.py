@@ -86,11 +86,41 @@ def distribution_of(cls) -> tuple[str | None, str | None]:
     elif loaded_from(cls) is not None:
         return loaded_from(cls)
     else:
+        beside = _distribution_beside(top)
+        if beside is not None:
+            return beside
         name = top
     try:
         return name, version(name)
     except PackageNotFoundError:
         return None, None
+
+
+def _distribution_beside(top: str) -> tuple[str, str] | None:
+    """(name, version) of the distribution installed in the directory that holds module `top`
+    (a site-packages, or a `pip install --target DIR`) whose files include that module: found
+    whatever the distribution is called (`femu-my-method` providing `my_method`); only that one
+    directory's *.dist-info are read. None if there is none (a file in the current directory)."""
+    import sys
+    from importlib.metadata import distributions
+    from pathlib import Path
+
+    module = sys.modules.get(top)
+    file = getattr(module, "__file__", None)
+    if not file:
+        return None
+    path = Path(file).resolve()
+    where = path.parent.parent if path.name == "__init__.py" else path.parent
+    try:
+        for dist in distributions(path=[str(where)]):
+            listed = (dist.read_text("top_level.txt") or "").split()
+            files = dist.files or []
+            if top in listed or any(f.parts and f.parts[0] in (top, f"{top}.py") for f in files):
+                name = dist.metadata["Name"]
+                return (name, dist.version) if name and dist.version else None
+    except (OSError, ValueError):
+        return None
+    return None
 
 
 def describe(name: str, cls) -> dict[str, Any]:

@@ -24,7 +24,7 @@ class CMAES:
     distorts the landscape where the optimum of an updating problem often lies (3 of the 12
     moduli of hframe-freq/12/1 are above 0.93 of their range): it made this adapter 6-9x worse
     than `cmaes` at 1,000 evaluations there; with resampling it is as good or better
-    (docs/suite.md, "Adapters against their libraries"). Settings, for any n_var and budget:
+    (docs/suite-adapters.md, "Adapters against their libraries"). Settings, for any n_var and budget:
         sigma0 (0.3): initial step size as a fraction of the range (pycma advises about a
             quarter of the domain).
         popsize (None): population of the first run; None is pycma's 4 + 3 ln(n_var)

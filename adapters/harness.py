@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from .capabilities import run_description
+from .capabilities import check_options, run_description
 from .budget import check_budget, check_min_budget, check_seed, check_x0_mode, jacobian_cost
 from .provenance import library_versions
 
@@ -340,7 +340,8 @@ def run(name: str, problem, budget: int, seed: int, time_limit_s: float | None =
     x0: ``none`` (default: the solver is told nothing about the start) or ``all`` (it gets
     the problem's initial point as ``minimize(..., x0=array)``); see adapters.budget.X0_MODES.
     Never raises for a failing optimizer: its record has status ``failed`` and the error.
-    Unknown names and bad budgets, seeds or x0 modes raise ValueError before anything runs.
+    Unknown names, options the optimizer does not take (capabilities.check_options) and bad
+    budgets, seeds or x0 modes raise ValueError before anything runs.
     """
     if isolated:
         from .sandbox import run_isolated
@@ -350,6 +351,7 @@ def run(name: str, problem, budget: int, seed: int, time_limit_s: float | None =
     from .registry import get
 
     cls = get(name)
+    check_options(name, cls, options)  # a misspelt option: ValueError before the run, as the CLI does
     described = run_description(cls, options)  # a plugin's bad capability flag: ValueError before the run
     seed, budget = check_seed(seed), check_budget(budget)
     optimizer = cls()

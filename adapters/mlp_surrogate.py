@@ -7,7 +7,7 @@ network is refitted and the loop repeats until the budget is spent. As the paper
 (150 design points, one network of J, a GA on it) it performed at random-search level on the
 suite; `MLPSurrogate` keeps the loop and adds what a response surface needs to converge: log J
 as the target, an ensemble of networks, a trust region around the best point in which the
-networks are trained and minimised, and exact warm starts (docs/suite.md, "Adapter settings").
+networks are trained and minimised, and exact warm starts (docs/suite-adapters.md, "Adapter settings").
 Only FE evaluations count towards the budget; training and proposing are the method's
 overhead (CPU time, `opt_cpu_s`).
 

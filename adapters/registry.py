@@ -40,6 +40,26 @@ BUILTINS = {
     "optuna-tpe": "adapters.optuna_samplers:OptunaTPE",
 }
 
+#: The libraries of the built-ins that are not in the core install (adapters.extras names
+#: their extra): name -> import names. The others need only the core's libraries.
+BUILTIN_NEEDS = {
+    "nevergrad-ngopt": ("nevergrad",),
+    "optuna-cmaes": ("optuna", "cmaes"),
+    "optuna-tpe": ("optuna",),
+}
+
+
+def missing_extra(name: str) -> str | None:
+    """Why built-in `name` cannot run here (its extra is not installed: the line to install it),
+    or None (a plugin, or a built-in whose libraries are here)."""
+    from .extras import MissingExtra, require
+
+    try:
+        require(f"optimizer {name!r}", *BUILTIN_NEEDS.get(name, ()))
+    except MissingExtra as exc:
+        return str(exc)
+    return None
+
 
 #: (distribution, version) of each plugin class loaded from an entry point, by class
 _FROM: dict = {}
@@ -64,6 +84,11 @@ def get(name: str) -> type:
     """The optimizer class registered as `name`, or named by its import path
     ``package.module:Class``; ValueError naming the known ones."""
     if name in BUILTINS:
+        why = missing_extra(name)
+        if why:
+            from .extras import MissingExtra
+
+            raise MissingExtra(why)
         module, cls = BUILTINS[name].split(":")
         return getattr(importlib.import_module(module), cls)
     if _is_import_path(name):  # no entry point's name has a colon (it separates name and value)

@@ -199,10 +199,12 @@ def _start(conn, spec: dict):
     import numpy as np
 
     from .budget import check_min_budget
+    from .capabilities import check_options
     from .harness import check_takes_x0
     from .registry import get
 
     cls = get(spec["name"])
+    check_options(spec["name"], cls, spec["options"])  # a misspelt option: refused before the run, as the CLI does
     optimizer = cls()
     check_min_budget(spec["name"], optimizer, spec["budget"], spec["n_var"], **spec["options"])
     start = {}

@@ -19,7 +19,7 @@ _RNG_KEYWORD = "rng" if "rng" in inspect.signature(dual_annealing).parameters el
 class ScipyDualAnnealing:
     """scipy.optimize.dual_annealing, one point per evaluation.
 
-    Two settings make it work at its best on any problem size (docs/suite.md, "Adapter settings"):
+    Two settings make it work at its best on any problem size (docs/suite-adapters.md, "Adapter settings"):
     - it minimises J / |J(first point of the run)|: scipy's temperatures (initial_temp 5230)
       and its L-BFGS-B local search tolerances (gradient 1e-5) are absolute, and J is ~1e-5
       on the paper problem, so unscaled every local search stopped at once and the runs

@@ -20,7 +20,8 @@ What it checks (each failure is an AssertionError that says which rule and by ho
   directory unchanged;
 - capabilities: the declared flags are booleans; a plugin declaring ``anytime = True``
   evaluates, in a run of the minimum budget, exactly the first points of a longer run with the
-  same seed; one declaring ``supports_x0`` finishes ``ok`` when given x0.
+  same seed; one declaring ``supports_x0`` finishes ``ok`` when given x0, and uses it (its points
+  differ from those of the run without x0 with the same seed).
 
 The problem is a cheap separable quadratic with a known minimum in a box of moduli-like scale
 (`QuadraticProblem`, 6 parameters by default, with residuals and a Jacobian for methods that use
@@ -185,9 +186,12 @@ def check_optimizer(optimizer, problem_factory=None, budget: int | None = None, 
                 f"anytime contract: the run of budget {b} did not visit the first {len(a)} points of the run of "
                 f"budget {budget} with the same seed (declare anytime = False if the schedule follows the budget)")
     if caps["supports_x0"]:
-        record, _ = one(budget, s0, x0="all")
+        record, px = one(budget, s0, x0="all")
         assert record.status in (("ok", "stopped") if may_stop else ("ok",)), \
             f"x0 contract: a run given x0 ended {record.status!r}: {(record.error or '')[:300]}"
+        assert not _same_points(px.points, pa.points), (
+            "x0 contract: a run given x0 evaluated exactly the points of the run without it with the same seed "
+            "(x0 is ignored: use it, or declare supports_x0 = False)")
     return {"min_budget": need, "budget": budget, "capabilities": caps, "best_f": long_a.best_f}
 
 

@@ -52,13 +52,17 @@ DEFAULT_TIME_LIMIT_S = 300.0
 def solvers(budget: int) -> tuple[list[str], dict[str, str]]:
     """The optimizers to run under `budget`: every name in `registry.available()` that loads
     and accepts the budget on the paper problem, and {name: why not} for the others."""
-    from adapters.registry import available
+    from adapters.registry import available, missing_extra
     from adapters.sandbox import optimizer_facts
     from adapters.variants import make_problem
 
     names, left_out = [], {}
     n_var = make_problem(VARIANT).n_var
     for name in available():
+        why = missing_extra(name)
+        if why:  # a built-in whose extra is not installed: said, not tried
+            left_out[name] = why
+            continue
         try:  # a plugin is asked in a worker process: its code never runs in this one
             need = optimizer_facts(name, [n_var])["min_budget"][n_var]
         except Exception as exc:  # a broken plugin or a missing library must not stop the rest

@@ -4,6 +4,9 @@ imported before anything loads numpy."""
 import fe_problem._threads  # noqa: F401
 import pytest
 
+#: `--cpu-times FILE`: each test's CPU seconds (tests/cputime.py)
+pytest_plugins = ["cputime"]
+
 
 @pytest.fixture(scope="module")
 def random_search_store(tmp_path_factory):
@@ -28,3 +31,34 @@ def _plugins_may_write_in_tmp_path(tmp_path_factory):
     from adapters.confine import WRITABLE_ENV
 
     os.environ[WRITABLE_ENV] = str(tmp_path_factory.getbasetemp())
+
+
+# -- the order and grouping of the tests under pytest-xdist (.ci/run: --dist loadscope) --------------
+def pytest_xdist_make_scheduler(config, log):
+    """--dist loadscope with our units (cputime.group_of: a test module, its module-scoped fixtures
+    built once, or one docs page), sent out in the order the workers collected them (below)."""
+    if config.getvalue("dist") != "loadscope":
+        return None
+    from xdist.scheduler import LoadScopeScheduling
+
+    from cputime import group_of
+
+    class Grouped(LoadScopeScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            return group_of(nodeid)
+
+    return Grouped(config, log)
+
+
+def pytest_collection_modifyitems(config, items):
+    """In an xdist worker, the units run heaviest first by tests/scope_costs.json (longest
+    processing time first: the workers end together, no long unit is left for last); .ci/run
+    passes --no-loadscope-reorder so that xdist keeps this order."""
+    if not hasattr(config, "workerinput"):
+        return
+    import json
+
+    from cputime import COSTS_FILE, group_of
+
+    costs = json.loads(COSTS_FILE.read_text()) if COSTS_FILE.exists() else {}
+    items.sort(key=lambda item: -costs.get(group_of(item.nodeid), 0.0))  # stable: a unit's tests keep their order

@@ -672,11 +672,73 @@ def diagnose_through_cli(case: Case, directory, extra=()) -> dict:
         name, argv = model_file.name, ["--model", str(model_file)]
     path = directory / f"case-{case.cls or case.kind}-{case.seed}.json"
     fp.save_modal_data(case.data(name), path)
+    args = ["diagnose", str(path), "--json", *argv, *map(str, extra)]
+    cached = _cache_path(directory, args)
+    if cached is not None and cached.exists():
+        return json.loads(cached.read_text().replace(_DIR_MARK, json.dumps(str(directory))[1:-1]))
     out = io.StringIO()
     with contextlib.redirect_stdout(out):
-        code = main(["diagnose", str(path), "--json", *argv, *map(str, extra)])
+        code = main(args)
     assert code == 0, f"femu diagnose {path} exited {code}"
+    if cached is not None:
+        _atomic_write(cached, out.getvalue().replace(json.dumps(str(directory))[1:-1], _DIR_MARK))
     return json.loads(out.getvalue())
+
+
+# -- the answers cached by content: a second run of the tests on unchanged code reads them ----------
+_DIR_MARK = "@@femu-case-dir@@"  # the case's directory in a cached answer (a fresh tmp dir each run)
+_CODE: list[str] = []
+
+
+def _code_hash() -> str:
+    """SHA-256 of everything a diagnosis's answer depends on: the source and data files of the three
+    packages, this file, and the versions of Python, numpy and scipy. Any change: another key."""
+    if not _CODE:
+        import hashlib
+        import platform
+        import sys
+        from pathlib import Path
+
+        import scipy
+
+        root = Path(__file__).resolve().parents[1]
+        h = hashlib.sha256(f"{sys.version}|{platform.machine()}|{np.__version__}|{scipy.__version__}".encode())
+        files = [Path(__file__).resolve()] + sorted(
+            f for pkg in ("fe_problem", "femu", "adapters") for f in (root / pkg).rglob("*")
+            if f.suffix in (".py", ".json") and "__pycache__" not in f.parts)
+        for f in files:
+            h.update(str(f.relative_to(root)).encode() + b"\0" + f.read_bytes() + b"\0")
+        _CODE.append(h.hexdigest())
+    return _CODE[0]
+
+
+def _cache_path(directory, args: list[str]):
+    """Where the answer of `femu diagnose` with `args` is kept, keyed by the code and by the
+    contents of the files it reads (data, model), not their paths; None when caching is off
+    (FEMU_TEST_CACHE=0)."""
+    import hashlib
+    import os
+    from pathlib import Path
+
+    if os.environ.get("FEMU_TEST_CACHE", "1") == "0":
+        return None
+    h = hashlib.sha256(_code_hash().encode())
+    for a in args:
+        p = Path(a)
+        h.update((p.name.encode() + b"\0" + p.read_bytes()) if p.is_file() else a.encode())
+        h.update(b"\0")
+    return Path(__file__).resolve().parents[1] / ".pytest_cache" / "femu-diagnoses" / f"{h.hexdigest()}.json"
+
+
+def _atomic_write(path, text: str) -> None:
+    import os
+    import tempfile
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-")
+    with os.fdopen(fd, "w") as f:
+        f.write(text)
+    os.replace(tmp, path)
 
 
 #: The confusion matrix's row labels, as the README shows them.

@@ -148,9 +148,13 @@ def fresh_copy(dest: Path) -> Path:
 
 
 def environment() -> dict:
-    """The environment blocks run in: this interpreter's environment first on PATH."""
+    """The environment blocks run in: this interpreter's environment first on PATH, without the
+    test run's own PYTEST_* variables: a reader's shell has none, and a block's pytest that saw
+    PYTEST_XDIST_WORKER would take itself for an xdist worker (pytest-benchmark then disables
+    the benchmarks and refuses --benchmark-only)."""
     venv_bin = str(Path(sys.executable).parent)
-    return dict(os.environ, PATH=venv_bin + os.pathsep + os.environ.get("PATH", ""), FEMU_DOCS_VENV=sys.prefix,
+    env = {k: v for k, v in os.environ.items() if not k.startswith("PYTEST_")}
+    return dict(env, PATH=venv_bin + os.pathsep + os.environ.get("PATH", ""), FEMU_DOCS_VENV=sys.prefix,
                 OPENBLAS_NUM_THREADS="1", MPLBACKEND="Agg", PYTHONDONTWRITEBYTECODE="1")
 
 

@@ -209,6 +209,9 @@ CASES = [
                                                      "deviation, e.g. 0.002), got inf"),
     (["diagnose", "paper", "--freq-noise", "1e-400"], "got 0.0"),
     (["diagnose", "paper", "--shape-noise", "inf"], "--shape-noise must be a number > 0"),
+    (["diagnose", "paper", "--freq-noise", "2"], "--freq-noise is a fraction, not a percentage: 2 would be 200 %; "
+                                                  "for 2 % give 0.02"),
+    (["diagnose", "paper", "--shape-noise", "1"], "--shape-noise is a fraction, not a percentage: 1 would be 100 %"),
     (["identify", "NPZ", "--band", "1", "1e400"], "--band 1.0 inf: two finite frequencies"),
     (["identify", "NPZ", "--band", "nan", "100"], "--band nan 100.0: two finite frequencies"),
     (["identify", "NPZ", "--band", "300", "100"], "the low end below the high end"),

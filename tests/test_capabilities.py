@@ -142,9 +142,18 @@ class FalselyAnytime:
             objective(bounds[0] + u * (bounds[1] - bounds[0]))
 
 
+class IgnoresX0:
+    """Declares supports_x0 and never looks at x0 (the example plugin's trap, issue 41)."""
+    name = "ignores-x0"
+    supports_x0 = True
+
+    def minimize(self, objective, bounds, budget, rng, x0=None):
+        while True:
+            objective(rng.uniform(bounds[0], bounds[1], (10, len(bounds[0]))))
 
 
 @pytest.mark.parametrize("cls, message", [
+    (IgnoresX0, "x0 contract: a run given x0 evaluated exactly the points of the run without it"),
     (Loud, "silence contract: the run wrote to stdout/stderr: 'generation 1"),
     (Unseeded, "seeding contract: two runs with one seed evaluated different points"),
     (FalselyAnytime, "anytime contract: the run of budget 1 did not visit the first 1 points"),
@@ -203,3 +212,38 @@ def test_the_study_report_says_which_curves_are_from_one_budget(tmp_path, capsys
     text = (tmp_path / "r" / "report.md").read_text()
     assert "Not anytime: `scipy-sa`. Their schedule follows the budget" in text
     assert "`random-search`. Their" not in text
+
+
+@pytest.mark.parametrize("isolated", [True, False])
+def test_adapters_run_refuses_an_option_the_optimizer_does_not_take_as_the_cli_does(isolated):
+    """`adapters.run('cma-es', p, 200, 0, sigma=0.3)` (cma-es's option is sigma0): one ValueError
+    before anything runs, the CLI's words (capabilities.check_options), not a failed run with a
+    TypeError inside."""
+    p = make_problem("paper")
+    with pytest.raises(ValueError, match=r"^optimizer 'cma-es' has no option 'sigma'; its options: .*sigma0"):
+        adapters.run("cma-es", p, 200, 0, sigma=0.3, isolated=isolated)
+    r = adapters.run("cma-es", p, 200, 0, sigma0=0.3, isolated=isolated)  # the option it takes still runs
+    assert r.status == "ok" and r.n_evals == 200
+
+
+def test_a_plugin_installed_with_target_records_its_distribution_and_version(tmp_path, monkeypatch):
+    """`pip install --target DIR` of a distribution (femu-my-method 0.3) whose module has another
+    name (my_method): the run record names the distribution and its version, found in the
+    dist-info beside the module (before: none, the module's name is no distribution's)."""
+    target = tmp_path / "target"
+    (target / "my_method").mkdir(parents=True)
+    (target / "my_method" / "__init__.py").write_text(
+        "class MyMethod:\n    name = 'my-method'\n\n    def minimize(self, objective, bounds, budget, rng):\n"
+        "        while True:\n            objective(rng.uniform(bounds[0], bounds[1], (5, len(bounds[0]))))\n")
+    info = target / "femu_my_method-0.3.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: femu-my-method\nVersion: 0.3\n")
+    (info / "RECORD").write_text("my_method/__init__.py,,\nfemu_my_method-0.3.dist-info/METADATA,,\n")
+    monkeypatch.syspath_prepend(str(target))
+    from adapters.capabilities import distribution_of
+    from adapters.registry import get
+
+    assert distribution_of(get("my_method:MyMethod")) == ("femu-my-method", "0.3")
+    for isolated in (False, True):
+        r = adapters.run("my_method:MyMethod", make_problem("paper"), 20, 0, isolated=isolated)
+        assert r.status == "ok" and (r.distribution, r.distribution_version) == ("femu-my-method", "0.3"), r

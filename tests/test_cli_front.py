@@ -54,6 +54,18 @@ def test_help_texts_carry_no_developer_text(command):
         assert dev not in out, f"femu {command} --help: {dev!r}"
 
 
+def test_the_help_names_the_space_frames_and_every_shipped_model():
+    """`femu --help` covers space frames too, and `femu model --help` lists every shipped model
+    (fe_problem.shipped_models: frame3d was missing)."""
+    from fe_problem.model.io import shipped_models
+
+    top = " ".join(femu("--help").stdout.split())
+    assert "planar and space frames" in top and "planar frames:" not in top
+    model = " ".join(femu("model", "--help").stdout.split())
+    names = model.split("a shipped model name (", 1)[1].split(")", 1)[0].split(", ")
+    assert sorted(names) == sorted(shipped_models()) and "frame3d" in names
+
+
 def _python_without(blocked: tuple[str, ...], code: str) -> subprocess.CompletedProcess:
     """Run `code` in a fresh interpreter where importing any of `blocked` fails, as it would in a
     Python without those libraries (the system's, outside the project's environment)."""

@@ -425,3 +425,13 @@ def test_an_answer_of_another_class_says_the_local_search_found_nothing_signific
     report = (tmp_path / "out" / "report.md").read_text()
     assert "- the local search found nothing significant (p " in report
     assert "- adjusted p-value" not in report
+
+
+def test_the_api_refuses_a_noise_written_as_a_percentage():
+    """fp.diagnose(..., freq_noise=2) meant 2 %: refused (the rule the CLI's --freq-noise uses),
+    never run as 200 %."""
+    data = fp.synthetic_measurement("hframe", 8, freq_noise=0.002, shape_noise=0.02, seed=3)
+    with pytest.raises(ValueError, match=r"^freq_noise is a fraction, not a percentage: 2 would be 200 %; for 2 % give 0.02$"):
+        fp.diagnose("hframe", data, freq_noise=2)
+    with pytest.raises(ValueError, match=r"^shape_noise is a fraction, not a percentage: 5 would be 500 %"):
+        fp.diagnose("hframe", data, shape_noise=5.0)

@@ -88,6 +88,18 @@ def test_blocks_share_files_but_not_variables_and_the_ci_form_applies(tmp_path):
         db.run_page(page2, tmp_path / "w3")
 
 
+def test_a_pages_pytest_benchmark_runs_when_the_docs_test_is_an_xdist_worker(tmp_path, monkeypatch):
+    """A block's own pytest does not inherit the test run's PYTEST_XDIST_WORKER (it would take itself
+    for a worker: pytest-benchmark then refuses --benchmark-only, as docs/scale.md's block did)."""
+    monkeypatch.setenv("PYTEST_XDIST_WORKER", "gw1")
+    monkeypatch.setenv("PYTEST_XDIST_WORKER_COUNT", "2")
+    assert not any(k.startswith("PYTEST_") for k in db.environment())
+    page = _page(tmp_path, "# t\n\n```bash\nprintf 'def test_b(benchmark):\\n    benchmark(sum, range(9))\\n' > test_b.py\n"
+                           "python -m pytest -q -p no:cacheprovider test_b.py --benchmark-only --benchmark-json b.json\n"
+                           "test -s b.json\n```\n")
+    db.run_page(page, tmp_path / "w")
+
+
 def test_samples_are_regenerated_from_their_command(tmp_path):
     page = _page(tmp_path, "# t\n\n<!-- docs-sample: echo hello; echo world -->\n```console\nold\n```\n\nend\n")
     db.run_page(page, tmp_path / "w", regenerate=True)

@@ -212,3 +212,27 @@ def test_installed_command(crack, tmp_path):
                            str(tmp_path / "o"), "--json"], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
     assert len(json.loads(proc.stdout)["modes"]) == 4
+
+
+@pytest.mark.parametrize("name", ["crack.json", "crack.uff"])
+def test_modal_data_given_to_identify_is_named_as_modal_data(tmp_path, capsys, name):
+    """`femu identify crack.json` (the README's diagnose input): the file is modal data, and the
+    line says so and what to do, not that it lacks a dataset 58."""
+    data = fp.synthetic_measurement("hframe", 8, freq_noise=0.002, shape_noise=0.02, seed=3)
+    path = fp.save_modal_data(data, tmp_path / name)
+    assert main(["identify", str(path)]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and err.count("\n") == 1 and "dataset 58" not in err.replace("UFF dataset 58 (", ""), err
+    assert err.startswith(f"femu identify: error: {path}: a ") and "modal data" in err.replace("modal-data", "modal data")
+    assert err.rstrip().endswith(f"not FRFs; `femu identify` reads FRFs: UFF dataset 58 (.uff/.unv), .npz or .csv "
+                                 f"(docs/identify.md) and finds the modes; to diagnose these modes: femu diagnose {path}")
+
+
+def test_another_json_file_given_to_identify_is_named_as_json(tmp_path, capsys):
+    (tmp_path / "deep.json").write_text("[" * 100_000 + "]" * 100_000)
+    (tmp_path / "other.json").write_text('{"format": "femu.model/1"}')
+    for name in ("deep.json", "other.json"):
+        assert main(["identify", str(tmp_path / name)]) == 2
+        err = capsys.readouterr().err
+        assert err == (f"femu identify: error: {tmp_path / name}: a JSON file, not FRFs; `femu identify` reads FRFs: "
+                       "UFF dataset 58 (.uff/.unv), .npz or .csv (docs/identify.md)\n"), err

@@ -22,7 +22,7 @@ import psutil
 import pytest
 
 from femu.cli import main
-from femu.studies.store import Store
+from femu.studies.store import Store, run_key
 from femu.studies.study import run_study
 from sample_plugins import CallsSysExit, ExitsHard, Interrupted, Segfaults, SleepsLong, SpawnsAndReturns
 
@@ -63,7 +63,7 @@ def test_in_process_a_plugins_interrupt_and_exit_are_failed_runs_and_the_study_g
 def test_in_process_a_real_ctrl_c_stops_the_study_and_keeps_what_is_finished(tmp_path):
     store = tmp_path / "s"
     p = _femu(*_study_args(f"random-search,{plugin(SleepsLong)}", store, "0"))
-    claim = store / "runs" / f"paper__{plugin(SleepsLong)}__b100__s0.claim"
+    claim = store / "runs" / f"{run_key('paper', plugin(SleepsLong), 100, 0)}.claim"
     done = store / "runs" / "paper__random-search__b100__s0.json"  # the run before it is finished
     deadline = time.time() + 120
     while not (claim.exists() and done.exists()) and time.time() < deadline:
@@ -101,7 +101,7 @@ def test_in_process_a_plugin_that_ends_its_process_ends_only_its_worker(tmp_path
 def test_a_study_killed_mid_run_leaves_a_stale_claim_that_the_next_study_retakes(tmp_path):
     store = tmp_path / "s"
     p = _femu(*_study_args(f"random-search,{plugin(SleepsLong)}", store, "0"))
-    claim = store / "runs" / f"paper__{plugin(SleepsLong)}__b100__s0.claim"
+    claim = store / "runs" / f"{run_key('paper', plugin(SleepsLong), 100, 0)}.claim"
     done = store / "runs" / "paper__random-search__b100__s0.json"
     deadline = time.time() + 120
     while not (claim.exists() and done.exists()) and time.time() < deadline:

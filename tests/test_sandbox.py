@@ -428,8 +428,35 @@ def test_names_from_user_input_become_safe_distinct_file_names():
         assert "/" not in key and not key.startswith(".") and len(key) <= 200 and "\0" not in key
     # the names the project has always used keep their keys (existing stores stay readable)
     assert run_key("hframe-freq/12/1", "random-search", 100, 0) == "hframe-freq+12+1__random-search__b100__s0"
-    assert run_key("paper", "tests.mod:Cls", 5, 1) == "paper__tests.mod:Cls__b5__s1"
+    # a plugin's module:Class (or path/file.py:Class) keeps no ':' in its file name (issue 41);
+    # stores written with it stay readable (test_a_store_with_a_colon_in_a_record_name_is_read_and_resumed)
+    assert run_key("paper", "tests.mod:Cls", 5, 1) == "paper__tests.mod%3ACls__b5__s1"
+    assert ":" not in run_key("paper", "/home/u/my_opt.py:MyOpt", 5, 1)
     assert safe_name("../x") == "%2E.%2Fx"
+
+
+def test_a_store_with_a_colon_in_a_record_name_is_read_and_resumed(tmp_path):
+    """A record an earlier version stored as ``paper__mod:Cls__b5__s1.json`` is read under its new
+    key, counts as done for a study started again, and a rewrite of that run leaves one record."""
+    import dataclasses
+
+    from femu.studies.study import run_study
+
+    store = tmp_path / "s"
+    run_study("random-search", "0", 10, store, workers=0)
+    (new,) = Store(store).runs_dir.glob("*.json")
+    rec = json.loads(new.read_text())
+    rec["optimizer"] = "sample_plugins:TinyES"
+    key = run_key(rec["variant"], rec["optimizer"], rec["budget"], rec["seed"])
+    assert ":" not in key
+    legacy = new.parent / (key.replace("%3A", ":") + ".json")
+    legacy.write_text(json.dumps(rec))
+    new.unlink()
+    s = Store(store)
+    assert s.keys() == {key} and s.read(key).optimizer == "sample_plugins:TinyES"
+    assert s.record_path(key) == legacy
+    s.write(dataclasses.replace(s.read(key)))
+    assert sorted(p.name for p in s.runs_dir.glob("*.json")) == [key + ".json"]
 
 
 # -- femu reproduce, with installed plugins --------------------------------------------------------

@@ -66,6 +66,19 @@ from .screening import linear_bounded_moduli, screen_all, screen_steps
 ALPHA = 0.01
 DEFAULT_FREQ_NOISE = 0.002
 DEFAULT_SHAPE_NOISE = 0.02
+
+
+def check_noise(value, name: str) -> float:
+    """A stated noise (`name`: freq_noise or shape_noise, or the CLI's option) as a float: a
+    relative standard deviation, a fraction in (0, 1). ValueError otherwise: a value of 1 or more
+    is a percentage written as a number (2 meant as 2 % would be 200 %), not silently used."""
+    v = float(value)
+    if not (np.isfinite(v) and v > 0):
+        raise ValueError(f"{name} must be a number > 0 (a relative standard deviation, e.g. 0.002), got {value}")
+    if v >= 1:
+        raise ValueError(f"{name} is a fraction, not a percentage: {v:g} would be {100 * v:g} %; "
+                         f"for {v:g} % give {v / 100:g}")
+    return v
 #: Screened candidates fitted besides those always fitted (see `screen_and_fit`).
 N_FIT = 12
 MAX_CAUSES = 4
@@ -113,8 +126,8 @@ def _diagnose(model, data, freq_noise, shape_noise, kinds, n_fit, alpha, max_cau
                          "joints and supports); a model given as matrices is updated through UpdatingProblem")
     model = load_model(model)
     _check(model, data)
-    noise = Noise(DEFAULT_FREQ_NOISE if freq_noise is None else float(freq_noise),
-                  DEFAULT_SHAPE_NOISE if shape_noise is None else float(shape_noise),
+    noise = Noise(DEFAULT_FREQ_NOISE if freq_noise is None else check_noise(freq_noise, "freq_noise"),
+                  DEFAULT_SHAPE_NOISE if shape_noise is None else check_noise(shape_noise, "shape_noise"),
                   "default" if freq_noise is None and shape_noise is None else "stated",
                   data_deviations=(int(data.has_frequency_std.sum()), int(data.has_shape_std.sum()), data.n_modes))
     cal = calibrate(model, data, noise.freq_noise, noise.shape_noise)

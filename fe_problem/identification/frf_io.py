@@ -168,6 +168,9 @@ def uff_datasets(path: str | Path, dataset_type: int, what: str, error=FRFFileEr
         raise error(f"{path}: not a readable UFF file ({exc})") from None
     blocks = [i for i, t in enumerate(types) if t == dataset_type]
     if not blocks:
+        if dataset_type == 58 and 55 in types:
+            raise error(f"{path}: a UFF file of modal data (dataset 55: measured modes), not FRFs; `femu identify` "
+                        f"reads {_FRF_FORMATS} and finds the modes; to diagnose these modes: femu diagnose {path}")
         raise error(f"{path}: no dataset {dataset_type} ({what}) in the file; it holds dataset type(s) "
                     f"{sorted(set(types))}")
     if len(blocks) != len(opened_at):
@@ -471,9 +474,34 @@ def read_frf(*paths: str | Path) -> FRFSet:
         suffix = p.suffix.lower()
         if suffix != ".npz":
             _bounded_size(p)
+        if suffix not in (".npz", ".csv"):
+            _json_holds_no_frfs(p)
         reader = {".npz": read_npz, ".csv": read_csv}.get(suffix, read_uff58)
         sets.append(reader(p))
     return merge(sets)
+
+
+_FRF_FORMATS = "FRFs: UFF dataset 58 (.uff/.unv), .npz or .csv (docs/identify.md)"
+
+
+def _json_holds_no_frfs(p: Path) -> None:
+    """FRFFileError for a JSON file, which holds no FRFs: a modal-data file (what `femu diagnose`
+    reads) is named as such, with what to do, not as a file that lacks a dataset 58 (a UFF file of
+    modes, dataset 55, is named so by uff_datasets)."""
+    with open(p, "rb") as f:
+        head = f.read(4096).lstrip()
+    if head[:1] in (b"{", b"["):
+        import json
+
+        try:
+            doc = json.loads(p.read_text(encoding="utf-8"))
+        except (ValueError, RecursionError):  # not JSON after all, or nested too deep
+            doc = None
+        fmt = doc.get("format") if isinstance(doc, dict) else None
+        if isinstance(fmt, str) and fmt.startswith("femu.modal-data/"):
+            raise FRFFileError(f"{p}: a modal-data file ({fmt}: measured modes), not FRFs; `femu identify` reads "
+                               f"{_FRF_FORMATS} and finds the modes; to diagnose these modes: femu diagnose {p}")
+        raise FRFFileError(f"{p}: a JSON file, not FRFs; `femu identify` reads {_FRF_FORMATS}")
 
 
 def merge(sets: list[FRFSet]) -> FRFSet:

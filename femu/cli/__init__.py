@@ -68,8 +68,8 @@ class ArgumentParser(argparse.ArgumentParser):
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of `femu` with every command's sub-parser."""
     p = ArgumentParser(prog="femu", formatter_class=HelpFormatter,
-                                description="FE model updating of planar frames: models, optimizer "
-                                "benchmarks, studies, reports and diagnosis. `femu COMMAND --help` "
+                                description="FE model updating of planar and space frames: models, optimizer "
+                                "benchmarks, studies, reports, modal identification and diagnosis. `femu COMMAND --help` "
                                 "describes each command's arguments.")
     p.add_argument("--version", action=_Version, help="print the version and exit")
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")

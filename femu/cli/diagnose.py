@@ -17,7 +17,6 @@ from __future__ import annotations
 
 
 import contextlib
-import math
 import os
 import sys
 import warnings
@@ -41,10 +40,9 @@ def _stderr(msg: str) -> None:
 
 
 def _positive(value, option: str) -> float:
-    v = float(value)
-    if not (math.isfinite(v) and v > 0):
-        raise ValueError(f"{option} must be a number > 0 (a relative standard deviation, e.g. 0.002), got {value}")
-    return v
+    from fe_problem.diagnosis.core import check_noise
+
+    return check_noise(value, option)
 
 
 

@@ -74,6 +74,9 @@ def run(args) -> int:
     if args.oma:
         from ._oma import run_oma
         return run_oma(args)
+    from adapters.extras import require
+
+    require("modal identification (femu identify)", "sdypy")  # before the work: the extra to install
     if not (math.isfinite(args.max_damping) and 0 < args.max_damping < 1):
         raise ValueError(f"--max-damping must lie in (0, 1), got {args.max_damping}")
     out = Path(args.out)

@@ -55,8 +55,8 @@ def non_negative_float(text: str) -> float:
 
 def add_arguments(p) -> None:
     """The arguments of `femu model`."""
-    p.add_argument("model", nargs="?", help="a shipped model name (hframe), a model file or a matrix-model manifest "
-                                            "(or give --frame)")
+    p.add_argument("model", nargs="?", help="a shipped model name (hframe, frame3d), a model file or a "
+                                            "matrix-model manifest (or give --frame)")
     g = p.add_argument_group("generated frames")
     g.add_argument("--frame", type=frame_size, metavar="BAYSxSTOREYS",
                    help="a regular steel frame instead of MODEL: planar BAYSxSTOREYS (fe_problem.regular_frame, "

@@ -22,21 +22,27 @@ def add_arguments(p) -> None:
     p.add_argument("--json", action="store_true", help="a JSON list, one object per optimizer")
 
 
-def _entries(names) -> list[dict]:
+def _entries(names) -> tuple[list[dict], dict[str, str]]:
+    """The described optimizers, and {name: the line saying which extra to install} for the
+    built-ins whose library is not installed."""
     from adapters.capabilities import describe
-    from adapters.registry import available, get
+    from adapters.registry import available, get, missing_extra
     from femu.studies.seeds import parse_names
 
     chosen = available() if names is None else parse_names(names, "names")
-    out = []
+    out, unavailable = [], {}
     for name in chosen:
+        why = missing_extra(name)
+        if why and names is None:
+            unavailable[name] = why
+            continue
         try:
             out.append(describe(name, get(name)))
         except ValueError as exc:  # a broken plugin: named on stderr, the others still listed
             if names is not None:
                 raise
             print(f"femu optimizers: warning: {exc}", file=sys.stderr)
-    return out
+    return out, unavailable
 
 
 def _yes(v: bool) -> str:
@@ -45,8 +51,10 @@ def _yes(v: bool) -> str:
 
 def run(args) -> int:
     """`femu optimizers [NAMES] [--json]`: the table or the JSON list."""
-    entries = _entries(args.names)
-    if args.json:
+    entries, unavailable = _entries(args.names)
+    if args.json:  # the list stays what can run; what cannot says why on stderr
+        for why in unavailable.values():
+            print(f"femu optimizers: unavailable: {why}", file=sys.stderr)
         print_json(entries)
         return 0
     head = ["name", "anytime", "gradients", "batch", "x0", "from", "wraps"]
@@ -63,4 +71,8 @@ def run(args) -> int:
     for e in entries:
         opts = ", ".join(f"{k}={v!r}" for k, v in e["options"].items()) or "(none)"
         print(f"{e['name']}: {opts}")
+    if unavailable:
+        print("\nunavailable here (their extra is not installed):")
+        for name, why in unavailable.items():
+            print(f"{name}: {why}")
     return 0

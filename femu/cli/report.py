@@ -35,6 +35,10 @@ def run(args) -> int:
     for flag in ("ioh", "coco"):
         if args.out is None and getattr(args, flag):
             raise ValueError(f"--{flag} writes to OUT/{flag} and needs --out DIR")
+    if args.ioh:
+        from adapters.extras import require
+
+        require("--ioh (IOHprofiler export)", "ioh")  # before the report: the extra to install
     store, runs = stored_runs(args, "report")
     if args.json:
         from fe_problem.jsonutil import dumps

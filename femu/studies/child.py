@@ -78,7 +78,11 @@ def run_task_in_child(task: Task) -> dict:
 
 def check_scheduler_address(address: str) -> None:
     """ValueError unless `address` is a Dask scheduler address (tcp://host:port and the like)
-    of a scheme distributed knows; nothing is contacted."""
+    of a scheme distributed knows; nothing is contacted. Without dask: the line naming the
+    'cluster' extra (adapters.extras)."""
+    from adapters.extras import require
+
+    require("--scheduler (a Dask cluster)", "dask", "distributed")
     from distributed.comm import parse_address
     from distributed.comm.registry import get_backend
 

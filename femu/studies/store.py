@@ -172,14 +172,15 @@ def _claim_started(path: Path) -> float | None:
 
 
 #: Characters a name keeps in a run's file name; every other one is percent-encoded.
-_SAFE_NAME = "-_.:"
+_SAFE_NAME = "-_."
 #: The longest key kept as it is (a file name has at most 255 bytes, with room for suffixes).
 MAX_KEY_CHARS = 200
 
 
 def safe_name(text: str, keep: str = "") -> str:
-    """`text` as a piece of a file name: letters, digits and ``-_.:`` (and `keep`) as they are,
-    every other character percent-encoded (``/`` as ``%2F``), so that a name from user input (an
+    """`text` as a piece of a file name: letters, digits and ``-_.`` (and `keep`) as they are,
+    every other character percent-encoded (``/`` as ``%2F``, a plugin's ``module:Class`` colon as
+    ``%3A``: no file system or archive refuses the name), so that a name from user input (an
     optimizer's entry point named ``../../escaped``) can neither leave the directory nor collide
     with another name; a leading dot is encoded too (no hidden files)."""
     out = quote(str(text), safe=_SAFE_NAME + keep)
@@ -236,18 +237,32 @@ class Store:
         return self.path / "runs"
 
     def keys(self) -> set[str]:
-        """Keys of the finished runs."""
+        """Keys of the finished runs (a record a store of an earlier version wrote under a name
+        with ':' counts under its key: `record_path`)."""
         if not self.runs_dir.is_dir():
             return set()
-        return {p.stem for p in self.runs_dir.glob("*.json")}
+        return {p.stem.replace(":", "%3A") for p in self.runs_dir.glob("*.json")}
+
+    def record_path(self, key: str) -> Path:
+        """The file of run `key`'s record: ``runs/<key>.json``, or the name with ':' an earlier
+        version gave a plugin's run (``module:Class`` kept its colon) if that file is the one there."""
+        path = self.runs_dir / f"{key}.json"
+        if "%3A" in key and not path.exists():
+            legacy = self.runs_dir / f"{key.replace('%3A', ':')}.json"
+            if legacy.exists():
+                return legacy
+        return path
 
     def write(self, result: RunResult) -> Path:
         """Store one run's record (atomically), with its MAC (`sign`); StoreError if the store
         cannot be written."""
-        path = self.runs_dir / f"{run_key(result.variant, result.optimizer, result.budget, result.seed)}.json"
+        key = run_key(result.variant, result.optimizer, result.budget, result.seed)
+        path, old = self.runs_dir / f"{key}.json", self.record_path(key)
         with self._writing():
             record = json.loads(dumps(result.to_dict()))  # signed as it will be read back
             atomic_write_json(path, dict(record, mac=self.sign(record, make=True)))
+            if old != path:  # an earlier version's name of this run (with ':'): one record per run
+                old.unlink(missing_ok=True)
         return path
 
     def _key(self, make: bool = False) -> bytes | None:
@@ -394,7 +409,7 @@ class Store:
     def read(self, key: str) -> RunResult:
         """The run record stored under `key`; StoreError naming the file, the field and what
         to do if it is damaged or was edited into something that is not a record."""
-        path = self.runs_dir / f"{key}.json"
+        path = self.record_path(key)
         try:
             data = read_json_file(path, StoreError)
         except StoreError as exc:

@@ -248,10 +248,10 @@ def _stored_runs(store: Store, grid: list[Task]) -> dict[str, RunResult]:
     for t in grid:
         old = stored.get(t.key)
         if old is not None and old.options != t.options:
-            raise ValueError(f"{store.runs_dir / (t.key + '.json')}: stored with options {old.options}, "
+            raise ValueError(f"{store.record_path(t.key)}: stored with options {old.options}, "
                              f"asked for {t.options}; use another store")
         if old is not None and old.x0 != t.x0:
-            raise ValueError(f"{store.runs_dir / (t.key + '.json')}: stored with x0 {old.x0}, asked for --x0 {t.x0}; "
+            raise ValueError(f"{store.record_path(t.key)}: stored with x0 {old.x0}, asked for --x0 {t.x0}; "
                              "use another store")
     return stored
 
@@ -359,7 +359,7 @@ def _claim(store: Store, wanted: list[Task], stored: dict) -> tuple[list[Task], 
         for t in wanted:
             if not store.claim(t.key):
                 elsewhere += 1
-            elif t.key not in stored and (store.runs_dir / f"{t.key}.json").exists():
+            elif t.key not in stored and store.record_path(t.key).exists():
                 stored[t.key] = store.read(t.key)
                 store.release(t.key)
             else:
