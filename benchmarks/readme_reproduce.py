@@ -1,11 +1,11 @@
-"""Check (or rewrite) the `femu reproduce` tables of README.md and docs/benchmark.md against the
+"""Check (or rewrite) the `femu reproduce` tables of README.md and docs/benchmark-studies.md against the
 command that makes them.
 
     python benchmarks/readme_reproduce.py [--out femu-reproduce] [--write]
 
 Runs `femu reproduce --markdown --out OUT` (its defaults: 5 seeds, 1000 evaluations; resumable,
 so a store already in OUT is reused), and compares the table it prints with README.md's in
-"What `femu reproduce` found" and docs/benchmark.md's below its `femu reproduce --markdown`
+"What `femu reproduce` found" and docs/benchmark-studies.md's below its `femu reproduce --markdown`
 block. Exit 0 when they are the same; else prints both and exits 1 (with --write, puts the
 command's table in the pages and exits 0). A few
 minutes of CPU (mlp-surrogate's training most of it): run it before a release, not in CI.
@@ -23,7 +23,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 HEADING = "## What `femu reproduce` found"
 #: The pages that show the table, and the line after which it comes.
-PAGES = (("README.md", HEADING), ("docs/benchmark.md", "femu reproduce --markdown"))
+PAGES = (("README.md", HEADING), ("docs/benchmark-studies.md", "femu reproduce --markdown"))
 
 
 def readme_table(text: str, anchor: str = HEADING) -> tuple[int, int]:
