@@ -339,8 +339,10 @@ class _Worker:
             except OSError:
                 pass
             if self._pidfd != -1:
-                self.freeze()
-                kill_frozen(pid, self._pidfd, self._frozen)
+                try:
+                    self.freeze()
+                finally:  # a Ctrl-C inside the stop (a spare dropped by the next run too) still kills it
+                    kill_frozen(pid, self._pidfd, self._frozen or [])
             if os.path.exists(exited):  # it had ended before (its server kept the code): both go
                 for path in (exited, ended):
                     try:

@@ -42,7 +42,9 @@ def test_zz_end_the_child():
 def test_cpu_times_count_children_and_merge_the_workers(tmp_path, workers):
     (tmp_path / "test_burn.py").write_text(BURN)
     out = tmp_path / "cpu.txt"
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(HERE), os.environ.get("PYTHONPATH", "")]))
+    # a pytest of its own: not this run's xdist worker (PYTEST_XDIST_WORKER would make it write a worker's part only)
+    env = {k: v for k, v in os.environ.items() if not k.startswith("PYTEST_")}
+    env["PYTHONPATH"] = os.pathsep.join([str(HERE), os.environ.get("PYTHONPATH", "")])
     proc = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "cputime", "-p", "no:cacheprovider",
                            "--rootdir", str(tmp_path), *workers, "--cpu-times", str(out), str(tmp_path / "test_burn.py")],
                           cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)

@@ -29,7 +29,8 @@ def _data(truth=HFRAME, seed=3):
 
 
 def _with_shapes(data, shapes, freqs=None):
-    return dataclasses.replace(data, shapes=shapes, frequencies_hz=data.frequencies_hz if freqs is None else freqs)
+    return dataclasses.replace(data, shapes=shapes, frequencies_hz=data.frequencies_hz if freqs is None else freqs,
+                               frequency_std_hz=None, shape_std=None)  # synthetic data state no deviations
 
 
 CRACKED = crack_truth(3, 0.4, 3e4)

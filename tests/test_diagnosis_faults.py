@@ -58,7 +58,7 @@ def duplicated(data, seed: int = 0):
     sh = data.shapes
     extra = sh[:, 2] + 0.01 * np.abs(sh[:, 2]).max() * rng.standard_normal(sh.shape[0])
     return dataclasses.replace(data, frequencies_hz=np.insert(data.frequencies_hz, 3, data.frequencies_hz[2] * 1.01),
-                               shapes=np.insert(sh, 3, extra, axis=1))
+                               shapes=np.insert(sh, 3, extra, axis=1), frequency_std_hz=None, shape_std=None)  # none stated
 
 
 def reversed_channel(data, channel=(5, "x")):

@@ -447,6 +447,7 @@ def test_a_store_with_a_colon_in_a_record_name_is_read_and_resumed(tmp_path):
     (new,) = Store(store).runs_dir.glob("*.json")
     rec = json.loads(new.read_text())
     rec["optimizer"] = "sample_plugins:TinyES"
+    del rec["mac"]  # an earlier version's record: written before records carried a MAC
     key = run_key(rec["variant"], rec["optimizer"], rec["budget"], rec["seed"])
     assert ":" not in key
     legacy = new.parent / (key.replace("%3A", ":") + ".json")

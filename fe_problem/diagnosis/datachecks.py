@@ -349,10 +349,14 @@ def without(data, leave: dict):
     if not leave:
         return data
     shapes = np.array(data.shapes, dtype=float)
+    shape_std = np.array(data.shape_std, dtype=float)  # a stated deviation goes where its entry goes
     for m in leave.get("shapes", []):
         shapes[:, m - 1] = np.nan
+        shape_std[:, m - 1] = np.nan
     gone = {tuple(ch) for ch in leave.get("channels", [])}
     rows = [i for i, d in enumerate(data.dofs) if tuple(d) not in gone]
     keep = [k for k in range(data.n_modes) if k + 1 not in set(leave.get("modes", []))]
     return dataclasses.replace(data, dofs=tuple(data.dofs[i] for i in rows),
-                               frequencies_hz=np.asarray(data.frequencies_hz)[keep], shapes=shapes[np.ix_(rows, keep)])
+                               frequencies_hz=np.asarray(data.frequencies_hz)[keep], shapes=shapes[np.ix_(rows, keep)],
+                               frequency_std_hz=np.asarray(data.frequency_std_hz)[keep],
+                               shape_std=shape_std[np.ix_(rows, keep)])
