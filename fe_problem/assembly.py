@@ -25,7 +25,7 @@ from .limits import MAX_SPARSE_DOFS  # noqa: F401  (fe_problem.assembly.MAX_SPAR
 from .elements import element_blocks
 from .elements.base import coordinates
 from .model import FrameModel, ModelFileError
-from .parameters import Parameter
+from .parameters import Parameter, ParameterVectors
 from .paths import SOLVERS
 from .solver import ModalSolver, take_rows
 from .sparse import SparseModalSolver
@@ -88,7 +88,7 @@ def check_sparse_size(model: FrameModel, n_free: int) -> None:
                              "use a coarser model")
 
 
-class AffineModel:
+class AffineModel(ParameterVectors):
     """K(theta), M(theta) of a model over a parameter set, reduced to the free DOFs, and the
     solver of its modes.
 
@@ -403,27 +403,6 @@ class AffineModel:
             for local, (dof, _) in rel.items():
                 names[dof] = f"the released end of element {eid} at node {node} (local {local})"
         return [names[i] for i in self.dofmap.free]
-
-    # -- parameter vectors ------------------------------------------------------------
-    @property
-    def n_params(self) -> int:
-        """Number of parameters."""
-        return len(self.parameters)
-
-    @property
-    def x0(self) -> np.ndarray:
-        """Initial parameter values (p,), physical units."""
-        return np.array([p.initial for p in self.parameters], dtype=float)
-
-    @property
-    def lower(self) -> np.ndarray:
-        """Lower bounds (p,)."""
-        return np.array([p.lower for p in self.parameters], dtype=float)
-
-    @property
-    def upper(self) -> np.ndarray:
-        """Upper bounds (p,)."""
-        return np.array([p.upper for p in self.parameters], dtype=float)
 
     # -- nodal DOFs -------------------------------------------------------------------
     def expand(self, phi_free: np.ndarray) -> np.ndarray:

@@ -155,3 +155,31 @@ def frame_default_parameters(model: FrameModel, spread: float = 0.3) -> tuple[Pa
 
 __all__ = ["PARAMETER_KINDS", "Parameter", "element_moduli", "frame_default_parameters", "model_value",
            "model_with"]
+
+
+class ParameterVectors:
+    """The vectors of a system's `parameters` (anything with `initial`, `lower`, `upper`): the
+    one place AffineModel (frames) and MatrixSystem (matrix models) take them from."""
+
+    parameters: tuple
+
+    @property
+    def n_params(self) -> int:
+        """Number of parameters."""
+        return len(self.parameters)
+
+    @property
+    def x0(self) -> np.ndarray:
+        """Initial parameter values (p,), in the parameters' own units (multipliers for a matrix
+        model's terms)."""
+        return np.array([p.initial for p in self.parameters], dtype=float)
+
+    @property
+    def lower(self) -> np.ndarray:
+        """Lower bounds (p,)."""
+        return np.array([p.lower for p in self.parameters], dtype=float)
+
+    @property
+    def upper(self) -> np.ndarray:
+        """Upper bounds (p,)."""
+        return np.array([p.upper for p in self.parameters], dtype=float)

@@ -62,6 +62,19 @@ def _column_max(a: np.ndarray) -> np.ndarray:
     return a
 
 
+def _rayleigh(phi: np.ndarray, k: np.ndarray, m: np.ndarray, vectors: bool, rows):
+    """Eigenvalues as the Rayleigh quotients phi^T K phi / phi^T M phi of approximate shapes phi
+    (b, n, m) on the full K and M (b, n, n), and with `vectors` the shapes mass-normalised against
+    that M and signed (at `rows` if given): the refinement `_eigen_condensed` and
+    `_eigen_varying_mass` share (the latter's docstring says why it is needed)."""
+    mass = np.einsum("bim,bim->bm", phi, m @ phi)
+    lam = np.einsum("bim,bim->bm", phi, k @ phi) / mass
+    if not vectors:
+        return lam, None
+    phi = signed(phi / np.sqrt(mass)[:, None, :])
+    return lam, (phi if rows is None else take_rows(phi, rows))
+
+
 def take_rows(phi: np.ndarray, rows) -> np.ndarray:
     """Shapes (b, n_free, k) at free-DOF `rows`: (b, len(rows), k), zero where a row is -1."""
     rows = np.asarray(rows)
@@ -176,13 +189,7 @@ class ModalSolver:
         phi = np.empty((theta.shape[0], self.n_free, phi_a.shape[2]))
         phi[:, self._a, :] = phi_a
         phi[:, self._b, :] = -(x @ phi_a)
-        k, m = self.stiffness(theta), self.mass(theta)
-        mass = np.einsum("bim,bim->bm", phi, m @ phi)
-        lam = np.einsum("bim,bim->bm", phi, k @ phi) / mass
-        if not vectors:
-            return lam, None
-        phi = signed(phi / np.sqrt(mass)[:, None, :])
-        return lam, (phi if rows is None else take_rows(phi, rows))
+        return _rayleigh(phi, self.stiffness(theta), self.mass(theta), vectors, rows)
 
     def zero_modes(self, x0: np.ndarray) -> np.ndarray:
         """The zero-energy modes at x0 (n_free, n_rigid), M-normalised (the condensed solve's)."""
@@ -260,14 +267,7 @@ class ModalSolver:
         k, m = self.stiffness(theta), self.mass(theta)
         linv = np.linalg.inv(cholesky(m, self.name))
         _, y = np.linalg.eigh(linv @ k @ np.swapaxes(linv, 1, 2))
-        phi = np.swapaxes(linv, 1, 2) @ y[:, :, sl]
-        mass = np.einsum("bim,bim->bm", phi, m @ phi)
-        lam = np.einsum("bim,bim->bm", phi, k @ phi) / mass
-        if not vectors:
-            return lam, None
-        # mass-normalise against the M at hand (it was, to the operator's rounding)
-        phi = signed(phi / np.sqrt(mass)[:, None, :])
-        return lam, (phi if rows is None else take_rows(phi, rows))
+        return _rayleigh(np.swapaxes(linv, 1, 2) @ y[:, :, sl], k, m, vectors, rows)
 
     def eigen_sensitivities(self, theta: np.ndarray, n_modes: int, rows=None):
         """Eigenvalues, shapes (all free DOFs, or at `rows`) and d(omega^2)/d(theta)

@@ -23,13 +23,14 @@ import numpy as np
 from ..sparse import SparseModalSolver
 from ..solver import take_rows
 from .._threads import blas_pinned, one_blas_thread
+from ..parameters import ParameterVectors
 from .types import MatrixModel, MatrixModelError, MatrixParameter
 
 #: The solver paths a matrix model takes: sparse only (its matrices are sparse as read).
 MATRIX_SOLVERS = ("auto", "sparse")
 
 
-class MatrixSystem:
+class MatrixSystem(ParameterVectors):
     """K(x), M(x) of a matrix model over its parameters (default: every term with bounds;
     `parameters`: a subset, the other terms fixed at their `initial`), and their modes.
 
@@ -139,27 +140,6 @@ class MatrixSystem:
         """Eigenvalues, shapes and d(omega^2)/dx (b, m, p) = phi^T (K_i - lambda M_i) phi."""
         with one_blas_thread():
             return self._solver.eigen_sensitivities(x, n_modes, rows)
-
-    # -- parameter vectors ----------------------------------------------------------------
-    @property
-    def n_params(self) -> int:
-        """Number of parameters."""
-        return len(self.parameters)
-
-    @property
-    def x0(self) -> np.ndarray:
-        """Initial multipliers (p,)."""
-        return np.array([p.initial for p in self.parameters], dtype=float)
-
-    @property
-    def lower(self) -> np.ndarray:
-        """Lower bounds (p,)."""
-        return np.array([p.lower for p in self.parameters], dtype=float)
-
-    @property
-    def upper(self) -> np.ndarray:
-        """Upper bounds (p,)."""
-        return np.array([p.upper for p in self.parameters], dtype=float)
 
     # -- DOFs -------------------------------------------------------------------------------
     def expand(self, phi: np.ndarray) -> np.ndarray:
