@@ -63,17 +63,32 @@ def test_stated_deviations_cover_the_truth(runs):
     assert 0.55 <= np.mean(np.abs(zd) < 1) <= 0.85 and np.mean(np.abs(zd) < 1.96) >= 0.87, zd
 
 
-def test_stated_shape_deviations_are_conservative(runs):
-    """pyOMA2's propagated shape std is far larger than the shape's error here (docs/identify.md,
-    Limits: about 10 times on this building): it covers the truth at least at the nominal rate."""
-    z = []
+def test_stated_shape_deviations_cover_the_truth(runs):
+    """Each shape entry (all but the one scaled to 1) over 24 seeds x 3 modes x 2 entries = 144:
+    z = (identified - true) / stated std within 1.96 about 95 % of the time, within 1 about 68 %;
+    and, seed by seed independent of the truth, the stated std matches the empirical spread of the
+    identified entry over the seeds (a Monte Carlo of the same records). pyOMA2's own shape std
+    was about 10 times too large here (RMS z 0.09); ambient.py corrects its Jacobian."""
+    z, entries, stated = [], [], []
     for _, V, ident in runs:
+        row, srow = [], []
         for k, m in enumerate(ident.modes):
-            s = np.asarray(m["shape"])
-            j = int(np.argmax(np.abs(s)))
+            s, sd = np.asarray(m["shape"]), np.asarray(m["shape_std"])
+            j = int(np.argmax(np.abs(V[:, k])))
+            assert int(np.argmax(np.abs(s))) == j
             others = [i for i in range(s.size) if i != j]
-            z += list((s[others] - V[others, k] / V[j, k]) / np.asarray(m["shape_std"])[others])
-    assert np.mean(np.abs(np.array(z)) < 1.96) >= 0.95
+            z += list((s[others] - V[others, k] / V[j, k]) / sd[others])
+            row += list(s[others])
+            srow += list(sd[others])
+        entries.append(row)
+        stated.append(srow)
+    z = np.array(z)
+    assert z.size == 144
+    assert 0.80 <= np.mean(np.abs(z) < 1.96) <= 0.99, z
+    assert 0.55 <= np.mean(np.abs(z) < 1) <= 0.85, z
+    assert 0.6 < np.sqrt(np.mean(z**2)) < 1.4
+    ratio = np.mean(stated, axis=0) / np.std(entries, axis=0, ddof=1)
+    assert np.all((ratio > 0.5) & (ratio < 2.0)), ratio
 
 
 @pytest.fixture(scope="module")
