@@ -121,8 +121,9 @@ def test_cli_writes_modal_data_with_deviations_and_report(cli_run, capsys):
     assert record["method"] == "ssi-cov" and len(record["modes"]) == 3
     chart = record["stabilisation"][0]
     assert len(chart["chosen"]) == 3 and len(chart["order"]) == len(chart["cluster"]) > 3 * ORDER // 2
-    sv = np.array(record["spectral_density"]["singular_values"])
-    assert sv.shape == (3, len(record["spectral_density"]["frequency_hz"])) and np.all(sv[0] >= sv[1])
+    assert record["format"] == "femu.oma-identification/2" and len(record["spectral_density"]) == 1
+    sv = np.array(record["spectral_density"][0]["singular_values"])
+    assert sv.shape == (3, len(record["spectral_density"][0]["frequency_hz"])) and np.all(sv[0] >= sv[1])
     report = (out / "report.md").read_text()
     for name in ("stabilisation.png", "singular-values.png", "shapes.png"):
         assert f"]({name})" in report and (out / name).stat().st_size > 5000
@@ -179,6 +180,12 @@ def test_two_setups_merged_through_references():
         setups.append(Setup(acc[:, rows], FS, tuple(labels[r] for r in rows), f"setup {seed}"))
     ident = identify_ambient(Recording(tuple(setups)), order=ORDER)
     assert ident.data.meta["references"] == ["4:x", "5:x"]
+    assert len(ident.psd) == 2  # the singular values of each setup's spectral density (the report's plot)
+    for (freq, sv), (acc, fs) in zip(ident.psd, ((s.acc, s.fs) for s in setups)):
+        assert sv.shape == (3, freq.size) and np.all(sv[0] >= sv[1])
+        for fk in f:  # each mode a peak of the first singular value in each setup
+            near = (freq > 0.9 * fk) & (freq < 1.1 * fk)
+            assert abs(freq[near][np.argmax(sv[0][near])] / fk - 1) < 0.02, (fk, freq[near], sv[0][near])
     order = [labels.index(c) for c in ident.data.dofs]
     assert sorted(order) == [0, 1, 2, 3]
     found = np.array([m["frequency_hz"] for m in ident.modes])
@@ -201,3 +208,44 @@ def test_noise_modes_rejected_by_their_damping():
     assert [m["frequency_hz"] for m in kept] == [126.3, 226.7, 261.9, 452.9, 625.7, 1032.0, 1248.3]
     assert len(warn) == 3 and "778.7 Hz with damping 5.4 %" in warn[0] and "rejected as a noise mode" in warn[0]
     assert _damping_outliers(modes[:4], []) == modes[:4]
+
+
+def test_cli_without_model_two_setups(tmp_path, capsys):
+    """`--oma` without `--model`: the channels keep their labels, modal-data.json names no model
+    (null), the shapes are drawn per channel and the singular values of every setup are shown; a
+    command that needs the model says so in one line until `--model` is given."""
+    labels = [f"{k + 2}:x" for k in range(4)]
+    files = []
+    for seed, rows in ((7, [0, 2, 3]), (8, [1, 2, 3])):
+        acc, f, V = ambient_response(seed, DURATION_S, FS, noise=0.05, n_storeys=4)
+        files.append(write_csv(tmp_path / f"setup{seed}.csv", acc[:, rows], FS, [labels[r] for r in rows]))
+    out = tmp_path / "ident"
+    code = main(["identify", *map(str, files), "--oma", "--order", str(ORDER), "--out", str(out)])
+    stdout, err = capsys.readouterr()
+    assert code == 0, err
+    assert "no model: channels by label" in stdout
+    doc = json.loads((out / "modal-data.json").read_text())
+    assert doc["model"] is None and sorted(doc["dofs"]) == [[2, "x"], [3, "x"], [4, "x"], [5, "x"]]
+    assert np.all(np.abs(np.array([m["frequency_hz"] for m in doc["modes"]]) / f - 1) < 0.005)
+    record = json.loads((out / "identification.json").read_text())
+    assert record["model"] is None and [len(sd["singular_values"]) for sd in record["spectral_density"]] == [3, 3]
+    report = (out / "report.md").read_text()
+    assert "## Identified shapes per channel" in report and (out / "shapes.png").stat().st_size > 5000
+    from PIL import Image
+
+    from femu.reports.oma import plot_singular_values
+
+    # one panel per setup: the figure of the first setup alone is half as tall
+    one = plot_singular_values({**record, "spectral_density": record["spectral_density"][:1]}, tmp_path / "one.png")
+    h2, h1 = (Image.open(p).size[1] for p in (out / "singular-values.png", one))
+    assert h2 > 1.5 * h1, (h1, h2)
+
+    import fe_problem as fp
+
+    data = fp.load_modal_data(out / "modal-data.json")  # read as it is: the model is checked when given
+    assert data.model is None
+    code = main(["diagnose", str(out / "modal-data.json"), "--json"])
+    _, err = capsys.readouterr()
+    assert code == 2 and err.count("\n") == 1 and "name no model" in err and "--model" in err, err
+    data.check_model(fp.load_model("hframe"))  # the labels are the H-frame's nodes: a later --model maps them
+    # (tests/test_oma_crack.py diagnoses such a file with --model)

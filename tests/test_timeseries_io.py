@@ -103,7 +103,7 @@ def test_model_band_and_fs_checked(tmp_path, record, capsys):
     cases = [([csv, "--model", "hframe"], f"{csv}: column 3 (99:x): node 99 is not in model 'hframe'"),
              ([good, "--model", "hframe", "--band", "1", "60"], "above the Nyquist frequency 50 Hz"),
              ([good, "--model", "hframe", "--fs", "200"], f"{good}: column 1 (time_s) gives 100 Hz but --fs is 200 Hz"),
-             ([good], "--oma: name the model"),
+             ([good, "--band", "1", "60"], "above the Nyquist frequency 50 Hz"),  # checked without a model too
              ([tmp_path / "none.csv", "--model", "hframe"], "none.csv")]
     for argv, words in cases:
         code = main(["identify", *map(str, argv), "--oma", "--out", str(tmp_path / "o")])

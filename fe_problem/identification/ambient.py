@@ -89,10 +89,10 @@ MAX_DAMPING = 0.2
 @dataclass(frozen=True, eq=False)
 class AmbientIdentification:
     """What `identify_ambient` found: data (ModalData with per-mode std in meta and modes), charts
-    (one poles.Chart per setup: every pole, stable, clustered, chosen), psd: (frequency_hz (n,),
-    singular values (n_sv, n)) of the first setup's spectral density matrix, modes (one dict per
+    (one poles.Chart per setup: every pole, stable, clustered, chosen), psd (below), modes (one dict per
     mode: frequency_hz, frequency_std_hz, damping_ratio, damping_std, shape_std, mpc, mpd,
-    n_poles, setups), method, dropped (channel, kind) per setup, warnings."""
+    n_poles, setups), method, dropped (channel, kind) per setup, warnings. psd: one
+    (frequency_hz (n,), singular values (n_sv, n)) of the spectral density matrix per setup."""
 
     data: object
     charts: tuple
@@ -447,7 +447,7 @@ def identify_ambient(recording: Recording, model=None, method: str = "ssi-cov", 
 
     model: a FrameModel, name or file whose nodes the channel labels name, or a matrix model
     (MatrixModel or manifest) whose DOF labels or numbers they are (optional: the data then
-    names no model); method: 'ssi-cov', 'plscf' or 'fdd'; band_hz (lo, hi) Hz (default 0 to
+    names no model, model null: the channels keep their labels, mapped by a later --model); method: 'ssi-cov', 'plscf' or 'fdd'; band_hz (lo, hi) Hz (default 0 to
     the Nyquist frequency); order: the highest model order (SSI: state dimension; pLSCF:
     polynomial order). Returns an AmbientIdentification whose `data` is ModalData (real shapes
     scaled to a largest entry of 1; per mode frequency_std_hz, shape_std, damping in meta)."""
@@ -470,7 +470,7 @@ def identify_ambient(recording: Recording, model=None, method: str = "ssi-cov", 
         _check_model(recording, model)
     lib = _pyoma()
     warn: list[str] = []
-    results, charts, dropped, psd = [], [], [], None
+    results, charts, dropped, psd = [], [], [], []
     for s in recording.setups:
         acc, fs_used, kept, drop = _prepare(s, (lo, hi), warn)
         dropped.append(drop)
@@ -482,14 +482,12 @@ def identify_ambient(recording: Recording, model=None, method: str = "ssi-cov", 
                 modes, chart = _plscf(acc, fs_used, band, order, lib)
             else:
                 modes, chart = _fdd(acc, fs_used, band, lib)
-            if psd is None:
-                _, fdd = _fdd_psd(acc, fs_used, lib)
-        if psd is None:
-            f = np.asarray(fdd.result.freq)
-            sv = np.asarray(fdd.result.S_val)
-            sv = np.array([sv[i, i, :] for i in range(min(sv.shape[0], 4))]).real
-            m = (f >= lo) & (f <= band[1])
-            psd = (f[m], sv[:, m])
+            _, fdd = _fdd_psd(acc, fs_used, lib)
+        f = np.asarray(fdd.result.freq)
+        sv = np.asarray(fdd.result.S_val)
+        sv = np.array([sv[i, i, :] for i in range(min(sv.shape[0], 4))]).real
+        m = (f >= lo) & (f <= band[1])
+        psd.append((f[m], sv[:, m]))
         modes = _damping_outliers(sorted(modes, key=lambda r: r["frequency_hz"]), warn)
         real = {m.get("cluster") for m in modes}  # the noise modes' clusters no longer marked chosen
         chart = replace(chart, chosen=tuple(lab for lab in chart.chosen if lab in real))
@@ -520,8 +518,8 @@ def identify_ambient(recording: Recording, model=None, method: str = "ssi-cov", 
             "dropped_channels": [{"file": s.source, "channel": c, "kind": kind}
                                  for s, d in zip(recording.setups, dropped) for c, kind in d],
             "warnings": warn}
-    data = ModalData(model_ref or "", tuple(labels), freqs, shapes, meta, source=recording.sources[0])
-    return AmbientIdentification(data, tuple(charts), psd, tuple(modes), method, uncertainty,
+    data = ModalData(model_ref, tuple(labels), freqs, shapes, meta, source=recording.sources[0])
+    return AmbientIdentification(data, tuple(charts), tuple(psd), tuple(modes), method, uncertainty,
                                  tuple(dropped), tuple(warn))
 
 
