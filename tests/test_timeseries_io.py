@@ -68,7 +68,7 @@ def _bad_files(tmp_path, record):
     variant("nan.csv", nan, (), "line 11", "column 4 (4:x)", "NaN")
     short = list(good)
     short[20] = short[20].rsplit(",", 1)[0]
-    variant("short.csv", short, (), "line 21", "3 values", "4 columns")
+    variant("short.csv", short, (), "line 21", "3 fields", "4 columns", "unequal lengths")
     jump = [good[0], good[1]] + [ln for k, ln in enumerate(good[2:]) if k != 100]  # one sample missing
     variant("jump.csv", jump, (), "line 103", "time_s", "not uniform", "after 0.99 s")
     text = list(good)

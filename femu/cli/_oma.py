@@ -57,7 +57,8 @@ def run_oma(args) -> int:
     if args.modes is not None and args.modes < data.n_modes:
         data, modes = data.subset(range(args.modes)), modes[:args.modes]
         ident = replace(ident, data=data, modes=tuple(modes))
-    data = replace(data, model=None if data.model is None else _model_reference(data.model, out), meta={**data.meta, "wall_s": round(wall_s, 3)})
+    model = None if data.model is None else _model_reference(data.model, out)  # none: the channels' labels
+    data = replace(data, model=model, meta={**data.meta, "wall_s": round(wall_s, 3)})
     make_out_dir(out)
     record = {**summary_record(ident), "wall_s": wall_s}
     doc = modal_data_document(data, modes)
