@@ -1,6 +1,6 @@
 """Measured response time series (ambient or operational tests) on disk: CSV and `.npz`.
 
-The format is ../shared/formats/time-series.md (docs/identify.md, "Ambient vibration"): one
+The format is ../shared/formats/time-series.md (docs/identify-ambient.md): one
 channel per measured coordinate, labelled ``NODE:DIRECTION`` (``37:x``) or, for a model given
 as matrices, a 1-based DOF number; accelerations in m/s^2 (``units="g"`` for g).
 

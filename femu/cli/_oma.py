@@ -1,5 +1,4 @@
-"""`femu identify --oma`: the ambient-vibration path of the identify command (docs/identify.md,
-"Ambient vibration"). Reads time series, identifies through fe_problem.identification.ambient,
+"""`femu identify --oma`: the ambient-vibration path of the identify command (docs/identify-ambient.md). Reads time series, identifies through fe_problem.identification.ambient,
 writes modal-data.json (with each mode's frequency_std_hz and shape_std), identification.json
 and report.md."""
 

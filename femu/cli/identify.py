@@ -10,7 +10,7 @@ is one line on stderr and exit code 2.
 
 `femu identify FILE [FILE...] --oma [--model M] [--method ssi-cov|plscf|fdd] [--fs HZ] [--band LO HI]
 [--order MAX] [--units g] --out DIR` reads response time series of an ambient test (CSV or .npz,
-several setups merged through their reference channels: docs/identify.md, "Ambient vibration") and
+several setups merged through their reference channels: docs/identify-ambient.md) and
 identifies the modes by operational modal analysis (pyOMA2): DIR/modal-data.json with each
 mode's frequency_std_hz and shape_std, identification.json and report.md.
 """
