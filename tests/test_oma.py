@@ -249,3 +249,16 @@ def test_cli_without_model_two_setups(tmp_path, capsys):
     assert code == 2 and err.count("\n") == 1 and "name no model" in err and "--model" in err, err
     data.check_model(fp.load_model("hframe"))  # the labels are the H-frame's nodes: a later --model maps them
     # (tests/test_oma_crack.py diagnoses such a file with --model)
+    with pytest.raises(fp.DataFileError, match=r"x\.uff: the data name no model.*write JSON instead"):
+        fp.save_modal_data(data, tmp_path / "x.uff")
+
+
+def test_a_changed_pyoma2_is_refused_not_silently_used(monkeypatch):
+    """The shape-std correction patches pyOMA2's SSI_poles source: if that source no longer holds
+    the two lines it corrects, the identification stops with one line instead of stating another std."""
+    from fe_problem.identification import ambient
+
+    monkeypatch.setattr(ambient, "_UNSCALED", "a line pyOMA2 does not have")
+    monkeypatch.setattr(ambient, "_PATCHED", {})
+    with pytest.raises(ValueError, match="the installed pyOMA2's SSI_poles is not the one femu corrects"):
+        ambient._scaled_shape_poles()
