@@ -254,9 +254,11 @@ def _scaled_shape_poles():
 
         src = textwrap.dedent(inspect.getsource(ssi.SSI_poles))
         if src.count(_UNSCALED) != 2 or "Mat1_2" not in src:
-            raise ValueError("femu identify --oma: the installed pyOMA2's SSI_poles is not the one femu corrects "
-                             "(its shape Jacobian changed); install pyoma-2 1.4 or update fe_problem/identification/"
-                             "ambient.py")
+            from importlib.metadata import version
+
+            raise ValueError(f"femu identify --oma: the installed pyOMA2's SSI_poles ({version('pyoma-2')}) is not "
+                             "the one femu corrects (its shape Jacobian changed); install pyoma-2 1.4 or update "
+                             "fe_problem/identification/ambient.py")
         ns = dict(vars(ssi))
         exec(compile(src.replace(_UNSCALED, _SCALED), ssi.__file__, "exec"), ns)  # noqa: S102 (pyOMA2's own source)
         _PATCHED["f"] = ns["SSI_poles"]
