@@ -12,7 +12,9 @@ measured coordinates, 5 % sensor noise, 20 s at 5 kHz.
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/oma_crack.py [DIR]
 
-Prints the identified modes against the truth and the diagnosis' cause. `femu diagnose` reads
+Prints the identified modes against the truth and the diagnosis' cause. Its CI-sized version,
+built independently of the project's modal code (OpenSeesPy, a split element), is
+tests/test_oma_crack.py. `femu diagnose` reads
 the identified file as written, its `frequency_std_hz` and `shape_std` the noise of each mode.
 """
 

@@ -68,7 +68,7 @@ def _bad_files(tmp_path, record):
     variant("nan.csv", nan, (), "line 11", "column 4 (4:x)", "NaN")
     short = list(good)
     short[20] = short[20].rsplit(",", 1)[0]
-    variant("short.csv", short, (), "line 21", "3 values", "4 columns")
+    variant("short.csv", short, (), "line 21", "3 fields", "4 columns", "unequal lengths")
     jump = [good[0], good[1]] + [ln for k, ln in enumerate(good[2:]) if k != 100]  # one sample missing
     variant("jump.csv", jump, (), "line 103", "time_s", "not uniform", "after 0.99 s")
     text = list(good)
@@ -103,7 +103,7 @@ def test_model_band_and_fs_checked(tmp_path, record, capsys):
     cases = [([csv, "--model", "hframe"], f"{csv}: column 3 (99:x): node 99 is not in model 'hframe'"),
              ([good, "--model", "hframe", "--band", "1", "60"], "above the Nyquist frequency 50 Hz"),
              ([good, "--model", "hframe", "--fs", "200"], f"{good}: column 1 (time_s) gives 100 Hz but --fs is 200 Hz"),
-             ([good], "--oma: name the model"),
+             ([good, "--band", "1", "60"], "above the Nyquist frequency 50 Hz"),  # checked without a model too
              ([tmp_path / "none.csv", "--model", "hframe"], "none.csv")]
     for argv, words in cases:
         code = main(["identify", *map(str, argv), "--oma", "--out", str(tmp_path / "o")])

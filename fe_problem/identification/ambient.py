@@ -13,10 +13,11 @@ then one method of pyOMA2 (Pasca, Aloisio, Rosso, Sotiropoulos, pyOMA2, Software
   smaller than MIN_CLUSTER_FRACTION of the largest and outliers (modified Thompson tau) removed),
   and a mode damped more than DAMPING_OUTLIER times the median rejected as noise. A mode's values
   are its cluster's means; its standard deviations are the propagated ones averaged over the
-  cluster (SSI-cov's own uncertainty, not the scatter over orders). Frequency and damping std
-  cover the truth at their nominal rate on simulated records (tests/test_oma.py); the shape std
-  is about 10 times too large there (pyOMA2's Jacobian of the unit-scaled shape uses the
-  unscaled one), so it is conservative.
+  cluster (SSI-cov's own uncertainty, not the scatter over orders). The shape's std is pyOMA2's
+  propagation with its Jacobian of the unit-scaled shape corrected (`_scaled_shape_poles`: the
+  scaled shape where pyOMA2 put the unscaled one, Doehler & Mevel 2013, eq. 45). Frequency,
+  damping and shape std cover the truth at their nominal rate on simulated records
+  (tests/test_oma.py).
 - ``plscf``: poly-reference LSCF over orders 1..`order` (pyOMA2 ``pLSCF``), stable poles by its
   soft criteria, clustered and chosen by the rule of poles.py (`poles.select`); a mode's
   standard deviations are the scatter of its cluster over the orders (stated as such).
@@ -88,10 +89,10 @@ MAX_DAMPING = 0.2
 @dataclass(frozen=True, eq=False)
 class AmbientIdentification:
     """What `identify_ambient` found: data (ModalData with per-mode std in meta and modes), charts
-    (one poles.Chart per setup: every pole, stable, clustered, chosen), psd: (frequency_hz (n,),
-    singular values (n_sv, n)) of the first setup's spectral density matrix, modes (one dict per
+    (one poles.Chart per setup: every pole, stable, clustered, chosen), psd (below), modes (one dict per
     mode: frequency_hz, frequency_std_hz, damping_ratio, damping_std, shape_std, mpc, mpd,
-    n_poles, setups), method, dropped (channel, kind) per setup, warnings."""
+    n_poles, setups), method, dropped (channel, kind) per setup, warnings. psd: one
+    (frequency_hz (n,), singular values (n_sv, n)) of the spectral density matrix per setup."""
 
     data: object
     charts: tuple
@@ -232,6 +233,51 @@ def _clustering(lib, band):
     return Clustering(name="auto", steps=(step1, step2, step3))
 
 
+#: pyOMA2's Jacobian of the unit-scaled shape (Doehler & Mevel 2013, Lemma 5, eq. 45: the scaled
+#: shape's derivative is (I - phi_s e_k^T) dphi / phi_k, phi_s = phi / phi_k the scaled shape) puts
+#: the unscaled phi where phi_s belongs: the shape std it states comes out about 10 times too large
+#: (tests/test_oma.py). `_scaled_shape_poles` runs its SSI_poles with phi_s there instead.
+_UNSCALED = "phi[:, jj].reshape(-1, 1)"
+_SCALED = "(phi[:, jj] / vmaxs[jj]).reshape(-1, 1)"
+_PATCHED: dict = {}
+
+
+def _scaled_shape_poles():
+    """pyOMA2's functions.ssi.SSI_poles with the shape Jacobian of Doehler & Mevel's eq. 45 as
+    published (the two lines of its `Mat1_2`); ValueError if the installed pyOMA2 no longer reads
+    as the one this was written for (1.4), rather than a silently different std."""
+    if "f" not in _PATCHED:
+        import inspect
+        import textwrap
+
+        from pyoma2.functions import ssi
+
+        src = textwrap.dedent(inspect.getsource(ssi.SSI_poles))
+        if src.count(_UNSCALED) != 2 or "Mat1_2" not in src:
+            from importlib.metadata import version
+
+            raise ValueError(f"femu identify --oma: the installed pyOMA2's SSI_poles ({version('pyoma-2')}) is not "
+                             "the one femu corrects (its shape Jacobian changed); install pyoma-2 1.4 or update "
+                             "fe_problem/identification/ambient.py")
+        ns = dict(vars(ssi))
+        exec(compile(src.replace(_UNSCALED, _SCALED), ssi.__file__, "exec"), ns)  # noqa: S102 (pyOMA2's own source)
+        _PATCHED["f"] = ns["SSI_poles"]
+    return _PATCHED["f"]
+
+
+@contextlib.contextmanager
+def _scaled_shape_std():
+    """pyOMA2's SSI run with `_scaled_shape_poles` in place of its SSI_poles (restored after)."""
+    from pyoma2.functions import ssi
+
+    original = ssi.SSI_poles
+    ssi.SSI_poles = _scaled_shape_poles()
+    try:
+        yield
+    finally:
+        ssi.SSI_poles = original
+
+
 def _ssi(acc, fs, band, order, lib):
     SingleSetup, SSI, _, _, _, Clustering, gen = lib
     refs = projection_channels(acc)
@@ -241,7 +287,8 @@ def _ssi(acc, fs, band, order, lib):
               ref_ind=None if len(refs) == acc.shape[1] else refs,
               hc={"xi_max": MAX_DAMPING, "mpc_lim": None, "mpd_lim": None, "CoV_max": None})
     setup.add_algorithms(alg)
-    setup.run_by_name("ssi")
+    with _scaled_shape_std():
+        setup.run_by_name("ssi")
     res = alg.result
     alg.add_clustering(_clustering(lib, band))
     alg.run_clustering("auto")
@@ -402,7 +449,7 @@ def identify_ambient(recording: Recording, model=None, method: str = "ssi-cov", 
 
     model: a FrameModel, name or file whose nodes the channel labels name, or a matrix model
     (MatrixModel or manifest) whose DOF labels or numbers they are (optional: the data then
-    names no model); method: 'ssi-cov', 'plscf' or 'fdd'; band_hz (lo, hi) Hz (default 0 to
+    names no model, model null: the channels keep their labels, mapped by a later --model); method: 'ssi-cov', 'plscf' or 'fdd'; band_hz (lo, hi) Hz (default 0 to
     the Nyquist frequency); order: the highest model order (SSI: state dimension; pLSCF:
     polynomial order). Returns an AmbientIdentification whose `data` is ModalData (real shapes
     scaled to a largest entry of 1; per mode frequency_std_hz, shape_std, damping in meta)."""
@@ -425,7 +472,7 @@ def identify_ambient(recording: Recording, model=None, method: str = "ssi-cov", 
         _check_model(recording, model)
     lib = _pyoma()
     warn: list[str] = []
-    results, charts, dropped, psd = [], [], [], None
+    results, charts, dropped, psd = [], [], [], []
     for s in recording.setups:
         acc, fs_used, kept, drop = _prepare(s, (lo, hi), warn)
         dropped.append(drop)
@@ -437,14 +484,12 @@ def identify_ambient(recording: Recording, model=None, method: str = "ssi-cov", 
                 modes, chart = _plscf(acc, fs_used, band, order, lib)
             else:
                 modes, chart = _fdd(acc, fs_used, band, lib)
-            if psd is None:
-                _, fdd = _fdd_psd(acc, fs_used, lib)
-        if psd is None:
-            f = np.asarray(fdd.result.freq)
-            sv = np.asarray(fdd.result.S_val)
-            sv = np.array([sv[i, i, :] for i in range(min(sv.shape[0], 4))]).real
-            m = (f >= lo) & (f <= band[1])
-            psd = (f[m], sv[:, m])
+            _, fdd = _fdd_psd(acc, fs_used, lib)
+        f = np.asarray(fdd.result.freq)
+        sv = np.asarray(fdd.result.S_val)
+        sv = np.array([sv[i, i, :] for i in range(min(sv.shape[0], 4))]).real
+        m = (f >= lo) & (f <= band[1])
+        psd.append((f[m], sv[:, m]))
         modes = _damping_outliers(sorted(modes, key=lambda r: r["frequency_hz"]), warn)
         real = {m.get("cluster") for m in modes}  # the noise modes' clusters no longer marked chosen
         chart = replace(chart, chosen=tuple(lab for lab in chart.chosen if lab in real))
@@ -475,8 +520,8 @@ def identify_ambient(recording: Recording, model=None, method: str = "ssi-cov", 
             "dropped_channels": [{"file": s.source, "channel": c, "kind": kind}
                                  for s, d in zip(recording.setups, dropped) for c, kind in d],
             "warnings": warn}
-    data = ModalData(model_ref or "", tuple(labels), freqs, shapes, meta, source=recording.sources[0])
-    return AmbientIdentification(data, tuple(charts), psd, tuple(modes), method, uncertainty,
+    data = ModalData(model_ref, tuple(labels), freqs, shapes, meta, source=recording.sources[0])
+    return AmbientIdentification(data, tuple(charts), tuple(psd), tuple(modes), method, uncertainty,
                                  tuple(dropped), tuple(warn))
 
 

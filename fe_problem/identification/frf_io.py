@@ -33,6 +33,7 @@ import numpy as np
 from ..dofs import SPATIAL
 from ..jsonutil import check_keys
 from ..safe_files import open_for_writing, refuse_link
+from .csv_numbers import number_table
 from .units import SI_UNITS, abscissa_factor, ordinate_factor
 
 #: UFF direction codes (1..6 for x, y, z, rx, ry, rz) of nodal DOFs, and back; which of them a
@@ -418,34 +419,13 @@ def read_csv(path: str | Path) -> FRFSet:
         raise FRFFileError(f"{path}: bad '# reference: {meta['reference']}' or '# form: {form}'")
     if len(rows) < 2:
         raise FRFFileError(f"{path}: no frequency lines after the header")
-    width = 1 + len(cols)
-    table = np.empty((len(rows) - 1, width))
-    for r, (number, text) in enumerate(rows[1:]):
-        fields = text.split(",")
-        if len(fields) != width:
-            raise FRFFileError(f"{path}: line {number}: {len(fields)} fields, but the header has {width} "
-                               "(frequency_hz and a re/im pair per channel)")
-        try:
-            table[r] = [float(v) for v in fields]
-        except ValueError:
-            bad = next(v for v in fields if not _is_number(v))
-            raise FRFFileError(f"{path}: line {number}: {bad.strip()!r} is not a number") from None
-        if not np.all(np.isfinite(table[r])):  # 'inf', 'nan' or a number beyond a float: 1e400
-            bad = fields[int(np.flatnonzero(~np.isfinite(table[r]))[0])]
-            raise FRFFileError(f"{path}: line {number}: {bad.strip()!r} is not a finite number")
+    table = number_table(rows[1:], ["frequency_hz", *cols], str(path), FRFFileError,
+                         " (frequency_hz and a re/im pair per channel)")
     scale = ordinate_factor(meta.get("units", ""), form, f"{path}: '# units:'", FRFFileError)
     model = meta.get("model")
     return _checked(FRFSet(table[:, 0], scale * (table[:, 1::2] + 1j * table[:, 2::2]).T, tuple(coords),
                            (int(ref[0]), ref[1]), form, DEFAULT_UNITS[form],
                            None if model in (None, "", "NONE") else model, (str(path),)))
-
-
-def _is_number(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
 
 
 def _bounded_size(path: Path) -> None:

@@ -1,6 +1,6 @@
 """Measured response time series (ambient or operational tests) on disk: CSV and `.npz`.
 
-The format is ../shared/formats/time-series.md (docs/identify.md, "Ambient vibration"): one
+The format is ../shared/formats/time-series.md (docs/identify-ambient.md): one
 channel per measured coordinate, labelled ``NODE:DIRECTION`` (``37:x``) or, for a model given
 as matrices, a 1-based DOF number; accelerations in m/s^2 (``units="g"`` for g).
 
@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from ..dofs import SPATIAL
+from .csv_numbers import number_table
 from .frf_io import FRFFileError, _npz_sizes
 
 #: Standard gravity, m/s^2 per g (``--units g``)
@@ -190,33 +191,12 @@ def read_csv(path: str | Path, fs: float | None = None) -> Setup:
     header = [c.strip() for c in next(csv.reader([lines[k]]))]
     has_time = header[0] == "time_s"
     channels = _labels(header[1:] if has_time else header, f"{path}: line {k + 1}: column")
-    width = len(header)
     numbers = [n + 1 for n in range(k + 1, len(lines)) if lines[n].strip()]
     body = [lines[n - 1] for n in numbers]
     if not body:
         raise TimeSeriesError(f"{path}: no samples after the header")
-    counts = np.fromiter((ln.count(",") for ln in body), int, len(body))
-    wrong = np.flatnonzero(counts != width - 1)
-    if wrong.size:
-        r = int(wrong[0])
-        raise TimeSeriesError(f"{path}: line {numbers[r]}: {counts[r] + 1} values, the header has {width} columns "
-                              "(unequal lengths: every line needs every column)")
-    try:
-        table = np.array(",".join(body).split(","), dtype=float).reshape(len(body), width)
-    except ValueError:
-        for r, ln in enumerate(body):  # the slow path only to name the bad value
-            for c, v in enumerate(ln.split(",")):
-                try:
-                    float(v)
-                except ValueError:
-                    raise TimeSeriesError(f"{path}: line {numbers[r]}: column {c + 1} ({header[c]}): {v.strip()!r} "
-                                          "is not a number") from None
-        raise
-    bad = np.argwhere(~np.isfinite(table))
-    if bad.size:
-        r, c = (int(i) for i in bad[0])
-        raise TimeSeriesError(f"{path}: line {numbers[r]}: column {c + 1} ({header[c]}): {table[r, c]} "
-                              "(NaN or infinite); every sample needs a finite value")
+    table = number_table(list(zip(numbers, body)), header, str(path), TimeSeriesError,
+                         " (unequal lengths: every line needs every column)")
     if has_time:
         fs_time = _fs_of_time(table[:, 0], numbers, path)
         if fs is not None and abs(fs - fs_time) > 1e-6 * fs:

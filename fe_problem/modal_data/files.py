@@ -31,6 +31,8 @@ def load_modal_data(name_or_path: str | Path | ModalData) -> ModalData:
         data = read_uff55(path)
     else:
         data = modal_data_from_dict(read_json_file(path, DataFileError), source=str(path))
+    if data.model is None:  # an identification without a model: checked when one is given
+        return data
     try:
         model = data.load_model()
     except (FileNotFoundError, ValueError) as exc:

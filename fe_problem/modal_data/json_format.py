@@ -41,8 +41,8 @@ def modal_data_from_dict(d: Any, source: str = "<memory>") -> ModalData:
             raise _err(source, f"missing field '{key}'")
     if d["format"] != DATA_FORMAT:
         raise _err(source, f"field 'format' must be {DATA_FORMAT!r}, got {d['format']!r}")
-    if not isinstance(d["model"], str) or not d["model"]:
-        raise _err(source, "field 'model' must be a model name or a path")
+    if d["model"] is not None and (not isinstance(d["model"], str) or not d["model"]):
+        raise _err(source, "field 'model' must be a model name or a path (or null: data that name no model)")
     dofs = []
     if not isinstance(d["dofs"], list) or not d["dofs"]:
         raise _err(source, "field 'dofs' must be a non-empty list of [node id, direction] (or of row numbers, for "

@@ -40,7 +40,8 @@ def model_named(model: str, source: str):
 class ModalData:
     """Measured modes of one structure.
 
-    model: a shipped model name, a model file or matrix manifest path; dofs: the measured
+    model: a shipped model name, a model file or matrix manifest path, or None (an ambient
+    identification without a model: the channels' labels, mapped when a model is given); dofs: the measured
     coordinates (node id, direction), or 1-based row numbers (int) for a matrix model whose DOFs
     are a count; frequencies_hz: (m,) ascending; shapes: (len(dofs), m), a column of
     NaN where only the frequency is known. A shape's sign and scale carry no meaning.
@@ -49,7 +50,7 @@ class ModalData:
     `shapes` as given, NaN where not stated (None for either: none stated).
     """
 
-    model: str
+    model: str | None
     dofs: tuple[tuple[int, str], ...]
     frequencies_hz: np.ndarray
     shapes: np.ndarray
@@ -113,13 +114,18 @@ class ModalData:
                          self.frequency_std_hz.copy(), np.full_like(self.shapes, np.nan))
 
     def load_model(self) -> FrameModel:
-        """The model this data belongs to (name, or path relative to the data file)."""
+        """The model this data belongs to (name, or path relative to the data file); a
+        DataFileError when the data name none (give the model: --model)."""
+        if self.model is None:
+            raise DataFileError(f"{self.source}: the data name no model (identified without one): give the model "
+                                "whose nodes the channel labels are (--model)")
         return model_named(self.model, self.source)
 
     def is_for(self, model: FrameModel) -> bool:
         """Whether this data names `model`: by its name, or as the model file `model` was read
-        from (a path relative to the data file)."""
-        if self.model == model.name:
+        from (a path relative to the data file). Data that name no model are for any model whose
+        DOFs they label (check_model says whether they are)."""
+        if self.model is None or self.model == model.name:
             return True
         if self.model in shipped_models():
             return False

@@ -62,6 +62,9 @@ def write_uff55(data: ModalData, path: str | Path) -> Path:
     bad = [d for d in data.dofs if d[1] not in SPATIAL]
     if bad:
         raise DataFileError(f"{path}: DOF(s) {bad} have a direction other than {', '.join(SPATIAL)}")
+    if data.model is None:
+        raise DataFileError(f"{path}: the data name no model, and UFF dataset 55 names one on its ID line: write "
+                            "JSON instead")
     id1 = f"{_MODEL_TAG} {data.model}"
     if len(id1) > _ID_WIDTH:
         raise DataFileError(f"{path}: the model name {data.model!r} is longer than the "

@@ -1,5 +1,4 @@
-"""`femu identify --oma`: the ambient-vibration path of the identify command (docs/identify.md,
-"Ambient vibration"). Reads time series, identifies through fe_problem.identification.ambient,
+"""`femu identify --oma`: the ambient-vibration path of the identify command (docs/identify-ambient.md). Reads time series, identifies through fe_problem.identification.ambient,
 writes modal-data.json (with each mode's frequency_std_hz and shape_std), identification.json
 and report.md."""
 
@@ -43,9 +42,6 @@ def run_oma(args) -> int:
 
     from .identify import _model_reference
 
-    if args.model is None:
-        raise ValueError("--oma: name the model whose nodes the channel labels are with --model (a shipped model "
-                         "or a model file)")
     if args.fs is not None and not (math.isfinite(args.fs) and args.fs > 0):
         raise ValueError(f"--fs must be a positive number of Hz, got {args.fs}")
     out = Path(args.out)
@@ -60,7 +56,8 @@ def run_oma(args) -> int:
     if args.modes is not None and args.modes < data.n_modes:
         data, modes = data.subset(range(args.modes)), modes[:args.modes]
         ident = replace(ident, data=data, modes=tuple(modes))
-    data = replace(data, model=_model_reference(data.model, out), meta={**data.meta, "wall_s": round(wall_s, 3)})
+    model = None if data.model is None else _model_reference(data.model, out)  # none: the channels' labels
+    data = replace(data, model=model, meta={**data.meta, "wall_s": round(wall_s, 3)})
     make_out_dir(out)
     record = {**summary_record(ident), "wall_s": wall_s}
     doc = modal_data_document(data, modes)

@@ -8,9 +8,9 @@ the stabilisation chart, the FRF fit and the shapes. --json prints the modal-dat
 the only thing on stdout. Progress (a TTY, or --progress) and warnings go to stderr; bad input
 is one line on stderr and exit code 2.
 
-`femu identify FILE [FILE...] --oma --model M [--method ssi-cov|plscf|fdd] [--fs HZ] [--band LO HI]
+`femu identify FILE [FILE...] --oma [--model M] [--method ssi-cov|plscf|fdd] [--fs HZ] [--band LO HI]
 [--order MAX] [--units g] --out DIR` reads response time series of an ambient test (CSV or .npz,
-several setups merged through their reference channels: docs/identify.md, "Ambient vibration") and
+several setups merged through their reference channels: docs/identify-ambient.md) and
 identifies the modes by operational modal analysis (pyOMA2): DIR/modal-data.json with each
 mode's frequency_std_hz and shape_std, identification.json and report.md.
 """
@@ -35,7 +35,8 @@ def add_arguments(p) -> None:
     p.add_argument("frf_files", nargs="+", metavar="FILE",
                    help="UFF 58 (.uff/.unv), .npz or .csv FRF files; with --oma, .csv or .npz time series")
     p.add_argument("--model", default=None,
-                   help="model name or file (default: the one the FRF file names; required with --oma)")
+                   help="model name or file (default: the one the FRF file names; with --oma, none: the channels keep "
+                        "their labels)")
     p.add_argument("--band", nargs=2, type=float, metavar=("LO", "HI"), default=None,
                    help="frequency band in Hz (default: every line)")
     p.add_argument("--modes", type=positive_int, default=None, help="keep the lowest N modes (default: all found)")
@@ -79,9 +80,7 @@ def run(args) -> int:
     require("modal identification (femu identify)", "sdypy")  # before the work: the extra to install
     if not (math.isfinite(args.max_damping) and 0 < args.max_damping < 1):
         raise ValueError(f"--max-damping must lie in (0, 1), got {args.max_damping}")
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise ValueError(f"--out {out}: exists and is not a directory")
+    out = Path(args.out)  # refused at parsing if it is not a directory (_args.directory); made by make_out_dir
     show = args.progress or sys.stderr.isatty()
     frfs = read_frf(*args.frf_files)
     if show:

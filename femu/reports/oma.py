@@ -31,19 +31,19 @@ def summary_record(ident) -> dict:
              for k, m in enumerate(ident.modes)]
     charts = [{"order": c.order, "frequency_hz": c.frequency_hz, "damping": c.damping, "stable": c.stable,
                "cluster": c.cluster, "chosen": list(c.chosen)} for c in ident.charts]
-    return {"format": "femu.oma-identification/1", "model": d.model, "files": meta["files"],
+    return {"format": "femu.oma-identification/2", "model": d.model, "files": meta["files"],
             "method": ident.method, "fs_hz": meta["fs_hz"], "band_hz": meta["band_hz"], "order": meta["order"],
             "uncertainty": ident.uncertainty, "references": meta["references"],
             "dropped_channels": meta["dropped_channels"], "coordinates": [_label(c) for c in d.dofs],
             "modes": modes, "stabilisation": charts,
-            "spectral_density": {"frequency_hz": ident.psd[0], "singular_values": ident.psd[1]},
+            "spectral_density": [{"frequency_hz": f, "singular_values": sv} for f, sv in ident.psd],
             "warnings": list(ident.warnings)}
 
 
 def summary_text(record: dict) -> str:
     """The terminal summary: one line per mode with its standard deviations."""
     lines = [f"Identified {len(record['modes'])} modes from {', '.join(record['files'])} by {record['method']} "
-             f"(model {record['model']}, {len(record['coordinates'])} channels, band "
+             f"({_model_text(record)}, {len(record['coordinates'])} channels, band "
              f"{record['band_hz'][0]:g}-{record['band_hz'][1]:g} Hz) in {record['wall_s']:.2f} s",
              "  mode  frequency Hz   std Hz  damping %   std %    MPC  MPD deg  poles"]
     for m in record["modes"]:
@@ -55,6 +55,10 @@ def summary_text(record: dict) -> str:
     return "\n".join(lines)
 
 
+def _model_text(record: dict) -> str:
+    return "no model: channels by label" if record["model"] is None else f"model {record['model']}"
+
+
 def _fmt(v, width: int, scale: float = 1.0) -> str:
     return f"{'-':>{width}}" if v is None else f"{scale * v:{width}.3g}"
 
@@ -64,8 +68,7 @@ def plot_stabilisation(record: dict, path: Path) -> Path:
     clusters (one colour each), over the first singular value of the spectral density."""
     charts = record["stabilisation"]
     fig, axes = figure(8.0, 3.6 * len(charts) + 0.6, len(charts), 1)
-    sd = record["spectral_density"]
-    for i, (ax, ch) in enumerate(zip(axes[:, 0], charts)):
+    for i, (ax, ch, sd) in enumerate(zip(axes[:, 0], charts, record["spectral_density"])):
         twin = ax.twinx()
         twin.semilogy(sd["frequency_hz"], np.asarray(sd["singular_values"])[0], color="0.75", lw=0.8, zorder=0)
         twin.set_ylabel("1st singular value")
@@ -89,23 +92,25 @@ def plot_stabilisation(record: dict, path: Path) -> Path:
 
 
 def plot_singular_values(record: dict, path: Path) -> Path:
-    """The singular values of the spectral density matrix (first setup), identified modes marked."""
-    sd = record["spectral_density"]
-    fig, ax = figure(8.0, 3.8)
-    ax = ax[0, 0]
-    for k, s in enumerate(np.asarray(sd["singular_values"])):
-        ax.semilogy(sd["frequency_hz"], s, lw=0.9, label=f"singular value {k + 1}")
-    for m in record["modes"]:
-        ax.axvline(m["frequency_hz"], color="tab:blue", lw=0.5, alpha=0.5)
-    ax.set_xlabel("frequency (Hz)")
-    ax.set_ylabel("(m/s^2)^2/Hz")
-    ax.legend(fontsize=8)
+    """The singular values of the spectral density matrix, one panel per setup, identified modes marked."""
+    sds = record["spectral_density"]
+    fig, axes = figure(8.0, 3.4 * len(sds) + 0.4, len(sds), 1)
+    for ax, sd, name in zip(axes[:, 0], sds, record["files"]):
+        for k, s in enumerate(np.asarray(sd["singular_values"])):
+            ax.semilogy(sd["frequency_hz"], s, lw=0.9, label=f"singular value {k + 1}")
+        for m in record["modes"]:
+            ax.axvline(m["frequency_hz"], color="tab:blue", lw=0.5, alpha=0.5)
+        ax.set_ylabel("(m/s^2)^2/Hz")
+        ax.set_title(f"{name}: singular values of the spectral density", fontsize=9)
+        ax.legend(fontsize=8)
+    axes[-1, 0].set_xlabel("frequency (Hz)")
     return save_figure(fig, path)
 
 
 def plot_shapes(record: dict, model, path: Path) -> Path:
     """Each identified mode as arrows at the measured translations on the drawn model (a band of
-    one standard deviation as a thin bar), or as bars over the channels without a model."""
+    one standard deviation as a thin bar), or as bars over the channels without a model (none
+    named, or a matrix model)."""
     import math
 
     from .diagnosis import draw_numbered_frame, projected
@@ -118,7 +123,7 @@ def plot_shapes(record: dict, model, path: Path) -> Path:
     for ax in axes.ravel()[n:]:
         ax.set_visible(False)
     coords = record["coordinates"]
-    if model is None:  # no frame to draw on (a matrix model): bars over the channels
+    if model is None:  # no frame to draw on (no model, or a matrix model): bars over the channels
         for ax, m in zip(axes.ravel(), modes):
             shape = np.asarray(m["shape"])
             err = None if m["shape_std"] is None else np.asarray(m["shape_std"])
@@ -159,7 +164,7 @@ def plot_shapes(record: dict, model, path: Path) -> Path:
 def render_markdown(record: dict, figures: dict) -> str:
     """report.md from the record and the figure file names."""
     lines = [f"# Ambient identification of {', '.join(record['files'])}", "",
-             f"Method {record['method']} (pyOMA2); model {record['model']}; {len(record['coordinates'])} channels at "
+             f"Method {record['method']} (pyOMA2); {_model_text(record)}; {len(record['coordinates'])} channels at "
              f"{record['fs_hz']:g} Hz; band {record['band_hz'][0]:g}-{record['band_hz'][1]:g} Hz"
              + (f"; model orders up to {record['order']}" if record["order"] else "")
              + (f"; setups merged through the reference channels {', '.join(record['references'])}"
@@ -178,7 +183,8 @@ def render_markdown(record: dict, figures: dict) -> str:
                                                    for d in record["dropped_channels"]), ""]
     for title, key in (("Stabilisation diagram", "stabilisation"),
                        ("Singular values of the spectral density matrix", "singular_values"),
-                       ("Identified shapes on the model", "shapes")):
+                       ("Identified shapes " + ("per channel" if record["model"] is None else "on the model"),
+                        "shapes")):
         lines += [f"## {title}", "", f"![{title}]({figures[key]})", ""]
     if record["warnings"]:
         lines += ["## Warnings", ""] + [f"- {w}" for w in record["warnings"]] + [""]
