@@ -63,3 +63,33 @@ def test_the_readme_reproduce_table_is_where_the_check_script_looks():
     table = text.splitlines()[first:end]
     assert table[0] == "|  | f1 | f2 | f3 | f4 | f5 | mean abs error % |"  # femu.reports.reproduce.render_markdown's
     assert table[2].startswith("| measured | 53.9 | 117.3 |") and table[-1].startswith("| paper PSO / SA / GA (Table 1) |")
+
+
+@pytest.fixture(scope="module")
+def hframe_modes():
+    import contextlib
+    import io
+
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        assert main(["model", "hframe", "--modes", "10"]) == 0
+    return [float(m[1]) for m in re.finditer(r"^\s+\d+\s+([\d.]+)$", out.getvalue(), re.M)]
+
+
+def test_hframe_page_nominal_frequencies_and_their_match_to_the_paper(hframe_modes):
+    import math
+
+    page = " ".join((ROOT / "docs" / "hframe.md").read_text().split())
+    said = _number(r"Nominal elastic frequencies \(Hz\), modes 1-10: ([\d., ]+)\.", page, "docs/hframe.md")
+    assert len(hframe_modes) == 10
+    assert [f"{f:.3f}" for f in hframe_modes] == [s.strip() for s in said.split(",")]  # as `femu model` prints them
+    # "reproduce the paper's initial-model frequencies to within X %": X is the worst mode's
+    # difference to the paper's Table 1 (its "initial" column, read from the same page), rounded up
+    text = (ROOT / "docs" / "hframe.md").read_text()
+    table = re.findall(r"^\| (\d) \| [\d.]+ \| ([\d.]+) \|", text[text.index("## The published data"):], re.M)
+    paper = [float(v) for _, v in table[:5]]
+    worst = max(abs(f / p - 1) * 100 for f, p in zip(hframe_modes, paper))
+    bound = f"{math.ceil(worst * 100) / 100:.2f}"
+    for name in ("docs/hframe.md", "README.md"):
+        text = " ".join((ROOT / name).read_text().split())
+        assert _number(r"initial-model frequencies to within ([\d.]+) %", text, name) == bound
