@@ -93,3 +93,16 @@ def test_hframe_page_nominal_frequencies_and_their_match_to_the_paper(hframe_mod
     for name in ("docs/hframe.md", "README.md"):
         text = " ".join((ROOT / name).read_text().split())
         assert _number(r"initial-model frequencies to within ([\d.]+) %", text, name) == bound
+
+
+def test_the_space_frames_first_frequencies_on_the_elements_page():
+    import contextlib
+    import io
+
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        assert main(["model", "frame3d", "--modes", "5"]) == 0
+    printed = re.findall(r"^\s+\d+\s+([\d.]+)$", out.getvalue(), re.M)
+    page = " ".join((ROOT / "docs" / "model-elements.md").read_text().split())
+    said = _number(r"its first frequencies are ([\d., ]+) Hz", page, "docs/model-elements.md")
+    assert [s.strip() for s in said.split(",")] == printed  # as `femu model frame3d --modes 5` prints them
