@@ -20,7 +20,7 @@ import published_figures as pf  # noqa: E402
 
 ROOT = pf.ROOT
 #: figures produced by a command and not (yet) recomputed anywhere: this count may only fall
-MAX_UNCHECKED_FIGURES = 660
+MAX_UNCHECKED_FIGURES = 607
 
 
 @pytest.fixture(scope="module")
@@ -108,9 +108,11 @@ def test_a_test_entry_names_a_test_that_exists_and_names_its_page(inventory):
             continue
         path, _, name = e["test"].partition("::")
         src = (ROOT / path).read_text() if (ROOT / path).is_file() else ""
+        # tests/test_docs.py runs every page (its samples compared with their commands' output)
+        every_page = path == "tests/test_docs.py" and name == "test_the_blocks_of_a_page_run_in_order"
         if not re.search(rf"^\s*def {re.escape(name)}\(", src, re.M):
             bad.append(f"{e['page']}: {e['anchor'][:50]!r}: no test {e['test']}")
-        elif Path(e["page"]).name not in src:
+        elif not every_page and Path(e["page"]).name not in src:
             bad.append(f"{e['page']}: {e['anchor'][:50]!r}: {path} never names {Path(e['page']).name}")
     assert not bad, "\n".join(bad)
 
