@@ -11,6 +11,9 @@ The jobs (benchmarks/published.toml lists every figure, with `kind = "script"` f
 - `reproduce`: `femu reproduce --markdown` (5 seeds x 1000 evaluations, 12 optimizers; a few
   minutes): the table of README.md and docs/benchmark-studies.md, and the best mean error both
   pages quote ("gets below about X %").
+- `adapter-references`: `python benchmarks/adapter_references.py --budget 1000 --seeds 5` (each
+  built-in against its library's own driver; tens of minutes, mlp-surrogate and nevergrad most of
+  it): the table of docs/suite-adapters.md.
 - `suite`: the study docs/benchmark-tables.md names, `femu report --json`, and
   `benchmarks/readme_suite_tables.py`: every line of that page except its provenance line
   ("Made by ...") and its Costs section (times: `machine` figures, not compared).
@@ -47,6 +50,7 @@ JOBS = {
     "diagnosis-real": [PY, "tests/diagnosis_cases.py", "5", "--only", "real", "--markdown"],
     "reproduce": [PY, "-m", "femu", "reproduce", "--markdown", "--out", "{dir}/reproduce"],
     "suite": None,  # three commands: see _suite
+    "adapter-references": [PY, "benchmarks/adapter_references.py", "--budget", "1000", "--seeds", "5"],
 }
 
 #: (job, index of the table in the job's output, page, the line after which the page shows it)
@@ -60,6 +64,7 @@ TABLES = (
     ("diagnosis-real", 0, "docs/diagnosis-tables.md", "## Classes of real structures (seed 5)"),
     ("reproduce", 0, "README.md", "## What `femu reproduce` found"),
     ("reproduce", 0, "docs/benchmark-studies.md", "femu reproduce --markdown"),
+    ("adapter-references", 0, "docs/suite-adapters.md", "<!-- adapter-references: begin -->"),
 )
 #: pages that quote the reproduce table's best mean error
 BEST_ERROR = (("README.md", r"gets below about ([\d.]+) %"), ("docs/benchmark-studies.md", r"gets below about ([\d.]+) %"))
