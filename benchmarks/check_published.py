@@ -60,7 +60,6 @@ TABLES = (
     ("diagnosis-more", 0, "docs/diagnosis-tests.md", "a claim that is not the truth.", 2),
     ("diagnosis-standard", 0, "docs/diagnosis-tables.md", "## Standard classes (seed 2026)"),
     ("diagnosis-standard", 1, "docs/diagnosis-tables.md", "## Standard classes (seed 2026)", 1),
-    ("diagnosis-more", 0, "docs/diagnosis-tables.md", "## Further classes (seed 2026)"),
     ("diagnosis-real", 0, "docs/diagnosis-tables.md", "## Classes of real structures (seed 5)"),
     ("reproduce", 0, "README.md", "## What `femu reproduce` found"),
     ("reproduce", 0, "docs/benchmark-studies.md", "femu reproduce --markdown"),
