@@ -9,7 +9,8 @@ e58561b) are removed, a number is a figure when
 
 - it stands in a table row (every number of a table, counts included), or
 - it has a decimal fraction (15.17), an exponent (3.1e+04) or a thousands separator (3,881), or
-- a unit of time, ratio or share follows it (%, x, s, ms, us, min, h, Hz), or
+- a unit of time, size, ratio or share follows it (%, x, s, ms, us, min, minutes, seconds, h,
+  hours, Hz, kB, MB, GB, MiB, GiB), or
 - it is a count of a count ("8 of 8", "12/10/10/8").
 
 Exempt by that rule: plain integers in prose (indices, seeds, sizes of a plan: "node 8", "seed 5",
@@ -42,8 +43,8 @@ _DATE = re.compile(r"\b\d{4}-\d{2}-\d{2}(T[\d:+.]+)?")
 _VERSION = re.compile(r"\b\d+\.\d+\.\d+\b")
 _HEX = re.compile(r"\b(?=[0-9a-f]*[a-f])(?=[0-9a-f]*\d)[0-9a-f]{7,40}\b")
 _NUM = re.compile(r"(?<![\w.@/=^'\-+])[-+]?\d+(?:,\d{3})*(?:\.\d+)?(?:e[-+]?\d+)?(?![\w.]*[A-Za-z_(])"
-                  r"|(?<![\w.@/=^'\-+])[-+]?\d+(?:,\d{3})*(?:\.\d+)?(?:e[-+]?\d+)?(?=\s?(?:%|x\b|s\b|ms\b|us\b|min\b|h\b|Hz\b))")
-_UNIT = re.compile(r"\s?(?:%|x\b|s\b|ms\b|us\b|min\b|h\b|Hz\b)")
+                  r"|(?<![\w.@/=^'\-+])[-+]?\d+(?:,\d{3})*(?:\.\d+)?(?:e[-+]?\d+)?(?=\s?(?:%|x\b|s\b|ms\b|us\b|min\b|minutes?\b|seconds?\b|h\b|hours?\b|Hz\b|[kKMG]i?B\b))")
+_UNIT = re.compile(r"\s?(?:%|x\b|s\b|ms\b|us\b|min\b|minutes?\b|seconds?\b|h\b|hours?\b|Hz\b|[kKMG]i?B\b)")
 _OF = re.compile(r"^\s?(?:of|/)\s?\d")
 
 

@@ -138,7 +138,7 @@ def test_figures_waiting_for_a_check_do_not_grow(inventory):
 def test_the_rule_finds_figures_and_exempts_what_it_says():
     page = pf.Page("x.md", "")
     text = ("# T\n\nIt took 1.7 s at load 3 (`node=8`, f1, 2026-11-28, version 0.1.0, commit e58561b); "
-            "node 8 of seed 5 moved; 60 of 60 right; 3,881 candidates; 35x faster; 12 %.\n\n"
+            "node 8 of seed 5 moved; 60 of 60 right; 3,881 candidates; 35x faster; 12 %; 64 MiB, 4 GPa.\n\n"
             "| a | b |\n|---|---|\n| 4 | x2 |\n\n```bash\npython run.py 2026 --budget 300\n```\n")
     p = ROOT / "tests" / "_published_rule_probe.md"
     try:
@@ -147,4 +147,4 @@ def test_the_rule_finds_figures_and_exempts_what_it_says():
     finally:
         p.unlink()
     got = [f.text for f in pf.figures(page)]
-    assert got == ["1.7", "60", "60", "3,881", "35", "12", "4"]
+    assert got == ["1.7", "60", "60", "3,881", "35", "12", "64", "4"]
