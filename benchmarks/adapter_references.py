@@ -4,7 +4,7 @@ and their ratio (adapter / reference; below 1: the adapter is better).
 
     cd benchmarks && OPENBLAS_NUM_THREADS=1 python adapter_references.py --budget 1000 --seeds 5 --write
 
---write puts the rows into the table in docs/suite.md (between its "adapter-references"
+--write puts the rows into the table in docs/suite-adapters.md (between its "adapter-references"
 markers), keeping the rows of built-ins not run this time (`--optimizers optuna-tpe` updates
 that built-in's rows alone; a table of another budget or other seeds is refused); without it
 the table is printed. Runs go through `adapters.run`, so the numbers are the ones a
@@ -75,14 +75,14 @@ def main(argv=None) -> int:
                     help="built-ins, comma-separated (mlp-surrogate and nevergrad-ngopt take minutes per run)")
     ap.add_argument("--budget", type=int, default=1000)
     ap.add_argument("--seeds", type=int, default=5)
-    ap.add_argument("--write", action="store_true", help="write the table into docs/suite.md")
+    ap.add_argument("--write", action="store_true", help="write the table into docs/suite-adapters.md")
     args = ap.parse_args(argv)
     seeds = list(range(args.seeds))
     text = table(ratios(args.optimizers.split(","), args.budget, seeds), args.budget, seeds)
     if not args.write:
         print(text)
         return 0
-    doc = HERE.parent / "docs" / "suite.md"
+    doc = HERE.parent / "docs" / "suite-adapters.md"
     s = doc.read_text()
     if BEGIN not in s:
         s = s.rstrip("\n") + "\n\n## Adapters against their libraries\n\n" + BEGIN + "\n" + END + "\n"
@@ -101,7 +101,7 @@ def merged(old: str, new: str, names) -> str:
     if not old_lines:
         return new
     if old_lines[0] != new_lines[0]:
-        raise ValueError("the table in docs/suite.md was made with another budget or other seeds "
+        raise ValueError("the table in docs/suite-adapters.md was made with another budget or other seeds "
                          f"({old_lines[0][:80]}...): regenerate every row (--optimizers {','.join(REFERENCES)})")
     rows = {}
     for line in old_lines[4:] + new_lines[4:]:  # the new rows after the old: they replace them

@@ -13,7 +13,8 @@ HTML comments on the lines just above a fence steer a block (they do not show on
                                             each OLD replaced by NEW (each OLD must be in the block);
                                             FEMU_DOCS_FULL=1 runs it as written
     <!-- docs-sample: COMMAND -->           the next block (console/text) is COMMAND's output, shown
-                                            after a line `$ COMMAND`; the test runs COMMAND too, and
+                                            after a line `$ COMMAND`; the test runs COMMAND too and
+                                            compares its output with the block, timings aside;
                                             `python tests/docs_blocks.py --regenerate` rewrites the block
 
 `$FEMU_DOCS_VENV` in a replacement is the environment the tests run in.
@@ -24,6 +25,7 @@ Usage: python tests/docs_blocks.py [--list] [--regenerate] [PAGE ...]
 from __future__ import annotations
 
 import argparse
+import difflib
 import os
 import re
 import shutil
@@ -185,6 +187,19 @@ def run_sample(b: Block, cwd: Path) -> str:
     return f"$ {b.sample}\n{proc.stdout.rstrip()}\n"
 
 
+_TIME = re.compile(r"\b\d+(?:\.\d+)? ?(?:s|ms|us)\b")
+
+
+def _untimed(text: str) -> str:
+    """A sample's text with its timings masked: a run's seconds are the machine's, the rest is
+    the command's (benchmarks/published.toml lists a sample's timings as `machine` figures)."""
+    return _TIME.sub("<time>", text.rstrip("\n"))
+
+
+def rel_of(page: Path) -> str:
+    return str(page.relative_to(ROOT)) if page.is_relative_to(ROOT) else str(page)
+
+
 def run_page(page: Path, workdir: Path, full: bool = False, regenerate: bool = False) -> list[Block]:
     """Run `page`'s blocks in order in a fresh copy of the repository under `workdir`; with
     `regenerate`, rewrite its sample blocks from their commands. Returns the blocks run."""
@@ -198,6 +213,11 @@ def run_page(page: Path, workdir: Path, full: bool = False, regenerate: bool = F
             done.append(b)
         elif b.sample is not None:
             new_samples[b.line] = run_sample(b, work)
+            if not regenerate and _untimed(new_samples[b.line]) != _untimed(b.text):
+                shown = "\n".join(difflib.unified_diff(b.text.splitlines(), new_samples[b.line].splitlines(),
+                                                       "the page", "the command", lineterm=""))
+                raise DocsError(f"{b.where}: the sample is not what {b.sample!r} prints (timings aside; "
+                                f"`python tests/docs_blocks.py --regenerate {rel_of(page)}` rewrites it):\n{shown}")
             done.append(b)
     if regenerate and new_samples:
         lines = page.read_text(encoding="utf-8").split("\n")

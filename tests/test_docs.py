@@ -121,3 +121,12 @@ def test_no_block_installs_into_the_environment_the_tests_run_in():
     installs = [b.where for page in db.pages() for b in db.blocks(page)
                 if b.lang == "bash" and re.search(r"(^|[\s/])pip3? install", b.code(FULL))]
     assert installs == []
+
+
+def test_a_sample_that_is_not_what_its_command_prints_fails_timings_aside(tmp_path):
+    ok = _page(tmp_path, "# t\n\n<!-- docs-sample: echo took 0.2 s, 3 modes -->\n```console\n"
+                         "$ echo took 0.2 s, 3 modes\ntook 9.75 s, 3 modes\n```\n")
+    db.run_page(ok, tmp_path / "a")  # the seconds are the machine's
+    bad = _page(tmp_path, "# t\n\n<!-- docs-sample: echo 3 modes -->\n```console\n$ echo 3 modes\n4 modes\n```\n")
+    with pytest.raises(db.DocsError, match="is not what 'echo 3 modes' prints"):
+        db.run_page(bad, tmp_path / "b")

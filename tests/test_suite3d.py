@@ -10,6 +10,7 @@ import math
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -138,11 +139,16 @@ def test_f_opt_is_zero_and_reached_at_the_truth(pid):
 def test_target_scale_follows_the_documented_rule():
     """1e-2 times the power of ten at or above the median J(x0) - f_opt of the family's five
     instances at its smallest dimension (docs/suite.md), fixed once in TARGET_SCALE."""
+    medians = []
     for family in FAMILIES_3D:
         gaps = [float(p.evaluate(p.x0)[0]) - p.f_opt for p in (fp.suite_problem(f"{family}/12/{i}") for i in range(1, 6))]
         assert fs.TARGET_SCALE[family] == 1e-2 * 10.0 ** math.ceil(math.log10(np.median(gaps)))
         assert fp.suite_problem(f"{family}/48/1").target_scale == fs.TARGET_SCALE[family]
+        medians.append(f"{np.median(gaps):.1e}".replace("e-0", "e-"))
     assert fs.TARGET_SCALE["frame3d-freq"] == 1e-5 and fs.TARGET_SCALE["frame3d-shape"] == 1e-4
+    # the page prints the medians: "(median J(x0) at 12 parameters: 7.6e-4 and 5.4e-3)"
+    page = " ".join((Path(__file__).resolve().parents[1] / "docs" / "suite.md").read_text().split())
+    assert f"(median J(x0) at 12 parameters: {medians[0]} and {medians[1]})" in page
 
 
 _CHILD = """
