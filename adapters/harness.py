@@ -77,6 +77,10 @@ class RunResult:
     sandbox: which of the kernel's confinements held for its worker (adapters.sandbox.CONFINEMENT:
     filesystem, signals, own_uid, limits, session, undumpable, peer_checked -> true or false, and
     landlock_abi); empty for in-process runs and records made before it.
+    blind: True for a run on a blind suite instance (its truth and data drawn from its store's
+    secret, femu.studies.blind; set by studies), False otherwise and in records made before it.
+    f_opt_kind, f_opt_precision, f_start: how f_opt is known, its precision and J(x0), for a
+    blind instance (the report cannot rebuild it from its id); None otherwise.
     """
 
     optimizer: str
@@ -111,6 +115,10 @@ class RunResult:
     problem_source: dict | None = None
     suite_version: str | None = None
     sandbox: dict = field(default_factory=dict)
+    blind: bool = False
+    f_opt_kind: str | None = None
+    f_opt_precision: float | None = None
+    f_start: float | None = None
 
     @property
     def overhead_s(self) -> float:

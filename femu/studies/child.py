@@ -2,8 +2,10 @@
 
 On Dask each run goes through `dask_task` in a worker, its optimizer in a worker of the sandbox
 server of that Dask worker process (adapters.sandbox), which stops it at its time limit.
-`run_task_in_child` (``python -m femu.studies.child --run-task TASK_JSON OUT STARTED``) runs a
-task in a fresh interpreter killed at its hard deadline, for callers that need that.
+`run_task_in_child` (``python -m femu.studies.child --run-task TASK_FILE OUT STARTED``) runs a
+task in a fresh interpreter killed at its hard deadline, for callers that need that. The task
+goes in a file of a private directory, never on the command line (which any process may read
+in /proc: a blind instance's key is in it).
 """
 
 from __future__ import annotations
@@ -48,9 +50,11 @@ def run_task_in_child(task: Task) -> dict:
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p), FEMU_SOLVER_WORKERS="1")
     with tempfile.TemporaryDirectory(prefix="femu-run-") as tmp:
         out, started, log = Path(tmp) / "record.json", Path(tmp) / "started", Path(tmp) / "stderr.txt"
+        spec = Path(tmp) / "task.json"  # the directory is this user's only (mode 0700)
+        spec.write_text(dumps(asdict(task), indent=None))
         with open(log, "w") as err:
             proc = subprocess.Popen([sys.executable, "-m", "femu.studies.child", "--run-task",
-                                     dumps(asdict(task), indent=None), str(out), str(started)],
+                                     str(spec), str(out), str(started)],
                                     env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=err)
         launched, t_start, record = time.perf_counter(), None, None
         try:
@@ -158,9 +162,10 @@ class DaskCluster:
 
 
 def _run_task_main(argv: list[str]) -> int:
-    """``python -m femu.studies.child --run-task TASK_JSON OUT STARTED``: one run, its record to
-    the file OUT; the file STARTED is created when the run starts."""
-    task = Task(**json.loads(argv[1]))
+    """``python -m femu.studies.child --run-task TASK_FILE OUT STARTED``: one run (the task as
+    JSON in the file TASK_FILE), its record to the file OUT; the file STARTED is created when
+    the run starts."""
+    task = Task(**json.loads(Path(argv[1]).read_text()))
     record = run_task(task, on_start=Path(argv[3]).touch)
     kill_descendants()  # processes the plugin started do not outlive its run
     Path(argv[2]).write_text(dumps(record, indent=None))
@@ -170,4 +175,4 @@ def _run_task_main(argv: list[str]) -> int:
 if __name__ == "__main__":
     if len(sys.argv) == 5 and sys.argv[1] == "--run-task":
         sys.exit(_run_task_main(sys.argv[1:]))
-    sys.exit("usage: python -m femu.studies.child --run-task TASK_JSON OUT STARTED (used on Dask workers)")
+    sys.exit("usage: python -m femu.studies.child --run-task TASK_FILE OUT STARTED (used on Dask workers)")
