@@ -62,7 +62,7 @@ import psutil
 
 from .budget import check_budget, check_seed, check_x0_mode, jacobian_cost
 from .capabilities import CAPABILITIES
-from .harness import RunResult, BudgetedObjective, BudgetExhausted, TimeLimitExceeded, _problem_count, record
+from .budgeted import RunResult, BudgetedObjective, BudgetExhausted, TimeLimitExceeded, _problem_count, record
 from .processes import freeze, kill_frozen
 from .registry import check_name
 from .sandbox_worker import DONE, ERROR, EVAL, LSQ, STOP, VALUES
@@ -472,7 +472,7 @@ def optimizer_facts(name: str, n_vars, options: dict | None = None) -> dict:
     if name not in BUILTINS:
         return describe(name, n_vars, options)
     from .budget import min_budget
-    from .harness import check_takes_x0
+    from .budgeted import check_takes_x0
 
     cls = get(name)
     try:
