@@ -34,13 +34,25 @@ CONNECT_TIMEOUT_S = 5
 _DASK_RUN_LOCK = threading.Lock()
 
 
-def dask_task(task: Task) -> dict:
+def dask_task(task: Task, hidden: tuple = ()) -> dict:
     """What a Dask worker runs for one task: the run, its optimizer in a worker of the sandbox
     server this Dask worker process starts once (adapters.sandbox, a subprocess: Dask worker
-    processes may not fork multiprocessing children, but may start programs). The sandbox stops
-    an optimizer at its time limit, so no child interpreter is needed for one."""
+    processes may not fork multiprocessing children, but may start programs), confined as a
+    local run's: it may never read the paths `hidden` (the study's store, on a shared
+    filesystem), nor write outside its own directory. The sandbox stops an optimizer at its
+    time limit, so no child interpreter is needed for one."""
+    from adapters.sandbox import hide_from_workers
+
     with _DASK_RUN_LOCK:
+        hide_from_workers(hidden)
         return run_task(task)
+
+
+def confinement_missing_here() -> str | None:
+    """What this (Dask worker's) machine cannot confine (adapters.sandbox.confinement_missing)."""
+    from adapters.sandbox import confinement_missing
+
+    return confinement_missing()
 
 
 def run_task_in_child(task: Task) -> dict:
@@ -136,13 +148,33 @@ class DaskCluster:
             raise ValueError(f"--scheduler {address}: cannot connect to a Dask scheduler "
                              f"({type(exc).__name__}: {str(exc)[:200]})") from None
         self.name = f"Dask scheduler {address}"
+        self.address = address
+        self.hidden: tuple = ()  # what the runs' optimizers may never read (the store: run_study sets it)
+
+    def refuse_unconfined(self) -> None:
+        """ValueError naming ``--unconfined`` when a worker of the cluster runs on a machine that
+        cannot confine optimizers as a local study would (adapters.sandbox.confinement_missing),
+        naming the worker and what it lacks; the client is closed then."""
+        try:
+            missing = self.client.run(confinement_missing_here)
+        except Exception as exc:  # a worker that cannot even answer: its runs could not be trusted either
+            self.client.close()
+            raise ValueError(f"--scheduler {self.address}: cannot ask its workers how they confine optimizers "
+                             f"({type(exc).__name__}: {str(exc)[:200]})") from None
+        bad = {w: why for w, why in sorted(missing.items()) if why}
+        if bad:
+            self.client.close()
+            worker, why = next(iter(bad.items()))
+            raise ValueError(f"--unconfined: {len(bad)} worker(s) of the Dask cluster cannot confine the optimizers' "
+                             f"workers ({worker}: {why}); pass --unconfined to run and rank them anyway (their records "
+                             "and reports say so)")
 
     def run(self, tasks: list[Task], running: Callable[[int], None]) -> Iterator[tuple[Task, dict]]:
         from dask.distributed import as_completed
 
         futures = {}
         try:
-            futures = {self.client.submit(dask_task, t, pure=False): t for t in tasks}
+            futures = {self.client.submit(dask_task, t, self.hidden, pure=False): t for t in tasks}
             slots = max(1, sum(self.client.nthreads().values()))
             left = len(futures)
             running(min(left, slots))

@@ -333,6 +333,10 @@ def run_study(optimizers, seeds, budget: int, store, variants=None, workers: int
     wanted = [replace(t, certificate=certified.get(t.variant)) for t in wanted]
     # the cluster is reached before any claim: an unreachable one leaves nothing in the store
     cluster = DaskCluster(scheduler) if scheduler is not None and wanted else None
+    if cluster is not None:
+        cluster.hidden = (str(store.path.resolve()),)  # its workers' optimizers never read the store either
+        if isolated and not unconfined:
+            cluster.refuse_unconfined()  # as a local study is refused (above), naming the worker
     try:
         todo, n_elsewhere = _claim(store, wanted, stored)
     except BaseException:
