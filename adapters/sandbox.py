@@ -379,16 +379,20 @@ def fork_spare(preload=()) -> None:
         return
     with _spare_lock:
         old, _spare = _spare, worker
-    _discard(old)
+    with _interrupt_after():  # as drop_spare
+        _discard(old)
 
 
 def drop_spare() -> None:
     """End this process's spare worker if it has one (`fork_spare`): for a process that ends
-    without running its exit handlers (a study's run process) and whose run did not take it."""
+    without running its exit handlers (a study's run process) and whose run did not take it.
+    A Ctrl-C that lands while it is ended is raised once it is (`_interrupt_after`), as at a
+    run's end: never a spare left stopped, its connection open or its output file behind."""
     global _spare
     with _spare_lock:
         spare, _spare = _spare, None
-    _discard(spare)
+    with _interrupt_after():
+        _discard(spare)
 
 
 def _discard(worker: _Worker | None) -> None:
