@@ -633,8 +633,9 @@ def confinement_place() -> dict:
 #: its server or this process: its own uid, or Landlock's signal scope), ``own_uid`` (checked here),
 #: ``limits`` (resource limits), ``session`` (its own session and process group, checked here),
 #: ``undumpable`` (this process: no ptrace, no /proc/PID/mem), ``peer_checked`` (the server took
-#: its connection from this process only, SO_PEERCRED); ``landlock_abi`` the kernel's (0: none).
-CONFINEMENT = ("filesystem", "signals", "own_uid", "limits", "session", "undumpable", "peer_checked")
+#: its connection from this process only, SO_PEERCRED), ``network`` (no TCP connect or bind:
+#: Landlock ABI 4; not required); ``landlock_abi`` the kernel's (0: none).
+CONFINEMENT = ("filesystem", "signals", "own_uid", "limits", "session", "undumpable", "peer_checked", "network")
 #: What a run must have held to count as confined (`is_confined`); ``own_uid`` is one way to
 #: ``signals``, not required where Landlock scopes signals.
 REQUIRED = ("filesystem", "signals", "limits", "session", "undumpable", "peer_checked")
@@ -685,7 +686,7 @@ def confinement_of(worker: _Worker, name: str) -> dict:
     worker.confinement = {
         "filesystem": held.get("filesystem") is True, "own_uid": own_uid,
         "signals": own_uid or held.get("signal_scope") is True, "limits": held.get("limits") is True,
-        "session": session, "undumpable": _undumpable(), "peer_checked": True,
+        "session": session, "undumpable": _undumpable(), "peer_checked": True, "network": held.get("network") is True,
         "landlock_abi": abi if type(abi) is int else 0}
     return worker.confinement
 

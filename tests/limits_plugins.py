@@ -75,3 +75,32 @@ class OpensUntilRefused(_Plugin):
         while len(files) < 100_000:
             files.append(os.open(os.devnull, os.O_RDONLY))
         raise RuntimeError("opened 100000 files: no open-file limit")
+
+
+class ConnectsOut(_Plugin):
+    """Connects to the TCP port `port` on this machine and binds one of its own; prints
+    ``NET {"connect": ..., "bind": ...}`` (ok or the error's name), then evaluates honestly."""
+
+    name = "connects-out"
+
+    def minimize(self, objective, bounds, budget, rng, port=0):
+        import socket
+
+        def probe(action):
+            try:
+                action()
+                return "ok"
+            except OSError as exc:
+                return type(exc).__name__
+
+        def connect():
+            with socket.create_connection(("127.0.0.1", port), timeout=5):
+                pass
+
+        def bind():
+            with socket.socket() as s:
+                s.bind(("127.0.0.1", 0))
+                s.listen(1)
+
+        print("NET", json.dumps({"connect": probe(connect), "bind": probe(bind)}), flush=True)
+        objective(rng.uniform(bounds[0], bounds[1], (budget, len(bounds[0]))))

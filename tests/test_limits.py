@@ -87,3 +87,24 @@ def test_a_spare_dropped_while_a_ctrl_c_lands_is_ended_and_the_interrupt_raised_
         assert psutil.Process(pid).status() == psutil.STATUS_ZOMBIE
     except psutil.NoSuchProcess:
         pass
+
+
+def test_a_worker_makes_no_tcp_connection_where_landlock_scopes_the_network():
+    """Landlock ABI 4 refuses TCP connect and bind to the worker; the record says whether it held
+    (an older kernel: not, and the plugin connects: the record and docs/plugins.md say so)."""
+    import socket
+
+    import adapters
+    from adapters.variants import make_problem
+
+    with socket.socket() as listener:
+        listener.bind(("127.0.0.1", 0))
+        listener.listen(4)
+        r = adapters.run("limits_plugins:ConnectsOut", make_problem("paper"), BUDGET, 0,
+                         port=listener.getsockname()[1])
+    found = json.loads(next(line for line in r.output.splitlines() if line.startswith("NET "))[4:])
+    assert r.status == "ok" and r.sandbox["network"] == (r.sandbox["filesystem"] and r.sandbox["landlock_abi"] >= 4)
+    if r.sandbox["network"]:
+        assert found == {"connect": "PermissionError", "bind": "PermissionError"}, found
+    else:
+        assert found["connect"] == "ok", found
