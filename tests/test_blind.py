@@ -156,3 +156,15 @@ def test_a_blind_store_refuses_public_runs_and_the_report_marks_blind_instances(
 def test_the_paper_problem_has_no_blind_instance():
     with pytest.raises(ValueError, match="no blind instance"):
         suite_problem("paper/12/1", blind="k")
+
+
+def test_a_damaged_blind_secret_is_refused_naming_its_file(tmp_path):
+    from femu.studies.store import StoreError
+    from femu.studies.study import run_study
+
+    store = tmp_path / "s"
+    store.mkdir()
+    (store / ".blind").write_bytes(b"short")
+    with pytest.raises(StoreError, match=r"\.blind: not this store's blind secret \(32 bytes\)"):
+        run_study(["random-search"], "0", BUDGET, store, suite=PID, workers=0, progress=False)
+    assert not (store / "runs").exists()
