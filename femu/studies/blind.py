@@ -16,7 +16,8 @@ The same store (secret) and seed give the same runs; another store gives other t
 paper problem is published data: it has no blind instance and stays public (its records say
 ``blind`` false). A noise-free blind instance keeps f_opt = 0 exactly; a noisy one is certified
 here, on the evaluating side, when its study first runs it (`certificates`: the reference solve
-of `fe_problem.suite.blind_certificate`, about 1-3 s of CPU per instance at 12 parameters),
+of `fe_problem.suite.blind_certificate`: 1.8-3.0 s of CPU per instance at 12 parameters,
+3-4 s at 24, 16 s at 48, measured on a loaded 2-core machine),
 kept in STORE/.blind_fopt.json and carried by every record of the instance.
 """
 
