@@ -168,3 +168,17 @@ def test_a_damaged_blind_secret_is_refused_naming_its_file(tmp_path):
     with pytest.raises(StoreError, match=r"\.blind: not this store's blind secret \(32 bytes\)"):
         run_study(["random-search"], "0", BUDGET, store, suite=PID, workers=0, progress=False)
     assert not (store / "runs").exists()
+
+
+def test_the_best_method_ends_near_a_blind_certified_minimum_and_never_below_it(studies):
+    """An independent check of the certificate made at study time: inverse eigensensitivity (the
+    best method on these families) on the same blind instance ends within 1e-9 of it, not below."""
+    from adapters.harness import run
+
+    root, _, _, done = studies
+    r = done["blind"][("random-search", NOISY)]
+    p = suite_problem(NOISY, blind=_key((root / "blind" / ".blind").read_bytes(), NOISY),
+                      certificate=(r.f_opt, r.f_opt_precision))
+    best = run("sensitivity", p, 1000, 0)
+    assert best.status == "ok" and best.best_f >= p.f_opt - p.f_opt_precision - 1e-15 * p.f_opt
+    assert best.best_f - p.f_opt <= 1e-9 * max(p.f_opt, 1e-3), (best.best_f, p.f_opt)
