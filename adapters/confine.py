@@ -10,6 +10,8 @@ file and directory, before any of its optimizer's code is imported, and returns 
   paths it is told to hide: a study's store, the FE package and its data), and write only its
   own temporary directory (and the directories named in `WRITABLE_ENV`, which the caller sets);
 - ``signal_scope``: from Landlock ABI 6, no signal to a process outside its own domain;
+- ``network``: from Landlock ABI 4, no TCP connection made or port bound (`_NET_TCP`); UDP
+  and other socket families are not covered by Landlock;
 - ``own_uid``: when the server runs as root, a uid of its own from `UID_BASE` (no capability
   left but CAP_DAC_OVERRIDE: Landlock, where it holds, alone decides file access): it cannot signal, ptrace or read the memory of another run's worker, its server or
   its evaluating process, and the server refuses its connections (SO_PEERCRED).
@@ -53,6 +55,9 @@ _SYS_LANDLOCK_CREATE_RULESET, _SYS_LANDLOCK_ADD_RULE, _SYS_LANDLOCK_RESTRICT_SEL
 _LANDLOCK_CREATE_RULESET_VERSION = 1
 _LANDLOCK_RULE_PATH_BENEATH = 1
 _LANDLOCK_SCOPE_SIGNAL = 2
+#: Landlock's network rights (ABI 4): bind and connect on TCP ports; handled with no rule, both
+#: are refused for every port.
+_NET_TCP = 1 | 2
 _PR_SET_NO_NEW_PRIVS, _PR_SET_KEEPCAPS, _PR_SET_DUMPABLE, _PR_GET_DUMPABLE = 38, 8, 4, 3
 _CAP_DAC_OVERRIDE = 1
 _PR_CAP_AMBIENT, _PR_CAP_AMBIENT_RAISE = 47, 2
@@ -148,7 +153,7 @@ def _landlock(abi: int, readable: list[str], writable: list[str], hidden: list[s
     `writable`, never `hidden`; True once it holds."""
     handled = _handled(abi)
     size = 8 if abi < 4 else 16 if abi < 6 else 24  # struct landlock_ruleset_attr grew with the ABI
-    attr = (ctypes.c_uint64 * 3)(handled, 0, _LANDLOCK_SCOPE_SIGNAL if abi >= 6 else 0)
+    attr = (ctypes.c_uint64 * 3)(handled, _NET_TCP if abi >= 4 else 0, _LANDLOCK_SCOPE_SIGNAL if abi >= 6 else 0)
     ruleset = _c().syscall(_SYS_LANDLOCK_CREATE_RULESET, ctypes.byref(attr), ctypes.c_size_t(size),
                            ctypes.c_uint32(0))
     if ruleset < 0:
@@ -244,6 +249,7 @@ def confine(readable: list[str], writable: list[str], hidden: list[str], tmp_dir
     if own is not None:
         resource.setrlimit(resource.RLIMIT_NPROC, (PROCESSES, PROCESSES))  # its own uid's processes only
     return {"landlock_abi": abi, "filesystem": filesystem, "signal_scope": filesystem and abi >= 6,
+            "network": filesystem and abi >= 4,
             "own_uid": own is not None, "limits": True}
 
 

@@ -62,7 +62,7 @@ import psutil
 
 from .budget import check_budget, check_seed, check_x0_mode, jacobian_cost
 from .capabilities import CAPABILITIES
-from .harness import RunResult, BudgetedObjective, BudgetExhausted, TimeLimitExceeded, _problem_count, record
+from .budgeted import RunResult, BudgetedObjective, BudgetExhausted, TimeLimitExceeded, _problem_count, record
 from .processes import freeze, kill_frozen
 from .registry import check_name
 from .sandbox_worker import DONE, ERROR, EVAL, LSQ, STOP, VALUES
@@ -379,16 +379,20 @@ def fork_spare(preload=()) -> None:
         return
     with _spare_lock:
         old, _spare = _spare, worker
-    _discard(old)
+    with _interrupt_after():  # as drop_spare
+        _discard(old)
 
 
 def drop_spare() -> None:
     """End this process's spare worker if it has one (`fork_spare`): for a process that ends
-    without running its exit handlers (a study's run process) and whose run did not take it."""
+    without running its exit handlers (a study's run process) and whose run did not take it.
+    A Ctrl-C that lands while it is ended is raised once it is (`_interrupt_after`), as at a
+    run's end: never a spare left stopped, its connection open or its output file behind."""
     global _spare
     with _spare_lock:
         spare, _spare = _spare, None
-    _discard(spare)
+    with _interrupt_after():
+        _discard(spare)
 
 
 def _discard(worker: _Worker | None) -> None:
@@ -472,7 +476,7 @@ def optimizer_facts(name: str, n_vars, options: dict | None = None) -> dict:
     if name not in BUILTINS:
         return describe(name, n_vars, options)
     from .budget import min_budget
-    from .harness import check_takes_x0
+    from .budgeted import check_takes_x0
 
     cls = get(name)
     try:
@@ -629,8 +633,9 @@ def confinement_place() -> dict:
 #: its server or this process: its own uid, or Landlock's signal scope), ``own_uid`` (checked here),
 #: ``limits`` (resource limits), ``session`` (its own session and process group, checked here),
 #: ``undumpable`` (this process: no ptrace, no /proc/PID/mem), ``peer_checked`` (the server took
-#: its connection from this process only, SO_PEERCRED); ``landlock_abi`` the kernel's (0: none).
-CONFINEMENT = ("filesystem", "signals", "own_uid", "limits", "session", "undumpable", "peer_checked")
+#: its connection from this process only, SO_PEERCRED), ``network`` (no TCP connect or bind:
+#: Landlock ABI 4; not required); ``landlock_abi`` the kernel's (0: none).
+CONFINEMENT = ("filesystem", "signals", "own_uid", "limits", "session", "undumpable", "peer_checked", "network")
 #: What a run must have held to count as confined (`is_confined`); ``own_uid`` is one way to
 #: ``signals``, not required where Landlock scopes signals.
 REQUIRED = ("filesystem", "signals", "limits", "session", "undumpable", "peer_checked")
@@ -681,7 +686,7 @@ def confinement_of(worker: _Worker, name: str) -> dict:
     worker.confinement = {
         "filesystem": held.get("filesystem") is True, "own_uid": own_uid,
         "signals": own_uid or held.get("signal_scope") is True, "limits": held.get("limits") is True,
-        "session": session, "undumpable": _undumpable(), "peer_checked": True,
+        "session": session, "undumpable": _undumpable(), "peer_checked": True, "network": held.get("network") is True,
         "landlock_abi": abi if type(abi) is int else 0}
     return worker.confinement
 

@@ -140,7 +140,7 @@ class ObjectiveProxy:
             return answer
         body = answer[1:]
         if tag == STOP:
-            from .harness import BudgetExhausted, TimeLimitExceeded
+            from .budgeted import BudgetExhausted, TimeLimitExceeded
 
             kind, text = pickle.loads(body)
             exc = BudgetExhausted() if kind == "budget" else TimeLimitExceeded(text)
@@ -200,7 +200,7 @@ def _start(conn, spec: dict):
 
     from .budget import check_min_budget
     from .capabilities import check_options
-    from .harness import check_takes_x0
+    from .budgeted import check_takes_x0
     from .registry import get
 
     cls = get(spec["name"])
@@ -219,7 +219,7 @@ def _describe(spec: dict) -> dict:
     each n_var with its options, and whether it takes x0."""
     from .budget import min_budget
     from .capabilities import check_options
-    from .harness import check_takes_x0
+    from .budgeted import check_takes_x0
     from .registry import get
 
     cls = get(spec["name"])
@@ -556,7 +556,7 @@ def serve(address: str, preload: list[str]) -> None:
     _prctl = _find_prctl()
     import numpy  # noqa: F401
 
-    import adapters.harness  # noqa: F401
+    import adapters.budgeted  # noqa: F401  (the objective's stop signals; harness imports it too)
     import adapters.registry  # noqa: F401
 
     from adapters.registry import BUILTINS

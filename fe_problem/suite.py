@@ -29,6 +29,12 @@ Families (dimension = n_var, the number of updating parameters):
 
 Every instance's truth and noise come from a seed derived from its id alone (SHA-256), so an
 id means the same problem on every machine and in every version that keeps this module.
+A blind instance (`suite_problem(id, blind=key)`, `femu study --blind`) is the same family,
+size, bounds and start with its truth and noise drawn from seeds derived from the id and a
+secret key instead (`blind_seed`): its id stays public, its truth cannot be rebuilt from it.
+Noise-free, its f_opt is 0 exactly (J(truth) = 0 is checked as for the public instance); noisy,
+it is certified when the study asks for it (`blind_certificate`, the reference solve of
+``benchmarks/suite_fopt.py --certify``), or else is the reference J(truth).
 Problems are built only when asked for (`suite_problem`): listing the suite (`suite_entry`)
 builds no FE system, since large sizes are slow to assemble.
 """
@@ -160,7 +166,8 @@ class SuiteEntry:
 class SuiteProblem(UpdatingProblem):
     """An `UpdatingProblem` of the suite: its id, `f_opt` (float), how f_opt is known
     (`f_opt_kind`, `f_opt_how`, `f_opt_precision`), the family's `target_scale`, and the hidden
-    `truth` (Pa, (n_var,); None for ``paper``)."""
+    `truth` (Pa, (n_var,); None for ``paper``); `blind`: whether it is a blind instance (its
+    truth and data from a secret key, `suite_problem`'s `blind`)."""
 
     suite_id: str
     f_opt: float
@@ -169,6 +176,7 @@ class SuiteProblem(UpdatingProblem):
     f_opt_precision: float
     target_scale: float
     truth: np.ndarray | None
+    blind: bool
 
 
 def suite_ids() -> tuple[str, ...]:
@@ -208,6 +216,24 @@ def _parse(problem_id: str) -> tuple[Family, int, int]:
 def id_seed(problem_id: str, purpose: str) -> int:
     """A seed fixed by the id and a purpose ("truth", "noise"): the first 8 bytes of SHA-256."""
     return int.from_bytes(hashlib.sha256(f"femu-suite:{problem_id}:{purpose}".encode()).digest()[:8], "big")
+
+
+def blind_seed(problem_id: str, purpose: str, key: str) -> int:
+    """The seed of a blind instance: fixed by the id, the purpose and the secret `key` (text,
+    e.g. the hex HMAC a study derives from its store's secret): the first 8 bytes of SHA-256."""
+    return int.from_bytes(hashlib.sha256(f"femu-blind:{key}:{problem_id}:{purpose}".encode()).digest()[:8], "big")
+
+
+def _check_blind(problem_id: str, blind: str | None) -> Family:
+    """The id's family; ValueError for a blind key that is not text, or for the paper problem
+    (published measurements: no hidden truth to draw)."""
+    family = _parse(problem_id)[0]
+    if blind is not None:
+        if not isinstance(blind, str) or not blind:
+            raise ValueError(f"suite problem {problem_id}: a blind key must be non-empty text, got {blind!r}")
+        if family.structure == "paper":
+            raise ValueError(f"suite problem {problem_id}: published data, it has no blind instance")
+    return family
 
 
 # -- structures ------------------------------------------------------------------------------
@@ -285,29 +311,33 @@ def _n_dof(model: FrameModel) -> int:
 
 @lru_cache(maxsize=32)
 @blas_pinned  # the synthetic data: the same on any thread count
-def _truth_and_data(problem_id: str) -> tuple[np.ndarray, ModalData]:
+def _truth_and_data(problem_id: str, blind: str | None = None) -> tuple[np.ndarray, ModalData]:
     """The hidden truth (Pa) and the synthetic data of a synthetic instance.
 
     The problem pairs measured with model modes once, at x0, and keeps that pairing; a truth
     whose lowest modes change order (or shape) so much that measured mode i would pair with a
     model mode other than the i-th at x0 would have J(truth) > 0. Such draws are rejected: the
-    next draw of the same generator is taken, so the truth is still fixed by the id."""
+    next draw of the same generator is taken, so the truth is still fixed by the id (and, for a
+    blind instance, its key: `blind_seed`)."""
     family, n_var, _ = _parse(problem_id)
+    seed = (lambda purpose: id_seed(problem_id, purpose)) if blind is None else \
+        (lambda purpose: blind_seed(problem_id, purpose, blind))
     model, params = _structure(family, n_var)
     lo, hi = np.array([p.lower for p in params]), np.array([p.upper for p in params])
-    rng = np.random.default_rng(id_seed(problem_id, "truth"))
+    rng = np.random.default_rng(seed("truth"))
     noise = (FREQ_NOISE, SHAPE_NOISE if family.shapes else 0.0) if family.noisy else (0.0, 0.0)
     nominal = modal_analysis(model, N_MODES + 4)
     for _ in range(MAX_DRAWS):
         truth = rng.uniform(lo, hi)
         truth_model = model.with_element_moduli({e: float(v) for p, v in zip(params, truth) for e in p.targets})
         data = synthetic_measurement(truth_model, n_modes=N_MODES, freq_noise=noise[0], shape_noise=noise[1],
-                                     seed=id_seed(problem_id, "noise") % 2**32, with_shapes=family.shapes,
+                                     seed=seed("noise") % 2**32, with_shapes=family.shapes,
                                      model_name=model.name)
         pairing = pair_modes(data.frequencies_hz, nominal.frequencies_hz, data.shapes, nominal.at(data.dofs),
                              data.has_shape)
         if np.array_equal(pairing.model_index, np.arange(N_MODES)):
-            meta = dict(data.meta, source=problem_id, suite_id=problem_id)
+            meta = dict(data.meta, source=problem_id, suite_id=problem_id,
+                        **({"blind": True} if blind is not None else {}))
             return truth, ModalData(data.model, data.dofs, data.frequencies_hz, data.shapes, meta,
                                     frequency_std_hz=data.frequency_std_hz, shape_std=data.shape_std)
     raise RuntimeError(f"suite problem {problem_id}: no truth in {MAX_DRAWS} draws keeps the mode pairing of x0")
@@ -349,23 +379,35 @@ def suite_entry(problem_id: str) -> SuiteEntry:
                       prec, scale)
 
 
-def suite_problem(problem_id: str, solver: str = "auto") -> SuiteProblem:
+def suite_problem(problem_id: str, solver: str = "auto", blind: str | None = None,
+                  certificate: tuple[float, float] | None = None) -> SuiteProblem:
     """A fresh `SuiteProblem` (its own evaluation counter) for a suite id; builds the FE system
     (slow for the largest sizes until assembly scales). ValueError for an unknown id.
     `solver`: the eigen-solver path (`UpdatingProblem`'s; "auto", the default, is the suite's:
     a forced path is the same problem up to the sparse path's ARPACK tolerance, J within a
-    relative 1e-9 at 96 parameters; the reference solve of sparse instances uses "dense")."""
+    relative 1e-9 at 96 parameters; the reference solve of sparse instances uses "dense").
+
+    `blind`: a secret key (text): the blind instance of the id (`blind_seed`: its truth and
+    noise from the key; ValueError for ``paper``). Its f_opt: 0 exactly when noise-free; when
+    noisy, `certificate` = (f_opt, precision) from `blind_certificate` on the same key
+    (f_opt_kind "certified"), else the reference J(truth). The problem's `blind` says which."""
+    family = _check_blind(problem_id, blind)
     entry = suite_entry(problem_id)
-    family = FAMILIES[entry.family]
     if family.structure == "paper":
         p = SuiteProblem("hframe", "paper", name=problem_id, solver=solver)
         truth = None
     else:
         model, params = _structure(family, entry.n_var)
-        truth, data = _truth_and_data(problem_id)
+        truth, data = _truth_and_data(problem_id, blind)
         p = SuiteProblem(model, data, parameters=params, weights="unit",
                          shape_weight=1.0 if family.shapes else 0.0, name=problem_id, solver=solver)
-    f_opt, precision = entry.f_opt, entry.f_opt_precision
+    f_opt, precision, kind, how = entry.f_opt, entry.f_opt_precision, entry.f_opt_kind, entry.f_opt_how
+    if blind is not None and family.noisy:  # the public certificate is not this instance's
+        if certificate is not None:
+            f_opt, precision, kind, how = float(certificate[0]), float(certificate[1]), "certified", BLIND_CERTIFIED_HOW
+        else:
+            f_opt, precision, kind = None, None, "reference"
+            how = "J at the blind instance's hidden truth (an upper bound on the minimum; not certified)"
     if truth is not None:  # not counted as an evaluation
         at_truth = float(p.evaluate(truth)[0])
         p.n_evals = 0
@@ -373,9 +415,34 @@ def suite_problem(problem_id: str, solver: str = "auto") -> SuiteProblem:
             f_opt, precision = at_truth, None
         elif not family.noisy and abs(at_truth) > ROUND_OFF:  # a guard: the claim f_opt = 0 must hold for this id
             raise RuntimeError(f"suite problem {problem_id}: J(truth) = {at_truth:.3g}, not 0 within round-off")
-    p.suite_id, p.f_opt, p.f_opt_kind, p.f_opt_how, p.truth = problem_id, f_opt, entry.f_opt_kind, entry.f_opt_how, truth
-    p.f_opt_precision, p.target_scale = precision, entry.target_scale
+    p.suite_id, p.f_opt, p.f_opt_kind, p.f_opt_how, p.truth = problem_id, f_opt, kind, how, truth
+    p.f_opt_precision, p.target_scale, p.blind = precision, entry.target_scale, blind is not None
     return p
+
+
+#: How a blind noisy instance's f_opt is known (`blind_certificate`).
+BLIND_CERTIFIED_HOW = ("minimum of multi-start bounded least squares (fe_problem.certify) on the blind instance, "
+                       "certified on the evaluating side when its study ran")
+#: The reference solve of a blind noisy instance: seeded starts and perturbed truths, as
+#: ``benchmarks/suite_fopt.py --certify``'s defaults.
+BLIND_STARTS, BLIND_PERTURBED = 3, 2
+
+
+def blind_certificate(problem_id: str, blind: str) -> tuple[float, float]:
+    """(f_opt, precision) of the noisy blind instance of `problem_id` under key `blind`: the
+    reference solve `fe_problem.certify.certify_minimum` from x0, its truth, `BLIND_PERTURBED`
+    perturbed truths and `BLIND_STARTS` seeded draws (on the dense twin where the suite's path is
+    sparse), with the certificates' zero rule (a minimum below `ZERO_BELOW` is 0, its precision
+    then at least that minimum). CPU: 1.8-3.0 s at 12 parameters, 3-4 s at 24, 16 s at 48."""
+    from .certify import certify_minimum
+
+    p = suite_problem(problem_id, blind=blind)
+    twin = suite_problem(problem_id, solver="dense", blind=blind) if p.system.path == "sparse" else None
+    c = certify_minimum(p if twin is None else twin, starts=BLIND_STARTS, seed=0, truth=p.truth,
+                        perturbed=BLIND_PERTURBED, reported=None if twin is None else p)
+    if c.f_min < ZERO_BELOW:
+        return 0.0, float(max(c.precision, c.f_min))
+    return float(c.f_min), float(c.precision)
 
 
 def _digits(values) -> list[str]:

@@ -112,7 +112,7 @@ RECORD_CASES = [  # (edit of a stored run record, what the one error line says)
      "unknown key 'effective_option'; did you mean 'effective_options'?"),
     (lambda d: d["capabilities"].update(batchs=d["capabilities"].pop("batch")),
      "unknown key 'capabilities.batchs'; did you mean 'batch'?"),
-    (lambda d: d.update(comment="rerun by hand"), "unknown key 'comment'; the known keys are best_f, best_x, budget"),
+    (lambda d: d.update(comment="rerun by hand"), "unknown key 'comment'; the known keys are best_f, best_x, blind, budget"),
 ]
 
 
@@ -179,7 +179,7 @@ def test_every_key_a_study_writes_is_a_key_the_reader_knows(random_search_store)
 STUDY_CASES = [  # (edit of study.json, what the one error line says)
     (_rename("seeds", "seedz"), "unknown key 'seedz'; did you mean 'seeds'?"),
     (_rename("time_limit_s", "time_limit"), "unknown key 'time_limit'; did you mean 'time_limit_s'?"),
-    (lambda d: d.update(workers=2), "unknown key 'workers'; the known keys are budget, executor, format"),
+    (lambda d: d.update(workers=2), "unknown key 'workers'; the known keys are blind, budget, executor, format"),
     (lambda d: d["history"].append({**{k: v for k, v in d.items() if k not in ("format", "history")}, "budgett": 3}),
      "unknown key 'history[0].budgett'; did you mean 'budget'?"),
 ]

@@ -207,7 +207,7 @@ def study(tmp_path_factory):
     path = tmp_path_factory.mktemp("suite3d") / "store"
     assert main(["study", "--suite", "frame3d-freq/12/1,frame3d-shape/12/1", "--optimizers", ",".join(SOLVERS),
                  "--seeds", "0-1", "--budget", str(BUDGET), "--store", str(path), "--workers", "0",
-                 "--no-progress"]) == 0
+                 "--no-progress", "--no-blind"]) == 0  # the public instances (their J(x0) checked below)
     return path
 
 
@@ -260,11 +260,16 @@ def test_ioh_export_of_the_space_study(study, tmp_path):
 
 def test_a_seed_fixes_a_space_run_under_either_executor(tmp_path):
     """The same cma-es run on frame3d-shape/12/2, in this process and in a pool of 2 worker
-    processes: identical records (best value, point and trace, bit for bit)."""
+    processes: identical records (best value, point and trace, bit for bit). The second store
+    has the first one's blind secret: the same blind instance."""
+    import shutil
+
     from femu.studies.study import run_study
 
     a = run_study("cma-es", "0", 60, tmp_path / "a", suite="frame3d-shape/12/2", workers=0, progress=False).runs
+    (tmp_path / "b").mkdir()
+    shutil.copy(tmp_path / "a" / ".blind", tmp_path / "b" / ".blind")
     b = run_study("cma-es", "0", 60, tmp_path / "b", suite="frame3d-shape/12/2", workers=2, progress=False).runs
     assert len(a) == len(b) == 1 and a[0].status == b[0].status == "ok" and a[0].n_evals == 60
     assert a[0].best_f == b[0].best_f and a[0].best_x == b[0].best_x and a[0].trace == b[0].trace
-    assert a[0].best_f < a[0].trace[0][1]
+    assert a[0].best_f < a[0].trace[0][1] and a[0].blind and b[0].blind

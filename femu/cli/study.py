@@ -54,6 +54,13 @@ def add_arguments(s) -> None:
                    help="run and rank plugins even where this machine cannot confine their workers (no Landlock, "
                         "or neither root nor Landlock's signal scope: docs/plugins.md); every such run's record "
                         "says what did not hold, and reports mark it")
+    blind = s.add_mutually_exclusive_group()
+    blind.add_argument("--blind", dest="blind", action="store_true", default=None,
+                       help="run the blind instances of the suite problems (the default with --suite): each one's "
+                            "hidden truth drawn from the store's secret (STORE/.blind), which no optimizer can read, so "
+                            "a plugin that rebuilds the public instance from its id gains nothing (docs/plugins.md)")
+    blind.add_argument("--no-blind", dest="blind", action="store_false",
+                       help="run the suite's public instances (their truths fixed by their ids), recorded as such")
     s.add_argument("--retry-failed", action="store_true",
                    help="run again the runs stored as failed or timeout (they are kept otherwise)")
 
@@ -122,7 +129,7 @@ def run(args) -> int:
                            x0=getattr(args, "x0", "none"), options=options or None,
                            isolated=not getattr(args, "in_process", False), model=getattr(args, "model", None),
                            data=getattr(args, "data", None), parameters=getattr(args, "parameters", None),
-                           unconfined=getattr(args, "unconfined", False))
+                           unconfined=getattr(args, "unconfined", False), blind=getattr(args, "blind", None))
     except KeyboardInterrupt:
         print(f"femu study: interrupted; the finished runs are in {args.store}: the same command resumes the study",
               file=sys.stderr)

@@ -79,6 +79,31 @@ def problem_facts(problem_id: str) -> dict:
             "xu": np.asarray(p.xu, float), "truth": None if getattr(p, "truth", None) is None else np.asarray(p.truth, float)}
 
 
+def facts_of(runs) -> dict[str, dict]:
+    """{variant: `problem_facts`} of the runs' problems; for a blind instance (its record's
+    ``blind``: the truth drawn from its store's secret, femu.studies.blind) the instance's own
+    f_opt, how it is known, its precision and J(x0) from its records (which its study made on
+    the evaluating side), its truth unknown here; ValueError when its records disagree on them."""
+    out: dict[str, dict] = {}
+    for r in runs:
+        facts = problem_facts(r.variant)
+        if not getattr(r, "blind", False):
+            out.setdefault(r.variant, facts)
+            continue
+        if r.f_opt is None or r.f_start is None:  # a run whose process returned nothing: no facts
+            continue  # (its instance's come from its other runs; with none, the public one's shape below)
+        mine = dict(facts, f_opt=r.f_opt, f_opt_kind=r.f_opt_kind, f_opt_precision=r.f_opt_precision,
+                    f_start=r.f_start, truth=None)
+        seen = out.setdefault(r.variant, mine)
+        if seen["truth"] is not None or any(seen[k] != mine[k] for k in ("f_opt", "f_opt_kind", "f_start")):
+            raise ValueError(f"run {r.optimizer} seed {r.seed} on {r.variant}: its blind instance (f_opt "
+                             f"{r.f_opt!r}, J(x0) {r.f_start!r}) is not that of the other runs on it (another "
+                             "store's secret, or public runs beside blind ones); report one store at a time")
+    for r in runs:  # a blind instance whose every run was lost: nothing evaluated, its targets only shown
+        out.setdefault(r.variant, problem_facts(r.variant))
+    return out
+
+
 def study_runs(runs) -> list:
     """The runs, one per (solver, problem, seed): the largest budget's."""
     best: dict = {}
@@ -97,11 +122,11 @@ def suite_runs(runs) -> list:
 def targets_of(runs) -> dict[str, st.Targets]:
     """The fixed targets of every problem run; ValueError for a record whose f_opt is not the
     suite's (made by another version of the suite)."""
-    out = {}
+    out, known = {}, facts_of(runs)
     for r in runs:
         if r.variant in out:
             continue
-        facts = problem_facts(r.variant)
+        facts = known[r.variant]
         if facts["f_opt"] is None:  # best known: the lowest J of the study's runs on the problem
             f_opt = min((x.best_f for x in runs if x.variant == r.variant and math.isfinite(x.best_f)),
                         default=facts["f_start"])
@@ -125,9 +150,9 @@ def below_f_opt(runs) -> list[dict]:
     instance's own `f_opt_precision` (a certificate's is at least J's rounding and noise there,
     docs/suite.md), nothing more; an exact f_opt (0, precision 0) allows only what the store
     accepts below 0 (`J_ROUNDING`: the rounding of 1 - MAC in records made before J was clamped)."""
-    out = []
+    out, known = [], facts_of(runs)
     for r in runs:
-        facts = problem_facts(r.variant)
+        facts = known[r.variant]
         allowed = facts["f_opt_precision"] or 0.0
         if facts["f_opt_kind"] == "exact":
             allowed = max(allowed, J_ROUNDING)
@@ -244,6 +269,7 @@ def benchmark_statistics(runs) -> dict:
     if not runs:
         raise ValueError("no runs to report on")
     targets = targets_of(runs)
+    blind = {r.variant for r in runs if getattr(r, "blind", False)}
     traces = [st.RunTrace(r.optimizer, r.variant, r.seed, r.n_evals, tuple(tuple(t) for t in r.trace))
               for r in runs]
     n_var = {pid: problem_facts(pid)["n_var"] for pid in targets}
@@ -265,9 +291,10 @@ def benchmark_statistics(runs) -> dict:
         except ValueError as exc:
             not_compared = str(exc)
     per_problem = {m: st.per_problem_tests(traces, targets, m) for m in COMPARISON_METRICS}
-    problems = [{"id": pid, "n_var": n_var[pid], "f_opt": t.f_opt, "f_opt_kind": problem_facts(pid)["f_opt_kind"],
-                 "f_opt_precision": problem_facts(pid)["f_opt_precision"],
-                 "target_scale": problem_facts(pid)["target_scale"], "f_start": t.f_start, "targets": t.deltas}
+    known = facts_of(runs)
+    problems = [{"id": pid, "n_var": n_var[pid], "f_opt": t.f_opt, "f_opt_kind": known[pid]["f_opt_kind"],
+                 "f_opt_precision": known[pid]["f_opt_precision"], "blind": pid in blind,
+                 "target_scale": known[pid]["target_scale"], "f_start": t.f_start, "targets": t.deltas}
                 for pid, t in targets.items()]
     return {"format": "femu.benchmark/2", "solvers": sorted({r.optimizer for r in runs}),
             "budget": max(r.budget for r in runs), "n_runs": len(runs), "problems": problems,
@@ -454,10 +481,14 @@ def render_benchmark(s: dict, figures: dict, source: str) -> str:
     lines += ["## Problems", ""]
     lines += markdown_table(["id", "n_var", "f_opt", "known as", "precision", "target scale", "J(x0)", "top target",
                              "last target"],
-                            [[p["id"], p["n_var"], f"{p['f_opt']:.17g}", p["f_opt_kind"],
+                            [[p["id"] + (" (blind)" if p.get("blind") else ""), p["n_var"], f"{p['f_opt']:.17g}",
+                              p["f_opt_kind"],
                               "-" if p["f_opt_precision"] is None else f"{p['f_opt_precision']:.2g}",
                               "own decade" if p["target_scale"] is None else f"{p['target_scale']:.3g}",
                               f"{p['f_start']:.4g}", _g(p["targets"][0]), _g(p["targets"][-1])] for p in s["problems"]])
+    if any(p.get("blind") for p in s["problems"]):
+        lines += ["", "(blind): the instance's hidden truth and data were drawn from its store's secret, not from its "
+                      "id (`femu study --blind`, docs/plugins.md); its f_opt and J(x0) are its own, from its records."]
     best_known = [p["id"] for p in s["problems"] if p["f_opt_kind"] == BEST_KNOWN]
     if best_known:
         lines += ["", f"f_opt of {', '.join(best_known)} is the best J seen over this study's runs (a user's "

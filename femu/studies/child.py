@@ -2,8 +2,10 @@
 
 On Dask each run goes through `dask_task` in a worker, its optimizer in a worker of the sandbox
 server of that Dask worker process (adapters.sandbox), which stops it at its time limit.
-`run_task_in_child` (``python -m femu.studies.child --run-task TASK_JSON OUT STARTED``) runs a
-task in a fresh interpreter killed at its hard deadline, for callers that need that.
+`run_task_in_child` (``python -m femu.studies.child --run-task TASK_FILE OUT STARTED``) runs a
+task in a fresh interpreter killed at its hard deadline, for callers that need that. The task
+goes in a file of a private directory, never on the command line (which any process may read
+in /proc: a blind instance's key is in it).
 """
 
 from __future__ import annotations
@@ -32,13 +34,25 @@ CONNECT_TIMEOUT_S = 5
 _DASK_RUN_LOCK = threading.Lock()
 
 
-def dask_task(task: Task) -> dict:
+def dask_task(task: Task, hidden: tuple = ()) -> dict:
     """What a Dask worker runs for one task: the run, its optimizer in a worker of the sandbox
     server this Dask worker process starts once (adapters.sandbox, a subprocess: Dask worker
-    processes may not fork multiprocessing children, but may start programs). The sandbox stops
-    an optimizer at its time limit, so no child interpreter is needed for one."""
+    processes may not fork multiprocessing children, but may start programs), confined as a
+    local run's: it may never read the paths `hidden` (the study's store, on a shared
+    filesystem), nor write outside its own directory. The sandbox stops an optimizer at its
+    time limit, so no child interpreter is needed for one."""
+    from adapters.sandbox import hide_from_workers
+
     with _DASK_RUN_LOCK:
+        hide_from_workers(hidden)
         return run_task(task)
+
+
+def confinement_missing_here() -> str | None:
+    """What this (Dask worker's) machine cannot confine (adapters.sandbox.confinement_missing)."""
+    from adapters.sandbox import confinement_missing
+
+    return confinement_missing()
 
 
 def run_task_in_child(task: Task) -> dict:
@@ -48,9 +62,11 @@ def run_task_in_child(task: Task) -> dict:
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in sys.path if p), FEMU_SOLVER_WORKERS="1")
     with tempfile.TemporaryDirectory(prefix="femu-run-") as tmp:
         out, started, log = Path(tmp) / "record.json", Path(tmp) / "started", Path(tmp) / "stderr.txt"
+        spec = Path(tmp) / "task.json"  # the directory is this user's only (mode 0700)
+        spec.write_text(dumps(asdict(task), indent=None))
         with open(log, "w") as err:
             proc = subprocess.Popen([sys.executable, "-m", "femu.studies.child", "--run-task",
-                                     dumps(asdict(task), indent=None), str(out), str(started)],
+                                     str(spec), str(out), str(started)],
                                     env=env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=err)
         launched, t_start, record = time.perf_counter(), None, None
         try:
@@ -132,13 +148,33 @@ class DaskCluster:
             raise ValueError(f"--scheduler {address}: cannot connect to a Dask scheduler "
                              f"({type(exc).__name__}: {str(exc)[:200]})") from None
         self.name = f"Dask scheduler {address}"
+        self.address = address
+        self.hidden: tuple = ()  # what the runs' optimizers may never read (the store: run_study sets it)
+
+    def refuse_unconfined(self) -> None:
+        """ValueError naming ``--unconfined`` when a worker of the cluster runs on a machine that
+        cannot confine optimizers as a local study would (adapters.sandbox.confinement_missing),
+        naming the worker and what it lacks; the client is closed then."""
+        try:
+            missing = self.client.run(confinement_missing_here)
+        except Exception as exc:  # a worker that cannot even answer: its runs could not be trusted either
+            self.client.close()
+            raise ValueError(f"--scheduler {self.address}: cannot ask its workers how they confine optimizers "
+                             f"({type(exc).__name__}: {str(exc)[:200]})") from None
+        bad = {w: why for w, why in sorted(missing.items()) if why}
+        if bad:
+            self.client.close()
+            worker, why = next(iter(bad.items()))
+            raise ValueError(f"--unconfined: {len(bad)} worker(s) of the Dask cluster cannot confine the optimizers' "
+                             f"workers ({worker}: {why}); pass --unconfined to run and rank them anyway (their records "
+                             "and reports say so)")
 
     def run(self, tasks: list[Task], running: Callable[[int], None]) -> Iterator[tuple[Task, dict]]:
         from dask.distributed import as_completed
 
         futures = {}
         try:
-            futures = {self.client.submit(dask_task, t, pure=False): t for t in tasks}
+            futures = {self.client.submit(dask_task, t, self.hidden, pure=False): t for t in tasks}
             slots = max(1, sum(self.client.nthreads().values()))
             left = len(futures)
             running(min(left, slots))
@@ -158,9 +194,10 @@ class DaskCluster:
 
 
 def _run_task_main(argv: list[str]) -> int:
-    """``python -m femu.studies.child --run-task TASK_JSON OUT STARTED``: one run, its record to
-    the file OUT; the file STARTED is created when the run starts."""
-    task = Task(**json.loads(argv[1]))
+    """``python -m femu.studies.child --run-task TASK_FILE OUT STARTED``: one run (the task as
+    JSON in the file TASK_FILE), its record to the file OUT; the file STARTED is created when
+    the run starts."""
+    task = Task(**json.loads(Path(argv[1]).read_text()))
     record = run_task(task, on_start=Path(argv[3]).touch)
     kill_descendants()  # processes the plugin started do not outlive its run
     Path(argv[2]).write_text(dumps(record, indent=None))
@@ -170,4 +207,4 @@ def _run_task_main(argv: list[str]) -> int:
 if __name__ == "__main__":
     if len(sys.argv) == 5 and sys.argv[1] == "--run-task":
         sys.exit(_run_task_main(sys.argv[1:]))
-    sys.exit("usage: python -m femu.studies.child --run-task TASK_JSON OUT STARTED (used on Dask workers)")
+    sys.exit("usage: python -m femu.studies.child --run-task TASK_FILE OUT STARTED (used on Dask workers)")

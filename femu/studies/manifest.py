@@ -52,6 +52,7 @@ REQUEST_FIELDS = (
     ("retry_failed", False, lambda v: isinstance(v, bool), "true or false"),
     ("x0", False, lambda v: v in ("none", "all"), "none or all"),
     ("in_process", False, lambda v: isinstance(v, bool), "true or false"),
+    ("blind", False, lambda v: isinstance(v, bool), "true or false"),
     ("executor", True, lambda v: isinstance(v, str) and v, "a non-empty string"),
     ("started", True, _is_time, "an ISO 8601 time"),
     ("host", False, lambda v: isinstance(v, str), "a string"),

@@ -72,6 +72,8 @@ RECORD_KEYS = (*RunResult.__dataclass_fields__, "mac")
 #: The store's secret key for its records' MACs (`Store.sign`): made with the store, mode 0600,
 #: read by the evaluating side only (a worker may not read the store: adapters.confine).
 KEY_FILE = ".key"
+#: The store's blind secret (`Store.blind_secret`, femu.studies.blind): mode 0600, never sent to a worker.
+BLIND_FILE = ".blind"
 #: The keys of a record's ``capabilities`` object (adapters.capabilities).
 CAPABILITY_KEYS = CAPABILITIES
 
@@ -133,6 +135,12 @@ def check_record(d, key: str) -> str | None:
                            ("problem_source", d.get("problem_source") is None or isinstance(d["problem_source"], dict),
                             "an object (a user problem's files and their SHA-256) or null"),
                            ("sandbox", isinstance(d.get("sandbox", {}), dict), "an object (what confined its worker)"),
+                           ("blind", isinstance(d.get("blind", False), bool), "true or false"),
+                           ("f_opt_kind", d.get("f_opt_kind") is None or isinstance(d["f_opt_kind"], str),
+                            "a string or null"),
+                           ("f_opt_precision", d.get("f_opt_precision") is None or _is_num(d["f_opt_precision"]),
+                            "a finite number or null"),
+                           ("f_start", d.get("f_start") is None or _is_num(d["f_start"]), "a finite number or null"),
                            ("mac", isinstance(d.get("mac", ""), str), "a string (the record's HMAC)")):
         if not ok:
             return f"field {name!r}: must be {need}, got {shown(d.get(name))}"
@@ -268,7 +276,17 @@ class Store:
     def _key(self, make: bool = False) -> bytes | None:
         """The store's secret key (STORE/.key, 32 random bytes, mode 0600), made when `make` and
         missing; None when there is none."""
-        path = self.path / KEY_FILE
+        return self._secret(KEY_FILE, make, "key", "a changed key makes every record unverifiable")
+
+    def blind_secret(self, make: bool = False) -> bytes | None:
+        """The store's blind secret (STORE/.blind, 32 random bytes, mode 0600, made once when
+        `make`): the seed of its blind instances' truths (femu.studies.blind); None when there is none."""
+        return self._secret(BLIND_FILE, make, "blind secret",
+                            "a changed secret makes other blind instances than its records were run on")
+
+    def _secret(self, name: str, make: bool, what: str, why: str) -> bytes | None:
+        """32 random bytes kept in STORE/`name` (mode 0600, created exclusively when `make`)."""
+        path = self.path / name
         try:
             key = path.read_bytes()
         except FileNotFoundError:
@@ -278,14 +296,14 @@ class Store:
             try:
                 fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o600)
             except FileExistsError:  # another study on this store made it first
-                return self._key()
+                return self._secret(name, False, what, why)
             with os.fdopen(fd, "wb") as fh:
                 fh.write(secrets.token_bytes(32))
                 fh.flush()
                 os.fsync(fh.fileno())
-            return self._key()
+            return self._secret(name, False, what, why)
         if len(key) != 32:
-            raise StoreError(f"{path}: not this store's key (32 bytes); a changed key makes every record unverifiable")
+            raise StoreError(f"{path}: not this store's {what} (32 bytes); {why}")
         return key
 
     def sign(self, record: dict, make: bool = False) -> str | None:

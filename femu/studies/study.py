@@ -27,7 +27,7 @@ import math
 import os
 import sys
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from adapters.budget import check_budget, check_budget_covers, check_x0_mode
@@ -39,6 +39,7 @@ from adapters.variants import USER_PREFIX, VARIANTS
 from fe_problem.suite import select_suite
 from fe_problem.jsonutil import dumps
 
+from .blind import blind_keys, certificates
 from .child import DaskCluster, check_scheduler_address
 from .executors import InProcess, LocalPool
 from .manifest import read_manifest, write_manifest
@@ -250,6 +251,10 @@ def _stored_runs(store: Store, grid: list[Task]) -> dict[str, RunResult]:
         if old is not None and old.options != t.options:
             raise ValueError(f"{store.record_path(t.key)}: stored with options {old.options}, "
                              f"asked for {t.options}; use another store")
+        if old is not None and old.blind != (t.blind is not None):
+            raise ValueError(f"{store.record_path(t.key)}: stored on the {'blind' if old.blind else 'public'} "
+                             f"instance, asked for the {'blind' if t.blind is not None else 'public'} one "
+                             f"(--{'no-' if t.blind is None else ''}blind); use another store")
         if old is not None and old.x0 != t.x0:
             raise ValueError(f"{store.record_path(t.key)}: stored with x0 {old.x0}, asked for --x0 {t.x0}; "
                              "use another store")
@@ -259,7 +264,8 @@ def _stored_runs(store: Store, grid: list[Task]) -> dict[str, RunResult]:
 def run_study(optimizers, seeds, budget: int, store, variants=None, workers: int | None = None,
               scheduler: str | None = None, time_limit_s: float | None = None, progress: bool = True,
               options: dict | None = None, retry_failed: bool = False, suite=None, x0: str = "none",
-              isolated: bool = True, model=None, data=None, parameters=None, unconfined: bool = False) -> StudyResult:
+              isolated: bool = True, model=None, data=None, parameters=None, unconfined: bool = False,
+              blind: bool | None = None) -> StudyResult:
     """Run the grid optimizers x variants x seeds with `budget` FE evaluations per run into
     `store` (a directory), skipping the runs already stored.
 
@@ -283,6 +289,11 @@ def run_study(optimizers, seeds, budget: int, store, variants=None, workers: int
     unconfined: run even where this machine cannot confine the workers (adapters.confine:
     no Landlock, or neither root nor Landlock's signal scope); without it such a study is refused
     (ValueError naming --unconfined). Each record says what held; reports mark unconfined runs.
+    blind: run the blind instances of the suite problems (femu.studies.blind: truths drawn from
+    the store's secret, which no optimizer's worker can read); None (default): blind when a
+    suite is given; False: the public instances (`femu study --no-blind`). The paper problem
+    and named variants are public either way. Each record says whether its instance was blind;
+    a run stored blind is not run again public (nor the other way): use another store.
     Raises ValueError (StoreError for the store) before running anything on bad input.
     """
     if isolated and not unconfined:
@@ -310,13 +321,22 @@ def run_study(optimizers, seeds, budget: int, store, variants=None, workers: int
                 continue
             if refused:
                 raise ValueError(refused)
-    grid = [Task(o, v, budget, s, options.get(o, {}), time_limit_s, x0, bool(isolated))
+    blind = suite is not None if blind is None else bool(blind)
+    keys = blind_keys(store, variants) if blind else {}
+    grid = [Task(o, v, budget, s, options.get(o, {}), time_limit_s, x0, bool(isolated), keys.get(v))
             for v in variants for o in optimizers for s in seeds]
     stored = _stored_runs(store, grid)
     store.remove_stale_claims()  # left by studies that were killed, whatever runs they were for
     wanted = [t for t in grid if t.key not in stored or (retry_failed and stored[t.key].status in RETRY_STATUSES)]
+    # a noisy blind instance's f_opt: certified here, on the evaluating side, once per store
+    certified = certificates(store, {t.variant: t.blind for t in wanted if t.blind is not None})
+    wanted = [replace(t, certificate=certified.get(t.variant)) for t in wanted]
     # the cluster is reached before any claim: an unreachable one leaves nothing in the store
     cluster = DaskCluster(scheduler) if scheduler is not None and wanted else None
+    if cluster is not None:
+        cluster.hidden = (str(store.path.resolve()),)  # its workers' optimizers never read the store either
+        if isolated and not unconfined:
+            cluster.refuse_unconfined()  # as a local study is refused (above), naming the worker
     try:
         todo, n_elsewhere = _claim(store, wanted, stored)
     except BaseException:
@@ -329,7 +349,8 @@ def run_study(optimizers, seeds, budget: int, store, variants=None, workers: int
         write_manifest(store, {"optimizers": optimizers, "seeds": seeds, "budget": budget, "variants": variants,
                                "suite": suite if suite is None or isinstance(suite, str) else list(suite),
                                "time_limit_s": time_limit_s, "options": options,
-                               "retry_failed": bool(retry_failed), "x0": x0, "in_process": not isolated},
+                               "retry_failed": bool(retry_failed), "x0": x0, "in_process": not isolated,
+                               "blind": blind},
                        executor.name)
         records = {t.key: stored[t.key] for t in grid if t.key in stored}
         todo_keys = {t.key for t in todo}

@@ -28,7 +28,9 @@ class Task:
     """One run of the grid. time_limit_s in seconds (None: no limit); x0: what the solver is told
     of the start (``none`` or ``all``, adapters.budget.X0_MODES); isolated: the optimizer in a
     worker process without the problem (adapters.sandbox), False for the in-process debugging
-    mode (`femu study --in-process`: the record is unverified)."""
+    mode (`femu study --in-process`: the record is unverified). blind: the key of the variant's
+    blind instance (femu.studies.blind; None: the public instance), for the evaluating side
+    only; certificate: a noisy blind instance's [f_opt, precision] certified by the study."""
 
     optimizer: str
     variant: str
@@ -38,6 +40,12 @@ class Task:
     time_limit_s: float | None = None
     x0: str = "none"
     isolated: bool = True
+    blind: str | None = None
+    certificate: list | None = None
+
+    def __repr__(self) -> str:  # a blind key is never shown (logs, a Dask dashboard)
+        return (f"Task({self.optimizer!r}, {self.variant!r}, budget={self.budget}, seed={self.seed}, "
+                f"blind={self.blind is not None})")
 
     @property
     def key(self) -> str:
@@ -60,9 +68,12 @@ def variant_stem(variant: str) -> str:
     return variant.replace("/", "_")
 
 
-def problem_of(variant: str):
-    """A fresh problem for a variant name or a suite id (then a SuiteProblem with f_opt)."""
-    return suite_problem(variant) if is_suite_id(variant) else make_problem(variant)
+def problem_of(variant: str, blind: str | None = None, certificate=None):
+    """A fresh problem for a variant name or a suite id (then a SuiteProblem with f_opt; with
+    `blind`, the blind instance of that key, `certificate` its certified [f_opt, precision])."""
+    if is_suite_id(variant):
+        return suite_problem(variant, blind=blind, certificate=None if certificate is None else tuple(certificate))
+    return make_problem(variant)
 
 
 def n_var_of(variant: str) -> int:
@@ -80,17 +91,28 @@ def run_task(task: Task, on_start: Callable[[], None] | None = None) -> dict:
     """
     t0 = time.perf_counter()
     try:
-        problem = problem_of(task.variant)
+        problem = problem_of(task.variant, task.blind, task.certificate)
+        facts = blind_facts(problem) if task.blind is not None else {}
         if on_start is not None:
             on_start()
         record = run(task.optimizer, problem, task.budget, task.seed, time_limit_s=task.time_limit_s,
                      variant=task.variant, x0=task.x0, isolated=task.isolated, **task.options).to_dict()
         source = getattr(problem, "source", None)  # a user's problem: its files and their SHA-256
         return dict(record, f_opt=getattr(problem, "f_opt", None),
-                    problem_source=None if source is None else source.to_dict())
+                    problem_source=None if source is None else source.to_dict(), **facts)
     except Exception as exc:
         return lost_record(task, "failed", f"{type(exc).__name__}: {exc}\n{traceback.format_exc(limit=6)}",
                             time.perf_counter() - t0)
+
+
+def blind_facts(problem) -> dict:
+    """The record fields of a run on a blind instance: what a report needs of the instance and
+    cannot rebuild from its id (how f_opt is known, its precision, J(x0), this evaluation not
+    counted: it is made before the run)."""
+    f_start = float(problem.evaluate(problem.x0)[0])
+    problem.n_evals = 0
+    return {"blind": True, "f_opt_kind": problem.f_opt_kind, "f_opt_precision": problem.f_opt_precision,
+            "f_start": f_start}
 
 
 @lru_cache(maxsize=None)
@@ -103,7 +125,8 @@ def lost_record(task: Task, status: str, error: str, wall_s: float) -> dict:
     """The record of a run whose process returned nothing (hard timeout, crash)."""
     return RunResult(optimizer=task.optimizer, problem=_problem_name(task.variant), seed=task.seed,
                      budget=task.budget, options=dict(task.options), wall_s=wall_s, status=status, x0=task.x0,
-                     error=error, variant=task.variant, host=platform.node(), verified=task.isolated).to_dict()
+                     error=error, variant=task.variant, host=platform.node(), verified=task.isolated,
+                     blind=task.blind is not None).to_dict()
 
 
 def hard_deadline_s(time_limit_s: float | None) -> float | None:
