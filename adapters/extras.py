@@ -9,6 +9,7 @@ imported; femu's commands use it too:
     optimizers  nevergrad-ngopt, optuna-cmaes, optuna-tpe; IOHprofiler export (femu report --ioh)
     cluster     femu study --scheduler (a Dask cluster)
     identify    femu identify (sdypy-EMA's pole finding and shapes)
+    import      UFF files (pyuff: modal data, FRFs), Nastran decks and OpenSees scripts
 
 A feature whose library is absent raises `MissingExtra` (a ValueError: the CLI prints it as one
 line, exit 2) saying which extra to install.
@@ -27,6 +28,7 @@ EXTRA_OF = {
     "dask": "cluster",
     "distributed": "cluster",
     "sdypy": "identify",
+    "pyuff": "import",
 }
 
 

@@ -87,6 +87,20 @@ def _progress(problem, budget: int, enabled: bool):
 
     if not enabled:
         return contextlib.nullcontext()
+    from femu.studies.progress import has_rich
+
+    if not has_rich():  # the core install: one line when the run ends
+        @contextlib.contextmanager
+        def plain():
+            import sys
+
+            start = problem.points_evaluated
+            try:
+                yield
+            finally:
+                print(f"evaluations {min(budget, problem.points_evaluated - start)}/{budget}", file=sys.stderr,
+                      flush=True)
+        return plain()
 
     @contextlib.contextmanager
     def bar():

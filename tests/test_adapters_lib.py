@@ -79,12 +79,19 @@ def test_runs_silently_and_leave_logging_and_cwd_alone(name, capfd, tmp_path, mo
     assert list(tmp_path.iterdir()) == []  # no report.log, no outcmaes/
 
 
+@pytest.fixture(scope="module")
+def random_search_1000():
+    """The best J of random search (1,000 evaluations, seed 0) every library must beat: one run
+    (a seed fixes it: test_seed_fixes_the_run_...), not one per library."""
+    return adapters.run("random-search", make_problem("paper"), 1000, seed=0).best_f
+
+
 @pytest.mark.parametrize("name", LIBRARY)
-def test_improves_on_the_initial_model_and_on_random_search(name):
+def test_improves_on_the_initial_model_and_on_random_search(name, random_search_1000):
     p = make_problem("paper")
     r = adapters.run(name, p, 1000, seed=0)
     assert r.best_f < p.evaluate(p.x0)[0]
-    assert r.best_f < adapters.run("random-search", make_problem("paper"), 1000, seed=0).best_f
+    assert r.best_f < random_search_1000
 
 
 @pytest.mark.parametrize("name, options, longest_run", [

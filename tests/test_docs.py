@@ -57,6 +57,27 @@ def test_the_pages_have_runnable_blocks_and_the_readme_fits_a_screen_budget():
         assert lines[0].startswith("# ") and first[0] not in "#`|<!-", f"{page.name}: open with what the page is for"
 
 
+#: issue 41: a page a user reads in minutes
+MAX_WORDS = 3000
+
+
+def test_every_docs_page_is_under_3000_words_and_opens_with_its_purpose():
+    """Each page under docs/ (the README is not: issue 41 names the docs pages) has fewer than
+    3,000 words (whitespace-separated, as `wc -w` counts) and its first paragraph after the title
+    says whom the page is for ("This page is for ..."). One test for all pages (one xdist unit:
+    tests/cputime.py makes each parametrized docs test a unit of its own)."""
+    problems = []
+    for page in db.pages()[1:]:
+        text = page.read_text()
+        words = len(text.split())
+        if words >= MAX_WORDS:
+            problems.append(f"{page.name}: {words} words, the limit is {MAX_WORDS}: split it")
+        first = [s for s in text.split("\n")[1:] if s.strip()][0]
+        if not first.startswith("This page is for "):
+            problems.append(f"{page.name}: open with what the page is for, not {first[:60]!r}")
+    assert not problems, "\n".join(problems)
+
+
 def _page(tmp_path: Path, text: str) -> Path:
     page = tmp_path / "page.md"
     page.write_text(text)

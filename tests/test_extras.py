@@ -30,11 +30,16 @@ sys.meta_path.insert(0, _Block())
 """
 
 
+#: libraries the core install does not have that no feature requires: the progress bars fall back to
+#: plain lines without rich ('all'); statsmodels and pandas are the tests' references only
+NOT_CORE = ("rich", "statsmodels", "pandas")
+
+
 @pytest.fixture(scope="module")
 def core_env(tmp_path_factory):
     """An environment whose Pythons cannot import any extra's module."""
     site = tmp_path_factory.mktemp("core-site")
-    (site / "sitecustomize.py").write_text(BLOCK.format(blocked=tuple(EXTRA_OF)))
+    (site / "sitecustomize.py").write_text(BLOCK.format(blocked=tuple(EXTRA_OF) + NOT_CORE))
     path = os.pathsep.join([str(site), os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep)
     return dict(os.environ, PYTHONPATH=path, COLUMNS="200")
 
@@ -91,6 +96,14 @@ def test_a_missing_extra_is_one_line_naming_it(core_env, tmp_path):
     _one_line(femu(core_env, "identify", frf, "--out", tmp_path / "ident"), "identify",
               "modal identification (femu identify)")
     assert not (tmp_path / "s1").exists() and not (tmp_path / "s2" / "runs").exists()
+    uff = fp_save_uff(tmp_path / "m.uff")
+    _one_line(femu(core_env, "diagnose", uff, "--json"), "import", f"{uff}: reading or writing a UFF file")
+
+
+def fp_save_uff(path: Path) -> Path:
+    import fe_problem as fp
+
+    return fp.save_modal_data(fp.synthetic_measurement("hframe", 4, seed=1), path)
 
 
 def test_femu_optimizers_lists_the_unavailable_with_their_extra(core_env):
@@ -129,8 +142,22 @@ def test_the_core_dependencies_hold_no_library_of_an_extra():
         import tomli as tomllib
     project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
     core = " ".join(project["dependencies"]).lower()
-    for lib in ("dask", "optuna", "nevergrad", "cmaes", "ioh", "sdypy"):
+    for lib in ("dask", "optuna", "nevergrad", "cmaes", "ioh", "sdypy", "pyuff", "rich", "statsmodels", "pandas"):
         assert not re.search(rf"(^|\s|\"){lib}\b", core), lib
     extras = project["optional-dependencies"]
     for extra in set(EXTRA_OF.values()):
         assert extra in extras and f"femu-bench[" in extras["all"][0] and extra in extras["all"][0], extra
+
+
+def test_without_rich_the_progress_is_plain_lines_on_stderr(monkeypatch, capsys):
+    """The core install has no rich: a study's progress (on a terminal) is one line per finished run."""
+    from femu.studies import progress
+
+    monkeypatch.setattr(progress, "has_rich", lambda: False)
+    with progress.Progress(3, 1, 0, enabled=True) as bar:
+        bar.running(2)
+        bar.done(failed=False)
+        bar.done(failed=True)
+    out, err = capsys.readouterr()
+    assert out == "" and err.splitlines() == ["runs 2/3 done · 2 running · 0 failed",
+                                              "runs 3/3 done · 2 running · 1 failed"]

@@ -29,24 +29,24 @@ def paper_diagnosis(tmp_path_factory):
 
 
 def test_diagnosis_page_on_the_papers_data(paper_diagnosis):
-    page = (ROOT / "docs" / "diagnosis.md").read_text()
+    page = (ROOT / "docs" / "diagnosis-real-data.md").read_text()
     said = " ".join(page[page.index("## On the paper's data"):].split())
     out = paper_diagnosis
     # "a linear trend of the modulus along the span has 15.17 more in log evidence than no effect"
     ev = _number(r"log evidence ([\d.]+) against 0\), but no candidate is significant", out, "femu diagnose paper")
-    assert _number(r"along the span has ([\d.]+) more in log evidence", said, "docs/diagnosis.md") == ev
+    assert _number(r"along the span has ([\d.]+) more in log evidence", said, "docs/diagnosis-real-data.md") == ev
     assert "stiffness_trend@trend=linear_span+ has more evidence" in out
     # "drops chi^2 by 807 where 855 is needed after the correction for 166 candidates (p = 0.016)"
     drop = float(_number(r"chi\^2 drop ([\d.]+), \d+ needed", out, "femu diagnose paper"))
     need = _number(r"chi\^2 drop [\d.]+, (\d+) needed", out, "femu diagnose paper")
-    assert _number(r"drops chi\^2 by (\d+) where", said, "docs/diagnosis.md") == f"{drop:.0f}"
-    assert _number(r"where (\d+) is needed", said, "docs/diagnosis.md") == need
+    assert _number(r"drops chi\^2 by (\d+) where", said, "docs/diagnosis-real-data.md") == f"{drop:.0f}"
+    assert _number(r"where (\d+) is needed", said, "docs/diagnosis-real-data.md") == need
     n = _number(r"adjusted over (\d+) candidates", out, "femu diagnose paper")
-    assert _number(r"correction for (\d+) candidates", said, "docs/diagnosis.md") == n
+    assert _number(r"correction for (\d+) candidates", said, "docs/diagnosis-real-data.md") == n
     p = float(_number(r"p = ([\d.]+) \(adjusted", out, "femu diagnose paper"))
-    assert _number(r"candidates \(p = ([\d.]+)\)", said, "docs/diagnosis.md") == f"{p:.2g}"
+    assert _number(r"candidates \(p = ([\d.]+)\)", said, "docs/diagnosis-real-data.md") == f"{p:.2g}"
     noise = float(_number(r"misfit implies: frequencies ([\d.]+) %", out, "femu diagnose paper"))
-    assert _number(r"misfit implies ([\d.]+) % frequency noise", said, "docs/diagnosis.md") == f"{noise:.1f}"
+    assert _number(r"misfit implies ([\d.]+) % frequency noise", said, "docs/diagnosis-real-data.md") == f"{noise:.1f}"
     assert "CAUSE: none" in out and "VERDICT: NOT ADEQUATE" in out
 
 

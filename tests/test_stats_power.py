@@ -101,3 +101,30 @@ def test_the_report_states_the_power_and_the_kept_out_solvers(mixed):
     assert "Friedman's test over the 3 solvers needs at least" in text
     assert "scipy-sa (one budget)" in text and "and so are they from the ECDFs over budgets" in text
     assert math.isfinite(s["design"]["power"]["problems_needed"][0.8])
+
+
+# -- the scipy implementations against statsmodels (the core does not install it: issue 41) ------
+def test_holm_against_statsmodels_multipletests():
+    from statsmodels.stats.multitest import multipletests
+
+    rng = np.random.default_rng(4)
+    for p in (rng.uniform(0, 0.2, 7), np.array([0.01, 0.04, 0.04, 0.03, 0.9, 0.01]), np.array([0.3]),
+              np.array([1.0, 0.02, 0.02]), rng.uniform(0, 1, 40)):
+        assert st.holm(p) == pytest.approx(multipletests(p, method="holm")[1], rel=1e-12, abs=1e-15)
+    assert len(st.holm([])) == 0
+
+
+@pytest.mark.parametrize("n, level", [(5.7, 0.05), (12.0, 0.0167), (30.5, 0.0083)])
+def test_paired_t_power_and_its_solutions_against_statsmodels(n, level):
+    from statsmodels.stats.power import TTestPower
+
+    t = TTestPower()
+    for dz in (0.3, 0.6, 0.8):
+        assert st._paired_t_power(dz, n, level) == pytest.approx(t.power(dz, n, level), rel=1e-9)
+    # where statsmodels gives nan (scipy's nct.cdf for the lower tail at a large noncentrality,
+    # dz 1.5 and n 30.5: nc 8.3), ours stays a probability, above dz 0.8's
+    assert st._paired_t_power(0.8, n, level) < st._paired_t_power(1.5, n, level) <= 1.0
+    assert st._solve_dz(n, level, 0.8) == pytest.approx(t.solve_power(None, nobs=n, alpha=level, power=0.8), rel=1e-6)
+    for dz in st.EFFECTS:
+        assert st._solve_n(dz, level, 0.8) == pytest.approx(t.solve_power(dz, nobs=None, alpha=level, power=0.8),
+                                                            rel=1e-6)

@@ -97,7 +97,9 @@ def write_uff58(frfs: FRFSet, path: str | Path, test: str = "roving-hammer") -> 
     hammer moves); "shaker": reference = the fixed coordinate, response = the channel's."""
     if test not in ("roving-hammer", "shaker"):
         raise ValueError(f"test must be 'roving-hammer' or 'shaker', got {test!r}")
-    import pyuff
+    from ..modal_data.uff import uff_library
+
+    pyuff = uff_library(path)
 
     path = refuse_link(path)
     ordinate = ORDINATE_OF_FORM[frfs.form]
@@ -156,9 +158,9 @@ def uff_datasets(path: str | Path, dataset_type: int, what: str, error=FRFFileEr
 
     `what` describes the type in messages; every failure is `error` naming the file (and the
     dataset). One reader for any UFF dataset type (uff.py's dataset 55 reader could use it too)."""
-    import pyuff
+    from ..modal_data.uff import uff_dataset_lines, uff_library
 
-    from ..modal_data.uff import uff_dataset_lines
+    pyuff = uff_library(path)
 
     path = Path(path)
     opened_at = uff_dataset_lines(path, dataset_type, error)  # a file cut short or damaged: refused here

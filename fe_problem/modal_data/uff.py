@@ -37,6 +37,19 @@ from ..dofs import DEFAULT_LAYOUT, SPATIAL, DofLayout
 from .json_format import modal_data_from_dict
 from .types import DATA_FORMAT, DataFileError, ModalData, model_named
 
+#: the one line a missing pyuff gives (pyuff comes with the 'import' and 'identify' extras)
+UFF_EXTRA = "reading or writing a UFF file needs the 'import' extra: pip install 'femu-bench[import]'"
+
+
+def uff_library(path=None):
+    """pyuff, or a DataFileError (a ValueError: one line, exit 2) naming the file and the extra
+    that installs it."""
+    try:
+        import pyuff
+    except ImportError:
+        raise DataFileError(f"{path}: {UFF_EXTRA}" if path is not None else UFF_EXTRA) from None
+    return pyuff
+
 _MODEL_TAG = "model:"
 _ID_WIDTH = 80
 
@@ -77,7 +90,7 @@ def write_uff55(data: ModalData, path: str | Path) -> Path:
     for i, (node, direction) in enumerate(data.dofs):
         values[:, row[node], SPATIAL.index(direction)] = data.shapes[i]
 
-    import pyuff  # imported where used: `import fe_problem` does not need it
+    pyuff = uff_library(path)  # imported where used: `import fe_problem` does not need it
 
     datasets = []
     for k in range(data.n_modes):
@@ -165,7 +178,7 @@ def read_uff55(path: str | Path, model: str | None = None, layout: DofLayout | N
         raise DataFileError(f"{path}: is a directory, not a UFF file")
     opened_at = uff_dataset_lines(path, 55)
     n_raw = len(opened_at)
-    import pyuff
+    pyuff = uff_library(path)
 
     try:
         uff = pyuff.UFF(str(path))

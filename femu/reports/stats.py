@@ -284,8 +284,8 @@ def run_scores(runs: list[RunTrace], targets: dict[str, Targets], metric: str = 
 
 
 def holm(pvalues) -> np.ndarray:
-    """Holm's step-down adjusted p-values (same order as given), capped at 1 (statsmodels'
-    multipletests, method "holm")."""
+    """Holm's step-down adjusted p-values (same order as given), capped at 1 (as statsmodels'
+    multipletests, method "holm", gives them)."""
     return _holm(pvalues)
 
 
@@ -403,10 +403,52 @@ BLOCK_VALUES = ("median_final", "ert")
 
 
 def _holm(pvalues) -> np.ndarray:
-    from statsmodels.stats.multitest import multipletests
-
+    """Holm (1979): the i-th smallest of m p-values times (m - i), the running maximum of these
+    in that order, capped at 1 (statsmodels' multipletests "holm" computes the same; it is the
+    tests' reference, tests/test_stats_power.py)."""
     p = np.asarray(pvalues, dtype=float)
-    return multipletests(p, method="holm")[1] if len(p) else p
+    if not len(p):
+        return p
+    order = np.argsort(p, kind="stable")
+    adjusted = np.minimum(np.maximum.accumulate(p[order] * (len(p) - np.arange(len(p)))), 1.0)
+    out = np.empty_like(p)
+    out[order] = adjusted
+    return out
+
+
+def _paired_t_power(dz: float, n: float, level: float) -> float:
+    """The two-sided one-sample (paired) t-test's power at standardized effect `dz` with `n`
+    observations at level `level`: the noncentral t (df n - 1, noncentrality dz sqrt(n)) beyond
+    the central t's two critical values (statsmodels' TTestPower, the tests' reference)."""
+    df = n - 1.0
+    crit = sps.t.isf(level / 2.0, df)
+    nc = dz * math.sqrt(n)
+    # the lower tail P(T < -crit) as P(T' > crit), T' with noncentrality -nc: scipy's nct.cdf gives
+    # nan there for a real df and a large nc (1.17: df 29.5, nc 8.3), its sf does not
+    return float(sps.nct.sf(crit, df, nc) + sps.nct.sf(crit, df, -nc))
+
+
+def _solve_dz(n: float, level: float, power: float) -> float:
+    """The effect dz the paired t-test detects with probability `power` (brentq on dz > 0)."""
+    from scipy.optimize import brentq
+
+    hi = 1.0
+    while _paired_t_power(hi, n, level) < power:
+        hi *= 2.0
+    return float(brentq(lambda d: _paired_t_power(d, n, level) - power, 1e-12, hi, xtol=1e-12, rtol=1e-12))
+
+
+def _solve_n(dz: float, level: float, power: float) -> float:
+    """The (real) number of observations with which the paired t-test detects `dz` with
+    probability `power` (brentq on n > 2)."""
+    from scipy.optimize import brentq
+
+    lo, hi = 2.0 + 1e-9, 4.0
+    if _paired_t_power(dz, lo, level) >= power:
+        return lo
+    while _paired_t_power(dz, hi, level) < power:
+        hi *= 2.0
+    return float(brentq(lambda n: _paired_t_power(dz, n, level) - power, lo, hi, xtol=1e-12, rtol=1e-12))
 
 
 def smallest_p(test: str, *sizes: int, n_tests: int = 1) -> float:
@@ -453,19 +495,15 @@ def wilcoxon_power(n_problems: int, n_pairs: int, alpha: float = 0.05, power: fl
     differences: `min_problems` (the fewest with which a pair can be separated at all),
     `detectable_dz` (the smallest standardized difference dz found with probability `power` at
     Holm's first step, alpha / n_pairs; None below min_problems) and `problems_needed` {dz: the
-    problems that power needs}. The paired t-test's power (statsmodels, noncentral t) on the
+    problems that power needs}. The paired t-test's power (noncentral t, `_paired_t_power`) on the
     problems' Wilcoxon-equivalent number n * `WILCOXON_ARE`; tests/test_stats_power.py checks it
     against simulated Wilcoxon tests."""
-    from statsmodels.stats.power import TTestPower
-
     level = alpha / max(n_pairs, 1)
     floor = min_blocks("wilcoxon", alpha, n_tests=max(n_pairs, 1))
-    t = TTestPower()
     dz = None
     if n_problems >= floor and n_problems * WILCOXON_ARE > 2:
-        dz = float(t.solve_power(effect_size=None, nobs=n_problems * WILCOXON_ARE, alpha=level, power=power))
-    needed = {float(d): max(floor, math.ceil(float(t.solve_power(effect_size=d, nobs=None, alpha=level, power=power))
-                                             / WILCOXON_ARE)) for d in effects}
+        dz = _solve_dz(n_problems * WILCOXON_ARE, level, power)
+    needed = {float(d): max(floor, math.ceil(_solve_n(d, level, power) / WILCOXON_ARE)) for d in effects}
     return {"alpha": alpha, "level": level, "power": power, "problems": n_problems, "pairs": n_pairs,
             "min_problems": floor, "detectable_dz": dz, "problems_needed": needed}
 
