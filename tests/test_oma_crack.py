@@ -14,6 +14,8 @@ diagnosed with `--model hframe`.
 """
 
 import json
+from pathlib import Path
+import re
 import subprocess
 import sys
 
@@ -91,3 +93,9 @@ def test_crack_located_by_diagnose(identified):
     est = cause["estimate"]
     assert abs(est["zone_position"] - POSITION) < 0.1, est
     assert 1 / 1.5 < est["equivalent_crack_stiffness_nm_per_rad"] / CRACK_STIFFNESS < 1.5, est
+    # docs/identify-ambient.md states this run's answer to its printed precision
+    page = (Path(__file__).resolve().parents[1] / "docs" / "identify-ambient.md").read_text()
+    said = re.search(r"zone at ([\d.]+), equivalent crack stiffness ([\d.e]+) N m/rad", " ".join(page.split()))
+    assert said, "docs/identify-ambient.md no longer states the CI-sized crack's answer"
+    assert f"{est['zone_position']:.2f}" == said.group(1), (est, said.group(0))
+    assert f"{est['equivalent_crack_stiffness_nm_per_rad']:.1e}".replace("e+0", "e") == said.group(2), (est, said.group(0))
