@@ -79,7 +79,29 @@ def _collector_paused():
             gc.enable()
 
 
-# == the registry: one line per kind (the kinds are migrated here one module at a time) ========
+# == the registry: one line per kind =========================================================
+from . import (added_mass, boundary_stiffness, distributed_mass, every_member_sparse,  # noqa: E402
+               group_stiffness, joint_flexibility, member_depth, node_position, shear_deformation,
+               stiffness_gain, stiffness_loss, stiffness_trend, storeys_free, support_condition)
+
+register(stiffness_loss.SPEC)
+register(added_mass.SPEC)
+register(joint_flexibility.SPEC)
+register(shear_deformation.SPEC)
+register(stiffness_gain.SPEC)
+register(boundary_stiffness.SPEC)
+register(distributed_mass.SPEC)
+register(member_depth.SPEC)
+register(node_position.SPEC)
+register(support_condition.SPEC)
+register(group_stiffness.LOSS)
+register(group_stiffness.GAIN)
+register(stiffness_trend.SPEC)
+register(storeys_free.STOREYS)
+register(storeys_free.COLUMN_LINES)
+register(storeys_free.FLOORS)
+register(storeys_free.PAIR)
+register(every_member_sparse.SPEC)
 
 __all__ = ["FAMILIES", "KINDS", "CandidateKey", "KindSpec", "all_candidates", "default_kinds", "iter_candidates",
            "register", "spec_of", "unregister"]

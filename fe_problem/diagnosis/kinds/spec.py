@@ -125,6 +125,7 @@ class KindSpec:
     default: whether `all_candidates` builds it when no kinds are named (the local search's set);
     sides: a name shared by the kinds whose candidates at one place are the two sides of one class
     (a loss and a gain); a kind with sides is charged for 2 variants;
+    side: -1 for the side that softens (a loss), +1 for the one that stiffens (a gain), 0 none;
     variants: (Setting, Candidate) -> how many labelled variants its class is built with at the
     candidate's place (the charge of a row, `evidence.label_variants`); None: 2 with sides, else 1;
     check: (model, location dict, estimate dict) -> why the estimate is physically implausible, or
@@ -140,6 +141,7 @@ class KindSpec:
     generate: Callable[..., Iterator] | None = None
     default: bool = False
     sides: str | None = None
+    side: int = 0
     variants: Callable[..., int] | None = None
     check: Callable[..., str | None] | None = None
     term: str | None = None
