@@ -308,7 +308,7 @@ def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str 
     # the local search's result as a class of its own: several causes, or one at a place the first
     # round did not fit better than no effect (a revisit moved it): `_one_per_answer` keeps no row of it
     several = rounds is not None and (len(rounds.sized) > 1 or answer.search_key(rounds)[1] not in {
-        c.label.split("(")[0] for c, f, family in fits if family == "local" and f.chi2 < base.chi2 - 1e-9})
+        c.key.place.label() for c, f, family in fits if family == "local" and f.chi2 < base.chi2 - 1e-9})
     fits = [x for x in fits if not dropped.is_dropped(x[0].label)]  # a failed solve: no class (dropped.py)
     sparse = dropped.guarded("every member (sparse)", lambda: sparse_class.fit_sparse(cal.setting, obs, base.pairing),
                              None)  # "every member", sparse (None: n/a)
@@ -334,7 +334,7 @@ def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str 
         occam = occam_log_factor(lambda a, c=cand: [x.chi2 for x in chi2_batch(obs, c, np.asarray(a))], f.a,
                                  cand.upper, d) + label_log_prior(cal.setting, cand)
         classes.append(ScoredClass(cand.label, family, 1, f.chi2, -(f.chi2 - base.chi2) / (2 * d) + occam,
-                                   cand.estimate(f.a, f.s)))
+                                   cand.estimate(f.a, f.s), keys=(cand.key,)))
     search = []
     if several:
         # on the modes every other row is judged on (`searched`), against the calibrated model's chi^2 there
@@ -344,7 +344,8 @@ def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str 
         one = len(rounds.sized) == 1
         search.append(ScoredClass(" + ".join(c.label for c, _ in rounds.sized), "local" if one else "several",
                                   len(rounds.sized), chi2_s, -(chi2_s - base.chi2) / (2 * d) + occam,
-                                  rounds.causes[0].estimate if one else None))
+                                  rounds.causes[0].estimate if one else None,
+                                  keys=tuple(c.key for c, _ in rounds.sized)))
     if sparse is not None:
         classes.append(sparse_class.with_dispersion(sparse, d).scored(base.chi2, d, sparse_class.held_out_error(
             cal.setting, cal.data, cal.used, sparse, obs.freq_noise, obs.shape_noise)))
@@ -439,7 +440,7 @@ def _one_per_answer(classes: list[ScoredClass]) -> list[ScoredClass]:
     for c in classes:
         if c.family != "none" and c.estimate is not None and c.chi2 >= classes[0].chi2 - 1e-9:
             continue  # no better than no effect: the calibrated model itself
-        key = c.label.split("(")[0]
+        key = answer.place_label(c)
         if key not in best or c.log_evidence > best[key].log_evidence:
             best[key] = c
     return list(best.values())

@@ -206,7 +206,7 @@ def look_at_clipped(cal: Calibration, cands: list[Candidate], screened: list[tup
     rotations) screened 15th at chi^2 650 while its fit reached 422, below every candidate
     fitted (the best of those 523), and `femu diagnose` named a joint of the next column."""
     st = cal.setting
-    if (n_fit is None or st.model.layout.dimension != 3 or not cands
+    if (n_fit is None or st.model.layout.planar or not cands
             or solver_path(len(st.local.dofmap.free)) == "dense"):
         return screened
     out = list(screened)
