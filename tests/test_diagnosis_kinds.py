@@ -209,7 +209,6 @@ def test_the_diagnosis_modules_import_each_other_without_a_cycle():
     for m in modules:
         if m not in state:
             visit(m, [])
-    assert edges[f"{PACKAGE}.rounds"] >= {f"{PACKAGE}.picks", f"{PACKAGE}.steps", f"{PACKAGE}.joint"}
     hidden = []
     for name, path in modules.items():
         for fn in ast.walk(ast.parse(path.read_text())):
@@ -218,6 +217,8 @@ def test_the_diagnosis_modules_import_each_other_without_a_cycle():
                            if isinstance(node, ast.ImportFrom) and (node.level > 0 or (node.module or "")
                                                                     .startswith(PACKAGE))]
     assert not hidden, hidden
+    below = {f"{PACKAGE}.picks", f"{PACKAGE}.steps", f"{PACKAGE}.joint"}
+    assert edges[f"{PACKAGE}.rounds"] >= below, edges[f"{PACKAGE}.rounds"]
 
 
 def test_no_diagnosis_file_branches_on_the_dimension():
