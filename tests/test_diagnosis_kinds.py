@@ -227,13 +227,13 @@ def test_no_diagnosis_file_branches_on_the_dimension():
     count of the layout's hinges."""
     found = []
     for name, path in _modules().items():
-        for node in ast.walk(ast.parse(path.read_text())):
+        tree = ast.parse(path.read_text())
+        compared = {id(x) for c in ast.walk(tree) if isinstance(c, ast.Compare) for x in [c.left, *c.comparators]}
+        for node in ast.walk(tree):
             if isinstance(node, ast.Attribute) and node.attr == "dimension":
                 found.append(f"{name}:{node.lineno}")
             if (isinstance(node, ast.Call) and getattr(node.func, "id", None) == "len" and node.args
-                    and isinstance(node.args[0], ast.Attribute) and node.args[0].attr in ("hinges", "translations",
-                                                                                         "rotations")):
-                parent_cmp = [c for c in ast.walk(ast.parse(path.read_text())) if isinstance(c, ast.Compare)
-                              and any(x is node for x in [c.left, *c.comparators])]
-                found += [f"{name}:{node.lineno}" for _ in parent_cmp]
+                    and isinstance(node.args[0], ast.Attribute)
+                    and node.args[0].attr in ("hinges", "translations", "rotations") and id(node) in compared):
+                found.append(f"{name}:{node.lineno}")
     assert not found, found
