@@ -51,6 +51,13 @@ class DofLayout:
             raise ValueError(f"inconsistent DOF layout {self}")
 
     @property
+    def planar(self) -> bool:
+        """Whether the nodes lie in the x-y plane (`dimension` 2): the classes the diagnosis reads
+        from x and y (a node's moves, a section's depth in the frame's plane, storeys and trends)
+        are built on such a layout only. The one place the diagnosis asks the dimension."""
+        return self.dimension == 2
+
+    @property
     def per_node(self) -> int:
         """How many DOFs one node has."""
         return len(self.names)

@@ -18,7 +18,7 @@ from scipy.sparse.linalg import ArpackNoConvergence
 
 import fe_problem as fp
 from fe_problem.correlation import MAX_PAIR_FREQ
-from fe_problem.diagnosis import candidates, supports
+from fe_problem.diagnosis import kinds as registry, supports
 from fe_problem.diagnosis.residuals import Observations
 from fe_problem.model.generate import regular_frame
 
@@ -103,8 +103,6 @@ def test_a_failing_candidate_is_dropped_named_and_the_answer_stays(monkeypatch, 
     in `dropped` and in a warning, scores neither, and still names the cracked element."""
     failing = {"stiffness_loss@element=5": np.linalg.LinAlgError("SVD did not converge"),
                "added_mass@node=4": ArpackNoConvergence("ARPACK error -1: No convergence", None, None)}
-    kinds = dict(candidates.CANDIDATE_KINDS)
-
     def wrapped(gen):
         def make(st):
             for c in gen(st):
@@ -116,7 +114,8 @@ def test_a_failing_candidate_is_dropped_named_and_the_answer_stays(monkeypatch, 
         return make
 
     for kind in ("stiffness_loss", "added_mass"):
-        monkeypatch.setitem(candidates.CANDIDATE_KINDS, kind, wrapped(kinds[kind]))
+        spec = registry.KINDS[kind]
+        monkeypatch.setitem(registry.KINDS, kind, dataclasses.replace(spec, generate=wrapped(spec.generate)))
     d = fp.diagnose(None, crack_case.data())
     named = {x["label"]: x["reason"] for x in d.dropped}
     assert set(failing) <= set(named)

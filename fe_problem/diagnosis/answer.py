@@ -35,7 +35,7 @@ import numpy as np
 
 from ..model import FrameModel
 from . import plausibility, sparse_class
-from .candidates import Candidate, scale_stiffness
+from .setting import Candidate, scale_stiffness
 from .evidence import FACTOR_10, Evidence, ScoredClass
 from .record import NON_LOCAL, Answer, Cause, Gain, Verdict
 from .verdict import verdict

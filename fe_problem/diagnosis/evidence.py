@@ -27,6 +27,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import norm
 
+from .kinds import spec_of
+
 #: The next class within this log-evidence difference: within a factor of 10 of the best.
 FACTOR_10 = float(np.log(10.0))
 
@@ -103,42 +105,20 @@ def ranked(classes: list[ScoredClass], method: str, dispersion: float) -> Eviden
     return Evidence(method, dispersion, tuple(order), note)
 
 
-#: The kinds whose two sides at one place are the two variants of one class (a loss or a gain).
-_SIDES = frozenset({"stiffness_loss", "stiffness_gain", "group_stiffness_loss", "group_stiffness_gain"})
-
-
 def label_variants(st, cand) -> int:
     """How many labelled variants the class of `cand` is built with at its place: the class is its
-    kind (a loss and a gain of the same place one class, `_SIDES`) at its place (the element,
-    node, joint end, group or trend shape that names it); every other label it fits is a
-    variant: a weak zone's centre (the centres `zones.zone_places` builds, in every bending plane),
-    a uniform stiffness change's side (2), a member depth's (thinner or deeper: 2), a trend's or a
-    group change's sign (2), a node move's direction and sign (4: +x, -x, +y, -y), a spring to
-    ground's direction (the node's translations not held), a support condition's (the candidates
+    kind (a loss and a gain of the same place one class: the kinds that share `KindSpec.sides`) at
+    its place (the element, node, joint end, group or trend shape that names it); every other label
+    it fits is a variant, counted by its kind's spec (`KindSpec.n_variants`, kinds/): a weak zone's
+    centre (the centres `zones.zone_places` builds, in every bending plane), a uniform stiffness
+    change's side (2), a member depth's (thinner or deeper: 2), a trend's or a group change's sign
+    (2), a node move's direction and sign (4: +x, -x, +y, -y), a spring to ground's direction (the
+    node's translations not held), a support condition's (the candidates
     `supports.support_candidates` builds at its node), a space frame joint's rotation (the
-    rotations its candidates are built about at that end: up to 3, `Setting.joint_rotations`).
+    rotations its candidates are built about at that end: up to 3). A kind not registered: 1.
     st: the `Setting` the candidates were made for."""
-    model, kind = st.model, cand.kind
-    profile = (cand.meta or {}).get("profile", "")
-    loc = cand.location or {}
-    if kind == "stiffness_loss" and profile.startswith("zone"):
-        from . import zones
-
-        return sum(len(zones.zone_places(model, loc["element"], about)) for about in zones.bending_rotations(model))
-    if kind in _SIDES or kind in ("member_depth", "stiffness_trend"):
-        return 2
-    if kind == "node_position":
-        return 2 * model.layout.dimension
-    if kind == "boundary_stiffness":
-        held = {d for s in model.supports if s.node == loc["node"] for d in s.directions}
-        return max(1, sum(d not in held for d in model.layout.translations))
-    if kind == "support_condition":
-        from .supports import support_candidates
-
-        return max(1, sum(c.location["node"] == loc["node"] for c in support_candidates(st, {loc["node"]})))
-    if kind == "joint_flexibility" and "rotation" in loc:
-        return max(1, st.joint_rotations.get((loc["node"], loc["element"]), 0))
-    return 1
+    spec = spec_of(cand.kind)
+    return 1 if spec is None else spec.n_variants(st, cand)
 
 
 def label_log_prior(st, cand) -> float:

@@ -14,7 +14,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from . import dropped
-from .candidates import Candidate
+from .setting import Candidate
 from .residuals import Observations
 
 

@@ -41,7 +41,7 @@ import numpy as np
 from ..assembly import AffineModel
 from ..model import FrameModel
 from ..parameters import Parameter
-from .candidates import Candidate, Setting, lazy_system, solve
+from .setting import Candidate, Setting, lazy_system, solve
 
 #: A member counts as vertical / horizontal when its direction is within this of the axis (cosine).
 AXIS_COS = 0.999

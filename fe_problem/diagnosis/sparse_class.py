@@ -52,7 +52,8 @@ from scipy.stats import norm
 from ..assembly import AffineModel, solver_path
 from ..correlation import correlate
 from ..parameters import Parameter
-from .candidates import Setting, solve
+from .kinds.every_member_sparse import SPEC as _SPEC
+from .setting import Setting, solve
 from .evidence import ScoredClass, sides_log_prior
 from .fit import profiled
 from .residuals import Observations
@@ -68,7 +69,7 @@ STEP = 1e-4
 #: Refits of `refit` with the pairing its fit gives, at most.
 REPAIRS = 3
 #: The class's label's kind, and its family in the evidence table.
-KIND, FAMILY = "every_member_sparse", "sparse"
+KIND, FAMILY = _SPEC.name, _SPEC.family
 
 
 @dataclass(frozen=True, eq=False)

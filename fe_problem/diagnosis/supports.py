@@ -42,9 +42,9 @@ import numpy as np
 from ..assembly import AffineModel
 from ..model import FrameModel, Spring, Support
 from ..parameters import Parameter
-from .candidates import Candidate, Setting, lazy_system, solve
+from .setting import Candidate, Setting, lazy_system, solve
 from .local import Term
-from .plausibility import MAX_SPRING_PER_MEMBER
+from .bounds import MAX_SPRING_PER_MEMBER
 
 #: A support's translation is released down to this a (k >= k_members (1 - a) / a = k_members / 999).
 MAX_TRANSLATION_RELEASE = 0.999

@@ -17,7 +17,7 @@ import numpy as np
 from scipy.optimize import brentq
 from scipy.stats import chi2 as chi2_dist
 
-from .candidates import Candidate
+from .setting import Candidate
 from .fit import Fit, chi2_batch
 from .record import Verdict
 from .residuals import Observations
