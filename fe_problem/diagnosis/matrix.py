@@ -40,9 +40,9 @@ from .core import (ALPHA, AMBIGUITY_CHI2, DEFAULT_FREQ_NOISE, DEFAULT_SHAPE_NOIS
                    _held_out_error, _one_per_answer, _richest_reduced, check_noise, data_checks, gain, select,
                    to_fit)
 from .datachecks import FAULTS, left_out, spurious_modes, without
-from .evidence import FACTOR_10, ScoredClass, occam_log_factor, ranked
+from .evidence import FACTOR_10, ScoredClass, label_log_prior, occam_log_factor, ranked
 from .fit import chi2_batch, fit, profiled, promise
-from .matrix_kinds import VARIANTS, matrix_candidates, varied_terms
+from .matrix_kinds import matrix_candidates, varied_terms
 from .matrix_setting import MatrixSetting
 from .record import Cause, Diagnosis, Found, Noise, Residuals
 from .residuals import Observations
@@ -208,7 +208,7 @@ def _diagnose(model, data, freq_noise, shape_noise, kinds, n_fit, alpha, keep_fa
                "over no effect: it is the answer")
         cause = Cause(SPARSE_KIND, {"terms": list(sf.members)}, sparse_estimate(sf), True, sel.selection.p_adjusted,
                       row.label, explanation=why)
-        cause = _judged(st, cause)
+        cause = plausibility.judged(st.model, cause)
         extended = _named(st, st.with_scale(st.model.with_initials(
             {n: i * (1.0 + t) for n, i, t in zip(am.names, am.initial, _theta(am, sf)) if t != 0.0}), sf.s), [cause])
         gained = gain(cal, None)
@@ -220,7 +220,7 @@ def _diagnose(model, data, freq_noise, shape_noise, kinds, n_fit, alpha, keep_fa
         n_params = 1 + len(sf.theta)
     elif significant:
         cause, f_best = _cause(cal, found, sel)
-        cause = _judged(st, cause)
+        cause = plausibility.judged(st.model, cause)
         cand = c_best
         extended = _named(st, st.with_scale(cand.extend(f_best.a), f_best.s), [cause])
         gained = gain(cal, cand)
@@ -295,7 +295,7 @@ def _evidence(cal: Calibration, found: Screening, sf, am):
     classes = [ScoredClass(answer.NONE_LABEL, "none", 0, base.chi2, 0.0)]
     for cand, f in fits:
         occam = occam_log_factor(lambda a, c=cand: [x.chi2 for x in chi2_batch(obs, c, np.asarray(a))], f.a,
-                                 cand.upper, d) - float(np.log(VARIANTS[cand.kind]))
+                                 cand.upper, d) + label_log_prior(cal.setting, cand)
         classes.append(ScoredClass(cand.label, "local", 1, f.chi2, -(f.chi2 - base.chi2) / (2 * d) + occam,
                                    cand.estimate(f.a, f.s)))
     if sf is not None and len(sf.members) > 1:  # one term changed: that term's local class itself
@@ -330,27 +330,6 @@ def _cause(cal: Calibration, found: Screening, sel):
                  None, tuple(cands[i].label for i in tied),
                  f"{len(answers)} candidates explain the data equally well (chi^2 within {AMBIGUITY_CHI2:.1f} of the "
                  "best): the data cannot tell them apart"), best
-
-
-def _judged(st: MatrixSetting, cause: Cause) -> Cause:
-    """The cause with its plausibility (plausibility.py's bounds in a matrix model's terms): a
-    term losing more than `MAX_UNIFORM_LOSS` or stiffer / heavier than `MAX_GAIN_RATIO` times its
-    model; a mass above `MASS_OF_TOTAL` of the structure's or `MASS_PER_TRIBUTARY` times what the
-    DOF carries."""
-    est, why = cause.estimate or {}, None
-    ratios = est.get("ratio")
-    for r in (ratios if isinstance(ratios, list) else [] if ratios is None else [ratios]):
-        if r < 1.0 - plausibility.MAX_UNIFORM_LOSS:
-            why = f"a term at {r:.3g} of its model (a loss beyond {plausibility.MAX_UNIFORM_LOSS:.0%})"
-        elif r > plausibility.MAX_GAIN_RATIO:
-            why = f"a term at {r:.3g} times its model (more than {plausibility.MAX_GAIN_RATIO:g}x)"
-    if "mass_kg" in est:
-        if est["fraction_of_total"] > plausibility.MASS_OF_TOTAL:
-            why = f"{est['mass_kg']:.4g} is more than {plausibility.MASS_OF_TOTAL:.0%} of the structure's mass"
-        elif est.get("ratio_to_dof_mass", 0.0) > plausibility.MASS_PER_TRIBUTARY:
-            why = (f"{est['mass_kg']:.4g} is more than {plausibility.MASS_PER_TRIBUTARY:g} times the mass the DOF "
-                   "carries")
-    return cause if why is None else dataclasses.replace(cause, plausible=False, implausible_because=why)
 
 
 def _named(st: MatrixSetting, extended: MatrixModel, causes) -> MatrixModel:
