@@ -3,10 +3,22 @@ module and one registry line."""
 
 from __future__ import annotations
 
+import ast
+import importlib
+import sys
+from pathlib import Path
+
+import numpy as np
 import pytest
 
-from fe_problem.diagnosis import kinds
+import fe_problem as fp
+from fe_problem.diagnosis import candidates, evidence, group_free, kinds, plausibility, sparse_class
+from fe_problem.diagnosis.groups import distributed_candidates
 from fe_problem.diagnosis.kinds import CandidateKey, KindSpec
+from fe_problem.diagnosis.modelform import model_form_candidates
+from fe_problem.diagnosis.setting import Setting
+from fe_problem.model import add_mass
+from fe_problem.model.generate import regular_frame
 
 
 @pytest.mark.parametrize("label", ["stiffness_loss@element=3", "stiffness_loss@element=3(zone 0.30 ry)",
@@ -44,3 +56,183 @@ def test_register_rejects_a_duplicate_and_a_bad_family():
         kinds.unregister("toy_duplicate")
     with pytest.raises(ValueError, match="family"):
         KindSpec("toy_bad", "nonsense", ())
+
+
+# == a new kind: one module and one registry line ===========================================
+
+TOY_KIND = '''
+"""A toy kind for the test: a lumped mass of a kg at a node, each size a model of its own."""
+import numpy as np
+
+from fe_problem.diagnosis.kinds import KindSpec
+from fe_problem.diagnosis.setting import Candidate, solve_model
+from fe_problem.model import add_mass
+from fe_problem.model.generate import regular_frame
+
+
+def generate(st):
+    for node in st.model.node_ids[:3]:
+        def forward(a, node=node):
+            out = [solve_model(add_mass(st.model, node, float(v)), st) for v in np.atleast_1d(a)]
+            return np.concatenate([o[0] for o in out]), np.concatenate([o[1] for o in out])
+
+        yield Candidate("toy_point_mass", {"node": node}, 50.0, np.array([0.0, 1.0, 10.0, 50.0]), forward,
+                        lambda a, s: {"mass_kg": a}, lambda a, node=node: add_mass(st.model, node, a), step=0.5)
+
+
+def variants(st, cand):
+    return 3
+
+
+def check(model, loc, estimate):
+    return "too heavy" if estimate.get("mass_kg", 0.0) > 20.0 else None
+
+
+SPEC = KindSpec("toy_point_mass", "local", ("node",), generate, variants=variants, check=check)
+'''
+
+
+@pytest.fixture
+def toy_kind(tmp_path, monkeypatch):
+    """The toy kind's module written to a file of its own and registered by one line."""
+    (tmp_path / "toy_point_mass_kind.py").write_text(TOY_KIND)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    module = importlib.import_module("toy_point_mass_kind")
+    kinds.register(module.SPEC)  # the one registry line
+    yield module.SPEC
+    kinds.unregister(module.SPEC.name)
+    sys.modules.pop("toy_point_mass_kind", None)
+
+
+def test_a_new_kind_is_one_module_and_one_registry_line(toy_kind):
+    """A kind written as one module and registered by one line is built by `all_candidates`,
+    labelled by its key, charged by its spec (`evidence.label_variants`), bounded by its spec
+    (`plausibility.check`), and its candidates' modes are those of the model it names
+    (`fp.modal_analysis` of the model with the mass added, solved on its own)."""
+    model = fp.load_model("hframe")
+    coords = tuple((n, d) for n in (4, 5, 8) for d in ("x", "y"))
+    st = Setting(model, coords, 4)
+    cands = kinds.all_candidates(st, ["toy_point_mass"])
+    assert [c.label for c in cands] == [f"toy_point_mass@node={n}" for n in model.node_ids[:3]]
+    assert all(kinds.spec_of(c.key) is toy_kind for c in cands)
+    assert "toy_point_mass" not in kinds.default_kinds()  # not `default`: only when asked for
+    assert evidence.label_variants(st, cands[0]) == 3
+    assert plausibility.check(model, "toy_point_mass", {"node": 1}, {"mass_kg": 30.0}) == "too heavy"
+    assert plausibility.check(model, "toy_point_mass", {"node": 1}, {"mass_kg": 5.0}) is None
+    hz, _ = cands[1].forward(np.array([0.0, 10.0]))
+    want = fp.modal_analysis(add_mass(model, model.node_ids[1], 10.0), 4).frequencies_hz
+    assert np.allclose(hz[1], want, rtol=1e-9)
+    assert np.all(hz[1] <= hz[0] + 1e-12) and np.any(hz[1] < hz[0] - 1e-6)  # a mass lowers the modes
+
+
+def test_every_kind_the_diagnosis_builds_is_registered_with_its_place():
+    """Every candidate the diagnosis builds on a planar frame (the local search's, the model-form
+    and the distributed classes') is of a registered kind, with its spec's family and place keys;
+    the class kinds of many members are registered too."""
+    model = regular_frame(2, 3, base="pinned")
+    coords = tuple((n, d) for n in model.node_ids[3:9] for d in ("x", "y"))
+    st = Setting(model, coords, 4)
+    built = ([(c, "local") for c in kinds.all_candidates(st)] + [(c, "model_form") for c in model_form_candidates(st)]
+             + [(c, "distributed") for c in distributed_candidates(st)])
+    assert {c.kind for c, _ in built} >= {"stiffness_loss", "added_mass", "joint_flexibility", "member_depth",
+                                         "node_position", "support_condition", "group_stiffness_loss",
+                                         "stiffness_trend"}
+    for c, family in built:
+        spec = kinds.spec_of(c.key)
+        assert spec is not None, c.label
+        assert spec.family == family, (c.label, spec.family)
+        assert set(c.location or {}) <= set(spec.place), (c.label, spec.place)
+        assert CandidateKey.parse(c.label) == c.key
+    for kind in (sparse_class.KIND, group_free.KIND, group_free.PAIR_KIND, *group_free.PARTITIONS):
+        assert kinds.spec_of(kind) is not None, kind
+    assert set(kinds.default_kinds()) == set(candidates.KINDS)
+
+
+# == structure: no import cycle, no branch on the dimension ================================
+
+DIAGNOSIS = Path(__file__).resolve().parents[1] / "fe_problem" / "diagnosis"
+PACKAGE = "fe_problem.diagnosis"
+
+
+def _modules() -> dict[str, Path]:
+    out = {}
+    for path in sorted(DIAGNOSIS.rglob("*.py")):
+        parts = path.relative_to(DIAGNOSIS).with_suffix("").parts
+        name = ".".join((PACKAGE,) + (parts[:-1] if parts[-1] == "__init__" else parts))
+        out[name] = path
+    return out
+
+
+def _resolve(module: str, is_package: bool, level: int, target: str | None) -> str:
+    base = module.split(".") if is_package else module.split(".")[:-1]
+    base = base[:len(base) - (level - 1)]
+    return ".".join(base + ([target] if target else []))
+
+
+def _edges(modules: dict[str, Path]) -> dict[str, set[str]]:
+    """module -> the diagnosis modules its module-level imports run (a submodule imported runs
+    the packages above it too, except those above the importing module itself)."""
+    edges = {}
+    for name, path in modules.items():
+        is_package = path.name == "__init__.py"
+        out = set()
+        for node in ast.parse(path.read_text()).body:
+            if not isinstance(node, ast.ImportFrom) or node.level == 0:
+                continue
+            base = _resolve(name, is_package, node.level, node.module)
+            targets = [f"{base}.{a.name}" if f"{base}.{a.name}" in modules else base for a in node.names]
+            for t in targets:
+                parts = t.split(".")
+                for k in range(len(PACKAGE.split(".")) + 1, len(parts) + 1):
+                    p = ".".join(parts[:k])
+                    if p in modules and p != name and not name.startswith(p + "."):
+                        out.add(p)
+        edges[name] = out
+    return edges
+
+
+def test_the_diagnosis_modules_import_each_other_without_a_cycle():
+    """The module-level imports among the diagnosis's modules (kinds/ included) form no cycle, and
+    no function imports a diagnosis module (an import cycle hidden inside a function)."""
+    modules = _modules()
+    edges = _edges(modules)
+    state: dict[str, int] = {}
+
+    def visit(m, stack):
+        state[m] = 1
+        for n in sorted(edges[m]):
+            assert state.get(n) != 1, "import cycle: " + " -> ".join(stack + [m, n])
+            if n not in state:
+                visit(n, stack + [m])
+        state[m] = 2
+
+    for m in modules:
+        if m not in state:
+            visit(m, [])
+    assert edges[f"{PACKAGE}.rounds"] >= {f"{PACKAGE}.picks", f"{PACKAGE}.steps", f"{PACKAGE}.joint"}
+    hidden = []
+    for name, path in modules.items():
+        for fn in ast.walk(ast.parse(path.read_text())):
+            if isinstance(fn, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                hidden += [f"{name}.{fn.name}" for node in ast.walk(fn)
+                           if isinstance(node, ast.ImportFrom) and (node.level > 0 or (node.module or "")
+                                                                    .startswith(PACKAGE))]
+    assert not hidden, hidden
+
+
+def test_no_diagnosis_file_branches_on_the_dimension():
+    """The diagnosis asks the layout (`DofLayout.planar`) and the element formulation
+    (`zone_planes`, `supports_weak_zone`, ...) and never the dimension itself: no `.dimension`, no
+    count of the layout's hinges."""
+    found = []
+    for name, path in _modules().items():
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Attribute) and node.attr == "dimension":
+                found.append(f"{name}:{node.lineno}")
+            if (isinstance(node, ast.Call) and getattr(node.func, "id", None) == "len" and node.args
+                    and isinstance(node.args[0], ast.Attribute) and node.args[0].attr in ("hinges", "translations",
+                                                                                         "rotations")):
+                parent_cmp = [c for c in ast.walk(ast.parse(path.read_text())) if isinstance(c, ast.Compare)
+                              and any(x is node for x in [c.left, *c.comparators])]
+                found += [f"{name}:{node.lineno}" for _ in parent_cmp]
+    assert not found, found

@@ -227,6 +227,7 @@ def test_a_revisit_keeps_a_spring_that_brings_a_mode_only_it_pairs():
     The revisit must keep both springs, and the model it keeps must fit no worse."""
     from diagnosis_cases import cases
     from fe_problem.diagnosis.core import ALPHA, N_FIT
+    from fe_problem.diagnosis.kinds import CandidateKey
     from fe_problem.diagnosis.rounds import _final_obs, _joint_refit, _revisit
 
     case = cases(19, {"two_springs": 2})[1]
@@ -234,13 +235,13 @@ def test_a_revisit_keeps_a_spring_that_brings_a_mode_only_it_pairs():
     cal = calibrate(HFRAME, case.data(), 0.002, 0.02)
     assert len(cal.unpaired)  # the nominal free frame has no partner for the suspension modes
     st = cal.setting
-    picks = [("boundary_stiffness", "boundary_stiffness@node=10,direction=y"),
-             ("boundary_stiffness", "boundary_stiffness@node=5,direction=x")]
+    picks = [CandidateKey.of("boundary_stiffness", {"node": 10, "direction": "y"}),
+             CandidateKey.of("boundary_stiffness", {"node": 5, "direction": "x"})]
     sizes = [0.47, 0.026]  # where the rounds had them (stiffness ratios to the frame's)
     obs = _final_obs(cal, st, picks, sizes)
     _, _, chi2_both = _joint_refit(cal, st, picks, sizes, obs)
     kept, kept_sizes, _, _ = _revisit(cal, st, (picks, sizes, [0.0, 0.0], [(), ()]), 1, None, N_FIT, ALPHA)
-    places = {(label.split("@")[1]) for _, label in kept}
+    places = {key.label().split("@")[1] for key in kept}
     assert len(kept) == 2 and "node=5,direction=x" in places, kept
     assert any(p.endswith("direction=y") for p in places), kept  # the y spring (10 y or a tie of it)
     _, _, chi2_kept = _joint_refit(cal, st, kept, kept_sizes, obs)

@@ -15,7 +15,8 @@ import pytest
 
 import fe_problem as fp
 from diagnosis_cases import cases
-from fe_problem.diagnosis import rounds
+from fe_problem.diagnosis import picks, rounds
+from fe_problem.diagnosis.kinds import CandidateKey
 from fe_problem.diagnosis.candidates import Setting, all_candidates
 from fe_problem.diagnosis.fit import fit
 
@@ -40,17 +41,17 @@ def test_a_first_round_candidate_asked_again_on_its_model_is_the_one_built_afres
     st, model = cal.setting, cal.setting.model
     listed = {c.label: c for c in cands}
     assert label in listed, sorted(k for k in listed if k.startswith(label.split("@")[0]))[:5]
-    kind = label.split("@")[0]
-    fresh = rounds._candidate_on(model, st, kind, label)
+    key = listed[label].key
+    fresh = rounds._candidate_on(model, st, key)
     assert fresh is not listed[label]
     with rounds._listed(st, cands):
         first = fit(cal.obs, listed[label])
-        again = rounds._candidate_on(model, st, kind, label)
+        again = rounds._candidate_on(model, st, key)
         assert again is listed[label]
         zone = next(c.label for c in cands if "(zone" in c.label)
-        assert rounds._candidate_on(model, st, "stiffness_loss", zone) is not listed[zone]
+        assert rounds._candidate_on(model, st, listed[zone].key) is not listed[zone]
         other = model.replace(name="copy")
-        assert rounds._candidate_on(other, st, kind, label) is not listed[label]
+        assert rounds._candidate_on(other, st, key) is not listed[label]
         got = fit(cal.obs, again, first.a)
     assert rounds._LISTED.get() is None
     want = fit(cal.obs, fresh, first.a)
@@ -73,9 +74,10 @@ def test_the_listing_serves_only_its_own_setting_and_thread(case):
     st1 = cal.setting
     model = st1.model
     st2 = Setting(model, st1.coords[:-3], st1.n_modes - 2)
-    label, kind = "stiffness_loss@element=20", "stiffness_loss"
+    label = "stiffness_loss@element=20"
+    key = CandidateKey.of("stiffness_loss", {"element": 20})
     first1 = next(c for c in cands if c.label == label)
-    first2 = rounds._candidate_on(model, st2, kind, label)  # the second diagnosis's first round
+    first2 = rounds._candidate_on(model, st2, key)  # the second diagnosis's first round
     assert _modes_and_coords(first1) == (st1.n_modes, len(st1.coords))
     assert _modes_and_coords(first2) == (st2.n_modes, len(st2.coords))
 
@@ -85,7 +87,7 @@ def test_the_listing_serves_only_its_own_setting_and_thread(case):
     def diagnosis(name, st, first):
         with rounds._listed(st, [first]):
             both_listed.wait()  # the other thread's first round is listed now too
-            got[name] = rounds._candidate_on(model, st, kind, label)
+            got[name] = rounds._candidate_on(model, st, key)
             both_listed.wait()
 
     threads = [threading.Thread(target=diagnosis, args=a) for a in (("one", st1, first1), ("two", st2, first2))]
@@ -96,8 +98,8 @@ def test_the_listing_serves_only_its_own_setting_and_thread(case):
     assert got["one"] is first1 and got["two"] is first2
 
     with rounds._listed(st1, cands):
-        other = rounds._candidate_on(model, st2, kind, label)
-        assert rounds._candidate_on(model, st1, kind, label) is first1
+        other = rounds._candidate_on(model, st2, key)
+        assert rounds._candidate_on(model, st1, key) is first1
     assert other is not first1 and other is not first2
     assert _modes_and_coords(other) == (st2.n_modes, len(st2.coords))
 
@@ -110,14 +112,14 @@ def test_a_two_cause_diagnosis_is_the_same_with_and_without_the_listing(monkeypa
     case = cases(seed=7, plan={"two_effects": 1})[0]
     data = case.data("hframe")
     served = []
-    listed_candidate = rounds._listed_candidate
+    listed_candidate = picks._listed_candidate
 
     def counting(*args):
         c = listed_candidate(*args)
         served.append(c is not None)
         return c
 
-    monkeypatch.setattr(rounds, "_listed_candidate", counting)
+    monkeypatch.setattr(picks, "_listed_candidate", counting)
     with_listing = fp.diagnose("hframe", data).to_dict()
     assert any(served), "the rounds never asked the listing for a first-round candidate"
     monkeypatch.setattr(rounds, "_listed", lambda *args: contextlib.nullcontext())

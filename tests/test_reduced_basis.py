@@ -388,7 +388,7 @@ def test_a_candidate_found_by_its_label_is_the_listed_one(case, kind, profile, w
     from fe_problem.diagnosis.rounds import _candidate_on
     cal, cands = case
     listed = _one(cands, kind, profile, **where)
-    found = _candidate_on(cal.setting.model, cal.setting, kind, listed.label)
+    found = _candidate_on(cal.setting.model, cal.setting, listed.key)
     assert found.label == listed.label and found.upper == listed.upper and found.step == listed.step
     assert np.array_equal(found.grid, listed.grid)
     a = np.asarray(listed.grid, dtype=float)[[3, 8]]

@@ -37,6 +37,7 @@ from ..model import FrameModel
 from . import plausibility, sparse_class
 from .setting import Candidate, scale_stiffness
 from .evidence import FACTOR_10, Evidence, ScoredClass
+from .kinds import CandidateKey, spec_of
 from .record import NON_LOCAL, Answer, Cause, Gain, Verdict
 from .verdict import verdict
 
@@ -44,10 +45,30 @@ from .verdict import verdict
 NONE_LABEL = "calibrated model (no effect)"
 
 
+def row_keys(c: ScoredClass) -> tuple[CandidateKey, ...]:
+    """The keys of a row's candidates (`ScoredClass.keys`); for a row built from a label alone (a
+    record read back, a table written by hand: the JSON boundary) the keys its label names; () for
+    the calibrated model and a label that names no key."""
+    if c.keys or c.family == "none":
+        return c.keys
+    try:
+        return tuple(CandidateKey.parse(part) for part in c.label.split(" + "))
+    except ValueError:
+        return ()
+
+
+def place_label(c: ScoredClass) -> str:
+    """The answer a row names: its candidate's kind and place (`CandidateKey.place`: the profiles
+    of one element's loss, a member thinner or deeper, are one answer); the label itself for the
+    calibrated model, several causes and a class named by no key."""
+    keys = row_keys(c) if c.family not in ("none", "several") else ()
+    return keys[0].place.label() if len(keys) == 1 else c.label
+
+
 def answer_key(c: ScoredClass) -> tuple[str, str]:
     """(family, kind@place) of a class: classes with one key are one answer (the profiles of one
     element's loss, a member thinner or deeper); several causes are one answer as a whole."""
-    return c.family, (c.label if c.family in ("none", "several") else c.label.split("(")[0])
+    return c.family, place_label(c)
 
 
 def members_changed(c: ScoredClass) -> frozenset | None:
@@ -58,14 +79,14 @@ def members_changed(c: ScoredClass) -> frozenset | None:
     (the member left out). Else None, also when no member is changed."""
     if c.family in ("local", "several"):
         out = set()
-        for part in c.label.split(" + "):
-            kind, _, where = part.partition("@")
-            where = where.split("(")[0]
-            if kind not in ("stiffness_loss", "stiffness_gain") or not where.startswith("element=") \
-                    or not where[len("element="):].isdigit():
+        keys = row_keys(c)
+        for key in keys:
+            spec, element = spec_of(key), key.get("element")
+            if (spec is None or spec.sides != "stiffness" or len(key.where or ()) != 1
+                    or not isinstance(element, int) or element < 0):
                 return None
-            out.add((int(where[len("element="):]), -1 if kind == "stiffness_loss" else 1))
-        return frozenset(out)
+            out.add((element, spec.side))
+        return frozenset(out) if keys else None
     est = c.estimate or {}
     if c.family in ("sparse", "distributed") and "modulus_ratio" in est and isinstance(est["modulus_ratio"], list):
         out = frozenset((int(e), -1 if r < 1.0 else 1) for e, r in zip(est["members"], est["modulus_ratio"])
@@ -90,7 +111,7 @@ def search_key(rounds) -> tuple[str, str]:
         return "none", NONE_LABEL
     if len(rounds.sized) > 1:
         return "several", " + ".join(c.label for c, _ in rounds.sized)
-    return "local", rounds.sized[0][0].label.split("(")[0]
+    return "local", rounds.sized[0][0].key.place.label()
 
 
 def residual_dof(row: ScoredClass, obs) -> int:

@@ -45,8 +45,9 @@ from .kinds.joint_flexibility import (JOINT_GRID, _bending_compliance_ref, _free
 from .kinds.shear_deformation import shear_deformation  # noqa: F401
 from .kinds.stiffness_gain import GAIN_GRID, stiffness_gain  # noqa: F401
 from .kinds.stiffness_loss import LOSS_GRID, stiffness_loss, zone_candidate, zone_profile  # noqa: F401
-from .setting import (Candidate, Setting, lazy_system, reduced_linear, scale_stiffness, shared_grid,  # noqa: F401
-                      solve, solve_model)
+from .setting import (Candidate, Setting, _Remembered, lazy_system, reduced_linear, scale_stiffness,  # noqa: F401
+                      shared_grid, solve, solve_model)
+from ..model import release_element_end  # noqa: F401 (named here for the code that took it from here)
 
 #: The kinds `all_candidates` builds when none are named (the registry's `default` kinds).
 KINDS = default_kinds()

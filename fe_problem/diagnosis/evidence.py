@@ -22,12 +22,12 @@ is "within a factor of 10": the data do not prefer the best strongly over it.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.stats import norm
 
-from .kinds import spec_of
+from .kinds import CandidateKey, spec_of
 
 #: The next class within this log-evidence difference: within a factor of 10 of the best.
 FACTOR_10 = float(np.log(10.0))
@@ -58,7 +58,9 @@ class ScoredClass:
     global scale, shared by all, not counted), chi^2, log evidence relative to the calibrated
     model, the estimate, the mean |frequency error| (%) it predicts on the held-out modes when
     refitted without them, and how its log evidence was found (``laplace``; ``nested``, with
-    dynesty's error estimate; ``exact`` for the calibrated model under nested sampling)."""
+    dynesty's error estimate; ``exact`` for the calibrated model under nested sampling); `keys`:
+    the keys of the candidates the class is made of (one; several causes' each; none for a class
+    over many members or the calibrated model), not part of the record (its label is)."""
 
     label: str
     family: str
@@ -69,9 +71,10 @@ class ScoredClass:
     held_out_error_pct: float | None = None
     log_evidence_error: float | None = None
     method: str = "laplace"
+    keys: tuple[CandidateKey, ...] = field(default=(), compare=False, repr=False)
 
     def to_dict(self) -> dict:
-        return {k: getattr(self, k) for k in self.__dataclass_fields__}
+        return {k: getattr(self, k) for k in self.__dataclass_fields__ if k != "keys"}
 
 
 @dataclass(frozen=True)

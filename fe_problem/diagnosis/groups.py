@@ -124,7 +124,7 @@ def distributed_candidates(st: Setting) -> list[Candidate]:
     """Every group (loss and gain) and trend class as a one-parameter candidate (planar models:
     the groups are read from x and y)."""
     model = st.model
-    if model.layout.dimension != 2:
+    if not model.layout.planar:
         return []
     ids = list(model.element_ids)
     e0 = np.array([model.element_modulus_pa(e) for e in ids])

@@ -27,8 +27,10 @@ choice is the answer, it stays exactly as it was.
 from __future__ import annotations
 
 import numpy as np
+from scipy.stats import chi2 as chi2_dist
 
 from .fit import chi2_batch
+from .picks import Step, _ambiguity, _answer, _candidate_on, _joint_refit, _with
 
 #: Candidates of best joint promise refitted exactly with the earlier causes (one per answer),
 #: besides the best of every kind.
@@ -51,37 +53,35 @@ def choose(cal, st, picks, sizes, skip: int, cal_k, found_k, step, obs=None):
     """The round's `step` (rounds.Step), or the candidate of `found_k` whose joint refit with the
     earlier causes (`picks` at `sizes`, all but number `skip`) fits `obs` (default the round's
     modes) better than `step`'s by more than the ambiguity margin (see the module docstring)."""
-    from .rounds import Step, _ambiguity, _answer, _candidate_on, _joint_refit, _with
-
     others = [(p, a) for j, (p, a) in enumerate(zip(picks, sizes)) if j != skip]
     if not others:
         return step
     obs = cal_k.obs if obs is None else obs
     base = cal_k.base
     jac = []
-    for j, ((kind, label), a) in enumerate(zip(picks, sizes)):
+    for j, (key, a) in enumerate(zip(picks, sizes)):
         if j == skip:
             continue
-        cand = _candidate_on(_with(st.model, st, picks, sizes, skip=j), st, kind, label)
+        cand = _candidate_on(_with(st.model, st, picks, sizes, skip=j), st, key)
         h = REL_STEP * max(a, cand.step)
         at = np.array([a + h, max(a - h, 0.0)])
         f = chi2_batch(obs, cand, at, pairing=base.pairing)
         jac.append((f[0].residuals - f[1].residuals) / (at[0] - at[1]))
     promise = _joint_screen(cal_k, found_k, np.linalg.qr(np.column_stack(jac))[0])
-    chosen, seen, kinds = [], {_answer(step.pick[1])}, set()
+    chosen, seen, kinds = [], {_answer(step.pick)}, set()
     for i in np.argsort(-promise[:, 0], kind="stable"):
         if promise[i, 0] <= 0.0:
             break
         c = found_k.candidates[i]
         # the best promises, and the best of every kind: candidates of one kind at many places
         # (a joint's flexibility at every column end) can fill the best few on their own
-        if _answer(c.label) not in seen and (len(chosen) < N_JOINT or c.kind not in kinds):
-            seen.add(_answer(c.label))
+        if _answer(c.key) not in seen and (len(chosen) < N_JOINT or c.kind not in kinds):
+            seen.add(_answer(c.key))
             kinds.add(c.kind)
             chosen.append(int(i))
     if not chosen:
         return step
-    starts = [(step.pick, step.a)] + [((found_k.candidates[i].kind, found_k.candidates[i].label),
+    starts = [(step.pick, step.a)] + [(found_k.candidates[i].key,
                                        found_k.fitted[i].a if i in found_k.fitted else float(promise[i, 1]))
                                       for i in chosen]
     return _refit_starts(cal, st, picks, skip, others, starts, step, obs)
@@ -96,8 +96,6 @@ def choose_bringing(cal, st, picks, sizes, skip: int, found_k, step, obs):
     the wrong column fitted best. Candidates whose held fits are equal (`EQUAL`: springs along
     an axially rigid member act as one) are one effect: one of them is refitted, and all are
     named when it ties."""
-    from .rounds import Step, _answer
-
     others = [(p, a) for j, (p, a) in enumerate(zip(picks, sizes)) if j != skip]
     if not others:
         return step
@@ -109,18 +107,18 @@ def choose_bringing(cal, st, picks, sizes, skip: int, found_k, step, obs):
             same.append(i)
         elif len(groups) < N_JOINT + 1:
             groups.append([i])
-    label_of = {i: found_k.candidates[i].label for g in groups for i in g}
-    own = next((g for g in groups if any(label_of[i] == step.pick[1] for i in g)), [])
-    starts = [(step.pick, step.a)] + [((found_k.candidates[g[0]].kind, label_of[g[0]]), found_k.fitted[g[0]].a)
+    key_of = {i: found_k.candidates[i].key for g in groups for i in g}
+    own = next((g for g in groups if any(key_of[i] == step.pick for i in g)), [])
+    starts = [(step.pick, step.a)] + [(key_of[g[0]], found_k.fitted[g[0]].a)
                                       for g in groups if g is not own][:N_JOINT]
     chosen = _refit_starts(cal, st, picks, skip, others, starts, step, obs)
     if chosen is step:
         return step
     # every member of a tied effect's group is named with it
-    names = chosen.ties or (chosen.pick[1],)
-    tied = tuple(dict.fromkeys(label_of[i] for lab in names for g in groups if any(label_of[k] == lab for k in g)
+    names = chosen.ties or (chosen.pick,)
+    tied = tuple(dict.fromkeys(key_of[i] for key in names for g in groups if any(key_of[k] == key for k in g)
                                for i in g)) or names
-    return Step(chosen.pick, chosen.a, chosen.p, () if len({_answer(lab) for lab in tied}) == 1 else tied)
+    return Step(chosen.pick, chosen.a, chosen.p, () if len({_answer(k) for k in tied}) == 1 else tied)
 
 
 #: Held fits that differ by less than this fraction of chi^2 are one effect (`choose_bringing`).
@@ -128,11 +126,9 @@ EQUAL = 1e-4
 
 
 def _refit_starts(cal, st, picks, skip: int, others, starts, step, obs):
-    """The round's `step` or the start ((kind, label), size) of `starts` (the step's first) whose
+    """The round's `step` or the start (key, size) of `starts` (the step's first) whose
     joint refit with `others` fits `obs` better by more than the ambiguity margin (see the module
     docstring)."""
-    from .rounds import Step, _ambiguity, _answer, _joint_refit
-
     trials = []
     for pick, a in starts:
         t_picks, t_sizes = [p for p, _ in others] + [pick], [x for _, x in others] + [a]
@@ -158,8 +154,8 @@ def _refit_starts(cal, st, picks, skip: int, others, starts, step, obs):
     dispersion = max(1.0, best[0] / obs.dof(1 + len(picks) + (skip < 0)))
     if (held - best[0]) / dispersion < _ambiguity():
         return step
-    tied = tuple(lab for chi2, (_, lab), _ in trials if (chi2 - best[0]) / dispersion < _ambiguity())
-    return Step(best[1], best[2], step.p, () if len({_answer(lab) for lab in tied}) == 1 else tied)
+    tied = tuple(key for chi2, key, _ in trials if (chi2 - best[0]) / dispersion < _ambiguity())
+    return Step(best[1], best[2], step.p, () if len({_answer(k) for k in tied}) == 1 else tied)
 
 
 def _joint_screen(cal_k, found_k, q: np.ndarray) -> np.ndarray:
@@ -189,18 +185,17 @@ def _joint_screen(cal_k, found_k, q: np.ndarray) -> np.ndarray:
 #: First-round answers the search of further causes starts from: the best, and the best of
 #: another place (`starts`).
 N_STARTS = 2
-#: The model dimensions the joint choice and the second start are used on. Space frames only for
-#: now: there the close sway and torsion modes of a symmetric frame make two effects interact
+#: The joint choice and the second start are used on models whose layout is not planar
+#: (`DofLayout.planar`). Space frames only for now: there the close sway and torsion modes of a symmetric frame make two effects interact
 #: (a roof mass and a column loss), and the greedy rounds missed the second. On planar models
 #: the rounds stay greedy, as they were when the planar confusion tables were measured: the
 #: joint choice made an H-frame two-effect diagnosis 2.8x slower (23.6 -> 66.7 CPU-s) and the
 #: planar tables have not been re-run with it.
-DIMENSIONS = (3,)
 
 
 def applies(st) -> bool:
-    """Whether the joint choice and the second start are used on `st`'s model (`DIMENSIONS`)."""
-    return st.model.layout.dimension in DIMENSIONS
+    """Whether the joint choice and the second start are used on `st`'s model (not planar)."""
+    return not st.model.layout.planar
 
 
 def starts(found, sel, st) -> list[int]:
@@ -209,14 +204,12 @@ def starts(found, sel, st) -> list[int]:
     effects that interact (a roof mass and a column's loss of a symmetric space frame) can make
     the best single candidate one that mimics both (the mass spread over a roof beam), from
     which no later round reaches the pair; the runner-up (the mass at the beam's end) does."""
-    from .rounds import _answer
-
-    out, seen = [sel.best], {_answer(found.candidates[sel.best].label)}
+    out, seen = [sel.best], {_answer(found.candidates[sel.best].key)}
     for i in sorted(found.fitted, key=lambda i: found.fitted[i].chi2):
         if len(out) >= (N_STARTS if applies(st) else 1):
             break
-        if _answer(found.candidates[i].label) not in seen:
-            seen.add(_answer(found.candidates[i].label))
+        if _answer(found.candidates[i].key) not in seen:
+            seen.add(_answer(found.candidates[i].key))
             out.append(i)
     return out
 
@@ -226,10 +219,6 @@ def better(cal, st, states, alpha: float, n_candidates: int):
     chi^2 on the measured modes that pair with the nominal model, each cause charged the chi^2
     drop the selection demands of one (the test's threshold at the dispersion of the best fit),
     so that a cause more buys no preference; the first state on a tie."""
-    from scipy.stats import chi2 as chi2_dist
-
-    from .rounds import _joint_refit
-
     if len(states) == 1:
         return states[0]
     scored = []

@@ -94,7 +94,7 @@ class LocalMatrices:
         element at once on first use (`_zone_grid`, `_space_zone_grid`: one call per zone was
         10 % of a 3,000-DOF diagnosis); any other place as its own."""
         k = self.row[element_id]
-        if self.model.layout.dimension == 3:
+        if formulation(self.model.element(element_id).formulation, self.model.layout).zone_planes:
             grid, key, step = self._space_zone_grid, (element_id, start, end, about), SPACE_ZONE_CHORD
         else:
             grid, key, step = self._zone_grid, (element_id, start, end), ZONE_STEP
@@ -113,8 +113,8 @@ class LocalMatrices:
         model = self.model
         keys, els = [], []
         for e in model.elements:
-            if not (model.layout.dimension == 3 and formulation(e.formulation, model.layout).supports_weak_zone
-                    and e.weak_zone is None):
+            form = formulation(e.formulation, model.layout)
+            if not (form.zone_planes and form.supports_weak_zone and e.weak_zone is None):
                 continue
             for about in bending_rotations(model):
                 for start, end in zone_places(model, e.id, about):
@@ -142,7 +142,8 @@ class LocalMatrices:
         model = self.model
         keys, rows = [], []
         for k, e in enumerate(model.elements):
-            if not (model.layout.dimension == 2 and formulation(e.formulation, model.layout).supports_crack
+            form = formulation(e.formulation, model.layout)
+            if not (form.supports_crack and not form.zone_planes
                     and e.crack_position is None and e.weak_zone is None):
                 continue
             for start, end in zone_places(model, e.id):
@@ -227,7 +228,7 @@ class LocalMatrices:
 
     @functools.cached_property
     def _plain(self) -> np.ndarray:
-        return np.array([self.model.layout.dimension == 2 and e.formulation in ("euler-bernoulli", "timoshenko")
+        return np.array([self.model.layout.planar and e.formulation in ("euler-bernoulli", "timoshenko")
                          and e.crack_position is None and e.weak_zone is None for e in self.model.elements], dtype=bool)
 
     @functools.cached_property

@@ -35,10 +35,10 @@ from ..correlation import correlate
 from ..matrix_model import MatrixModel
 from ..modal_data import DataFileError, ModalData, load_modal_data
 from . import answer, dropped, plausibility, sparse_class
-from .core import (ALPHA, AMBIGUITY_CHI2, DEFAULT_FREQ_NOISE, DEFAULT_SHAPE_NOISE, EVIDENCE_METHODS, MIN_MODES,
-                   N_FIT, N_HELD_OUT, Calibration, Screening, _check, _fault_notes, _fault_undecided,
-                   _held_out_error, _one_per_answer, _richest_reduced, check_noise, data_checks, gain, select,
-                   to_fit)
+from .core import (ALPHA, DEFAULT_FREQ_NOISE, DEFAULT_SHAPE_NOISE, EVIDENCE_METHODS, N_FIT, N_HELD_OUT, _check,
+                   _fault_notes, _fault_undecided, _held_out_error, _one_per_answer, _richest_reduced, check_noise,
+                   data_checks)
+from .steps import AMBIGUITY_CHI2, MIN_MODES, Calibration, Screening, gain, select, to_fit
 from .datachecks import FAULTS, left_out, spurious_modes, without
 from .evidence import FACTOR_10, ScoredClass, label_log_prior, occam_log_factor, ranked
 from .fit import chi2_batch, fit, profiled, promise
@@ -197,7 +197,7 @@ def _diagnose(model, data, freq_noise, shape_noise, kinds, n_fit, alpha, keep_fa
     beyond = (not significant and not v_none.adequate and best is not None and best.family == "sparse"
               and best.log_evidence >= FACTOR_10 and verdict(obs, sparse_fit, 1 + len(sf.theta), alpha).adequate)
     c_best = found.candidates[sel.best]
-    search = ("local", c_best.label.split("(")[0]) if significant else ("none", answer.NONE_LABEL)
+    search = ("local", c_best.key.place.label()) if significant else ("none", answer.NONE_LABEL)
     row, runner, decisive = answer.choose(ev, search, significant or beyond, obs)
     warnings = list(cal.warnings)
     causes = ()
@@ -297,7 +297,7 @@ def _evidence(cal: Calibration, found: Screening, sf, am):
         occam = occam_log_factor(lambda a, c=cand: [x.chi2 for x in chi2_batch(obs, c, np.asarray(a))], f.a,
                                  cand.upper, d) + label_log_prior(cal.setting, cand)
         classes.append(ScoredClass(cand.label, "local", 1, f.chi2, -(f.chi2 - base.chi2) / (2 * d) + occam,
-                                   cand.estimate(f.a, f.s)))
+                                   cand.estimate(f.a, f.s), keys=(cand.key,)))
     if sf is not None and len(sf.members) > 1:  # one term changed: that term's local class itself
         held = dropped.guarded("every term (sparse)", lambda: sparse_class.held_out_error(
             cal.setting, cal.data, cal.used, sf, obs.freq_noise, obs.shape_noise, am), None)

@@ -26,21 +26,22 @@ brings a mode is chosen by its joint refit with the others (`joint.choose_bringi
 
 from __future__ import annotations
 
-import contextlib
-import contextvars
 import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 from scipy.stats import chi2 as chi2_dist
 
-from ..assembly import AffineModel
 from ..model import FrameModel
-from . import joint, zones
-from .candidates import Candidate, Setting, iter_candidates, scale_stiffness, zone_candidate, zone_profile
-from .fit import Fit, fit
+from . import joint
+from .fit import Fit, fit, profiled
+from .kinds import KINDS as _KINDS
+from .picks import (_LISTED, ZONE_RANGE, ZONE_REACH, ZONE_XTOL, Step, _ambiguity, _answer,  # noqa: F401 (named here)
+                    _candidate_on, _final_obs, _joint_refit, _listed, _listed_candidate, _refine_zone, _with,
+                    _zone_about, _zone_centre)
 from .record import Cause, Found, Gain
+from .setting import Candidate, Setting, scale_stiffness
+from .steps import calibrate, gain, screen_and_fit, select
 from .verdict import interval_of, profile_interval
 
 
@@ -59,89 +60,6 @@ class Rounds:
     sized: tuple = ()
 
 
-@dataclass
-class Step:
-    """A round's answer: the best candidate (kind, label), its size and adjusted p-value, and
-    the labels it ties with (empty when it is the one answer)."""
-
-    pick: tuple[str, str]
-    a: float
-    p: float
-    ties: tuple[str, ...] = ()
-
-
-#: The first round's candidates of the diagnosis under way in this context (thread or task): the
-#: setting they were built in, and label -> candidate for the uniform (not weak zone) ones, filled
-#: on the first look-up (15,566 at 3,024 DOFs); None outside `further_causes` (`_listed`).
-_LISTED: contextvars.ContextVar[tuple[Setting, list[Candidate], dict[str, Candidate]] | None] = (
-    contextvars.ContextVar("femu_diagnosis_listed", default=None))
-
-
-@contextlib.contextmanager
-def _listed(setting: Setting, candidates: list[Candidate]):
-    """While the rounds run, `_candidate_on` of a uniform (not a weak zone) label in `setting`
-    itself (its model, coordinates, mode count and nominal model: one cause, its size refitted:
-    `_joint_refit`, `_finish`) gives the first round's own candidate: the same setting and label
-    build the same candidate, and that one keeps its solved sizes and its setting's shared basis
-    (built once more per refit before). The listing belongs to this context only (a ContextVar),
-    so diagnoses run at once in other threads never see it."""
-    token = _LISTED.set((setting, candidates, {}))
-    try:
-        yield
-    finally:
-        _LISTED.reset(token)
-
-
-def _listed_candidate(model: FrameModel, st: Setting, label: str) -> Candidate | None:
-    """The first round's candidate `label` where the listing's setting is the one `_candidate_on`
-    would build (`model`, `st`'s coordinates, mode count and nominal model), else None."""
-    listed = _LISTED.get()
-    if listed is None or _zone_centre(label) is not None:
-        return None
-    setting, candidates, by_label = listed
-    if not (setting.model is model and setting.coords == st.coords and setting.n_modes == st.n_modes
-            and setting.nominal is st.nominal):
-        return None
-    if not by_label:
-        by_label.update((c.label, c) for c in candidates if _zone_centre(c.label) is None)
-    return by_label.get(label)
-
-
-def _candidate_on(model: FrameModel, st: Setting, kind: str, label: str) -> Candidate:
-    """The candidate `label` of `kind`, rebuilt on `model` (the others' effects included), or the
-    first round's where it was built in the same setting (`_listed`); a weak zone at any
-    position (a refined one too) from the centre its label gives."""
-    listed = _listed_candidate(model, st, label)
-    if listed is not None:
-        return listed
-    setting = Setting(model, st.coords, st.n_modes, st.nominal)
-    centre = _zone_centre(label)
-    if centre is not None:
-        return zone_candidate(setting, _location(label)["element"], centre, about=_zone_about(label) or "rz")
-    return next(c for c in iter_candidates(setting, [kind]) if c.label == label)
-
-
-def _zone_centre(label: str) -> float | None:
-    """The centre of a weak-zone label ('stiffness_loss@element=7(zone 0.353)'), else None."""
-    profile = label.partition("(")[2].rstrip(")")
-    return float(profile.split()[1]) if profile.startswith("zone ") else None
-
-
-def _zone_about(label: str) -> str | None:
-    """The bending rotation of a space frame's weak-zone label ('...(zone 0.30 ry)'), else None."""
-    words = label.partition("(")[2].rstrip(")").split()
-    return words[2] if len(words) > 2 and words[0] == "zone" else None
-
-
-def _with(base: FrameModel, st: Setting, picks: list[tuple[str, str]], sizes: list[float], skip: int = -1):
-    """`base` extended by every picked (kind, label) at its size, except number `skip`."""
-    m = base
-    for j, ((kind, label), a) in enumerate(zip(picks, sizes)):
-        if j != skip:
-            m = _candidate_on(m, st, kind, label).extend(a)
-    return m
-
-
 def further_causes(cal, found, sel, cause: Cause, kinds, n_fit, alpha: float, max_causes: int) -> Rounds:
     """Add causes one by one after the first (see the module docstring)."""
     with _listed(cal.setting, found.candidates):
@@ -150,16 +68,14 @@ def further_causes(cal, found, sel, cause: Cause, kinds, n_fit, alpha: float, ma
 
 def _further_causes(cal, found, sel, cause: Cause, kinds, n_fit, alpha: float, max_causes: int) -> Rounds:
     """`further_causes` with the first round's candidates listed (`_listed`)."""
-    from .core import gain
-
     st = cal.setting
     states = []
     for i in joint.starts(found, sel, st):  # the best first cause and the runner-up of another place
         c0, f0 = found.candidates[i], found.fitted[i]
         # a first round whose candidates tie goes on with its best: a second effect's misfit can be
         # what blurs the first choice; the revisit below chooses it again once the second is in
-        picks, sizes, ps = [(c0.kind, c0.label)], [f0.a], [cause.p_adjusted]
-        ties: list[tuple[str, ...]] = [() if cause.identifiable or i != sel.best else cause.indistinguishable]
+        picks, sizes, ps = [c0.key], [f0.a], [cause.p_adjusted]
+        ties: list[tuple] = [() if cause.identifiable or i != sel.best else _keys(found, cause.indistinguishable)]
         # its size refitted on the modes that pair with the model it extends (a spring to ground
         # brings a suspension mode the first round could not fit)
         picks, sizes, _ = _joint_refit(cal, st, picks, sizes)
@@ -232,7 +148,7 @@ def _search(cal, st: Setting, state, kinds, n_fit, alpha: float, max_causes: int
 
 def _held(picks) -> frozenset:
     """The causes of a state as a set of answers (kind, place): what the search has held."""
-    return frozenset(_answer(label) for _, label in picks)
+    return frozenset(_answer(key) for key in picks)
 
 
 def _next_cause(cal, st: Setting, picks, sizes, kinds, n_fit, alpha: float, skip: int = -1,
@@ -240,9 +156,7 @@ def _next_cause(cal, st: Setting, picks, sizes, kinds, n_fit, alpha: float, skip
     """The best further candidate against the model extended by `picks` (all but number `skip`),
     tested as the first was, on the modes that pair with that model or on `obs`; None if
     nothing is significant."""
-    from .core import calibrate, profiled, screen_and_fit, select
-
-    places = [(k, _location(lab), _zone_centre(lab) is None) for j, (k, lab) in enumerate(picks) if j != skip]
+    places = [(k.kind, k.location, _zone_centre(k) is None) for j, k in enumerate(picks) if j != skip]
     cal_k = calibrate(_with(st.model, st, picks, sizes, skip), cal.data, cal.obs.freq_noise, cal.obs.shape_noise,
                       st.model)
     unpaired = np.zeros(0, dtype=int)
@@ -265,10 +179,9 @@ def _next_cause(cal, st: Setting, picks, sizes, kinds, n_fit, alpha: float, skip
         return None
     ck = found_k.candidates[sel_k.best]
     tied = _tied(found_k, sel_k)
-    labels = tuple(found_k.candidates[i].label for i in tied)
-    one = len({_answer(lab) for lab in labels}) == 1
-    step = Step((ck.kind, ck.label), found_k.fitted[sel_k.best].a, sel_k.selection.p_adjusted,
-                () if one else labels)
+    keys = tuple(found_k.candidates[i].key for i in tied)
+    one = len({_answer(k) for k in keys}) == 1
+    step = Step(ck.key, found_k.fitted[sel_k.best].a, sel_k.selection.p_adjusted, () if one else keys)
     # a new cause: chosen again by its joint fit with the causes found (their sizes free); so is
     # any cause that brings a mode, beside the others (`joint.choose_bringing`)
     if bringing:
@@ -285,11 +198,11 @@ def _tied(found, sel) -> list[int]:
 
 def _undetermined(step: Step, location=None) -> Found:
     """The entry for tied candidates: their kind and place where all agree, else undetermined/None."""
-    kinds = {_answer(t)[0] for t in step.ties}
-    places = {_answer(t)[1] for t in step.ties}
-    return Found(step.pick[0] if len(kinds) == 1 else "undetermined",
-                 (location or _location(step.pick[1])) if len(places) == 1 else None,
-                 {}, {}, None, step.p, False, step.ties)
+    kinds = {t.kind for t in step.ties}
+    places = {_answer(t) for t in step.ties}
+    return Found(step.pick.kind if len(kinds) == 1 else "undetermined",
+                 (location or step.pick.location) if len(places) == 1 else None,
+                 {}, {}, None, step.p, False, tuple(t.label() for t in step.ties))
 
 
 #: Sweeps of `_revisit` at most, and the least drop of the joint chi^2 that counts as a change
@@ -323,7 +236,7 @@ def _revisit(cal, st: Setting, state, n: int, kinds, n_fit, alpha: float, obs=No
                 trial = picks[:j] + [step.pick] + picks[j + 1:]
                 trial, t_sizes, t_chi2 = _joint_refit(cal, st, trial, sizes[:j] + [step.a] + sizes[j + 1:], obs)
                 if t_chi2 >= chi2 - CHI2_TOL:
-                    if picks[j][1] in step.ties:  # it ties with the others chosen: it says so
+                    if picks[j] in step.ties:  # it ties with the others chosen: it says so
                         ties[j] = step.ties
                     continue
                 picks, sizes, chi2, changed = trial, t_sizes, t_chi2, True
@@ -334,24 +247,17 @@ def _revisit(cal, st: Setting, state, n: int, kinds, n_fit, alpha: float, obs=No
     return picks, sizes, ps, ties
 
 
-def _final_obs(cal, st: Setting, picks, sizes):
-    """The measured modes that pair with the model extended by every cause (a spring to ground
-    can bring a measured suspension mode that the nominal model has no partner for)."""
-    from .core import calibrate
-
-    return calibrate(_with(st.model, st, picks, sizes), cal.data, cal.obs.freq_noise, cal.obs.shape_noise,
-                     st.model).obs
+#: Kinds that change an element's stiffness (the two sides of the stiffness class, kinds/): a further
+#: one next to one already found is the first effect's form (a crack is neither uniform nor linear
+#: along its element), not a new cause, unless both are uniform and of one kind
+#: (`_touches_found_stiffness`).
+STIFFNESS_KINDS = tuple(k for k, spec in _KINDS.items() if spec.sides == "stiffness")
 
 
-def _ambiguity() -> float:
-    from .core import AMBIGUITY_CHI2
-    return AMBIGUITY_CHI2
-
-
-#: Kinds that change an element's stiffness: a further one next to one already found is the
-#: first effect's form (a crack is neither uniform nor linear along its element), not a new cause,
-#: unless both are uniform and of one kind (`_touches_found_stiffness`).
-STIFFNESS_KINDS = ("stiffness_loss", "stiffness_gain")
+def _keys(found, labels) -> tuple:
+    """The keys of the first round's candidates named by `labels` (a cause's tie), in their order."""
+    by_label = {c.label: c.key for c in found.candidates}
+    return tuple(by_label[lab] for lab in labels)
 
 
 def _new_place(c: Candidate, model: FrameModel, places: list, ids=None) -> bool:
@@ -361,7 +267,7 @@ def _new_place(c: Candidate, model: FrameModel, places: list, ids=None) -> bool:
     element_ids, node_ids = ids if ids is not None else (frozenset(model.element_ids), frozenset(model.node_ids))
     loc = c.location or {}
     if c.kind in STIFFNESS_KINDS and _touches_found_stiffness(model, loc.get("element"), places, element_ids,
-                                                              (c.kind, _zone_centre(c.label) is None)):
+                                                              (c.kind, _zone_centre(c.key) is None)):
         return False
     if "element" in loc and loc["element"] not in element_ids:
         return False
@@ -389,89 +295,27 @@ def _touches_found_stiffness(model: FrameModel, element: int | None, places: lis
                for kind, where, uniform in places)
 
 
-def _joint_refit(cal, st: Setting, picks, sizes, obs=None) -> tuple[list, list[float], float]:
-    """One sweep: each cause's size refitted with the others at their current sizes, on `obs`
-    (default: the modes that pair with the extended model), a crack's position along its
-    element too (`_refine_zone`); returns the picks (a refined crack relabelled), the sizes and
-    the joint chi^2."""
-    picks, sizes = list(picks), list(sizes)
-    obs = _final_obs(cal, st, picks, sizes) if obs is None else obs
-    chi2 = float("inf")
-    for j, (kind, label) in enumerate(picks):
-        base = _with(st.model, st, picks, sizes, skip=j)
-        if _zone_centre(label) is not None:
-            picks[j], f = _refine_zone(obs, st, base, picks[j], sizes[j])
-        else:
-            f = fit(obs, _candidate_on(base, st, kind, label), sizes[j])
-        sizes[j], chi2 = f.a, f.chi2
-    return picks, sizes, chi2
-
-
-#: How far (a fraction of the element) a crack's position is refined from its grid position,
-#: the range it may reach (nearer an end a crack acts as the joint there, and the joint
-#: candidate is the one that says so; zones.py), and the tolerance of the search.
-ZONE_REACH, ZONE_RANGE, ZONE_XTOL = 0.1, (0.15, 0.85), 0.002
-
-
-def _refine_zone(obs, st: Setting, base: FrameModel, pick: tuple[str, str], a: float):
-    """A weak zone's centre refined along its element (a bounded scalar search, each trial the
-    zone's size fitted at that centre): the grid's seven positions are where a crack is looked
-    for; where it is, between them, decides how much misfit a crack leaves for a further
-    cause to take. Returns the pick, relabelled at the refined centre, and its fit. On the
-    sparse path (a large model: every trial a model assembled afresh) the position stays."""
-    kind, label = pick
-    element, centre, about = _location(label)["element"], _zone_centre(label), _zone_about(label)
-    setting = Setting(base, st.coords, st.n_modes, st.nominal)
-    shared = {"system": AffineModel(base)}  # one solver for every trial position
-    fits: dict[float, Fit] = {}
-
-    def chi2_at(c: float) -> float:
-        c = round(float(c), 3)
-        if c not in fits:
-            fits[c] = fit(obs, zone_candidate(setting, element, c, shared, about or "rz"), a)
-        return fits[c].chi2
-
-    chi2_at(centre)
-    if zones.batched(shared["system"]):
-        lo, hi = max(ZONE_RANGE[0], centre - ZONE_REACH), min(ZONE_RANGE[1], centre + ZONE_REACH)
-        minimize_scalar(chi2_at, bounds=(lo, hi), method="bounded", options={"xatol": ZONE_XTOL})
-    best = min(fits, key=lambda c: fits[c].chi2)
-    return (kind, label.partition("(")[0] + f"({zone_profile(best, about)})"), fits[best]
-
-
 def _finish(cal, st, picks, sizes, ps, ties, gain) -> Rounds:
     """Each cause's estimate and profile interval (the others at their sizes), the final fit,
     the final model and the held-out gain of the last cause (the others at their sizes); a
     cause whose candidates tie (`ties`) is reported as not identifiable with them."""
     obs = _final_obs(cal, st, picks, sizes)
     out, final, best = [], None, None
-    for j, (kind, label) in enumerate(picks):
-        cand = _candidate_on(_with(st.model, st, picks, sizes, skip=j), st, kind, label)
+    for j, key in enumerate(picks):
+        cand = _candidate_on(_with(st.model, st, picks, sizes, skip=j), st, key)
         f = fit(obs, cand, sizes[j])
         if final is None or f.chi2 < final.chi2:  # the final model is the best of these joint fits
             final, best = f, cand
         if ties[j] and len({_answer(t) for t in ties[j]}) > 1:
-            out.append(_undetermined(Step((kind, label), f.a, ps[j], ties[j]), cand.location))
+            out.append(_undetermined(Step(key, f.a, ps[j], ties[j]), cand.location))
             continue
         dispersion = max(1.0, f.chi2 / obs.dof(1 + len(picks)))
         low, high = profile_interval(obs, cand, f, dispersion)
-        out.append(Found(kind, cand.location, cand.estimate(f.a, f.s), interval_of(cand, low, high, f.s), label,
-                         ps[j]))
+        out.append(Found(key.kind, cand.location, cand.estimate(f.a, f.s), interval_of(cand, low, high, f.s),
+                         key.label(), ps[j]))
     final_model = scale_stiffness(best.extend(final.a), final.s)
-    sized = tuple((_candidate_on(_with(st.model, st, picks, sizes, skip=j), st, kind, label), sizes[j])
-                  for j, (kind, label) in enumerate(picks))
+    sized = tuple((_candidate_on(_with(st.model, st, picks, sizes, skip=j), st, key), sizes[j])
+                  for j, key in enumerate(picks))
     return Rounds(tuple(out), final, final_model, gain(cal, cand), obs, sized)
 
 
-def _location(label: str) -> dict | None:
-    """The location of a candidate from its label: 'added_mass@node=4' gives {'node': 4}."""
-    where = label.partition("@")[2].split("(")[0]
-    if not where:
-        return None
-    return {k: (int(v) if v.lstrip("-").isdigit() else v) for k, v in (p.split("=") for p in where.split(","))}
-
-
-def _answer(label: str) -> tuple[str, str]:
-    """(kind, place) of a candidate label: profiles of one element's loss are one answer."""
-    kind, _, where = label.partition("@")
-    return kind, where.split("(")[0]

@@ -22,7 +22,7 @@ from ..modal import frequencies_hz
 from ..model import FrameModel
 from ..assembly import AffineModel, solver_path
 from . import dropped
-from .kinds.spec import CandidateKey
+from .key import CandidateKey
 from .local import LocalMatrices, Term
 from .reduced import SharedBasis
 

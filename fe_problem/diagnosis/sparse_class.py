@@ -220,7 +220,7 @@ class _AllMembers:
 
 def applicable(st: Setting) -> bool:
     """Planar models on the dense solver path (see the module docstring)."""
-    return (st.model.layout.dimension == 2 and len(st.model.elements) >= 2
+    return (st.model.layout.planar and len(st.model.elements) >= 2
             and solver_path(len(st.local.dofmap.free)) == "dense")
 
 

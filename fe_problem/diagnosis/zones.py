@@ -93,7 +93,8 @@ def with_zone(model: FrameModel, element_id: int, start: float, end: float, rati
     `about` (a space element's ``weak_zone_about``); ratio 1: the model."""
     if ratio >= 1.0:
         return model
-    fields = {"weak_zone_about": (about,)} if model.layout.dimension == 3 else {}
+    planes = formulation(model.element(element_id).formulation, model.layout).zone_planes
+    fields = {"weak_zone_about": (about,)} if planes else {}
     return model.replace(elements=tuple(dataclasses.replace(e, weak_zone=(start, end, float(ratio)), **fields)
                                         if e.id == element_id else e for e in model.elements))
 
@@ -135,8 +136,8 @@ def zone_stiffness(model: FrameModel, element_id: int, start: float, end: float,
     bending about `about` (a space element: its formulation's `zone_stiffness`)."""
     e = model.element(element_id)
     b = ratio.shape[0]
-    if model.layout.dimension == 3:
-        form = formulation(e.formulation, model.layout)
+    form = formulation(e.formulation, model.layout)
+    if form.zone_planes:
         return model.element_modulus_pa(element_id) * form.zone_stiffness(
             model, [e] * b, np.full(b, start), np.full(b, end), ratio, [(about,)] * b)
     g = Geometry.of(model, [e])

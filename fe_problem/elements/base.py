@@ -57,6 +57,10 @@ class ElementFormulation(ABC):
     supports_profile: bool = False
     #: whether an element of this formulation may hold a weak zone (``weak_zone``)
     supports_weak_zone: bool = False
+    #: whether its weak zone bends about a named local rotation (``weak_zone_about``: one zone per
+    #: bending plane) with the stiffness its own `zone_stiffness` gives (a space beam's); False: the
+    #: one bending plane of a planar beam, whose zone diagnosis/zones.py assembles
+    zone_planes: bool = False
 
     @abstractmethod
     def stiffness(self, model: FrameModel, elements: Sequence[Element]) -> np.ndarray:

@@ -94,6 +94,7 @@ class EulerBernoulli3d(_SpaceBeam):
     name = "euler-bernoulli"
     supports_profile = True
     supports_weak_zone = True
+    zone_planes = True
 
     def stiffness(self, model, elements):
         k = super().stiffness(model, elements)

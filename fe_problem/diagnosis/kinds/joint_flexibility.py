@@ -56,7 +56,7 @@ def _rotation_axis(model: FrameModel, e, local: str):
     """The rotation an end of element `e` turns in when released in its rotation `local`: the
     planar frame's rotation name; on a space frame the local axis as a global unit vector (3,)
     (along a global axis or skew: a brace's, an inclined rafter's)."""
-    if len(model.layout.hinges) == 1:
+    if model.layout.planar:
         return local
     return np.asarray(model.local_axes(e.id)[("rx", "ry", "rz").index(local)], dtype=float)
 
@@ -116,7 +116,7 @@ def joint_flexibility(st: Setting) -> Iterator[Candidate]:
     that axis, terms.py). At a corner (two ends) one candidate per axis: releasing either end
     about the same axis is the same model (the first end's; the second's only about an axis
     along none of the first's, as at a gable's ridge)."""
-    planar = len(st.model.layout.hinges) == 1
+    planar = st.model.layout.planar
     bending = bending_hinges(st.model)
     rotations = bending + tuple(r for r in st.model.layout.hinges if r not in bending)
     for node in joint_nodes(st.model):

@@ -76,7 +76,7 @@ def _zone_candidates(st: Setting, e, e0: float, shared: dict, places=None, about
     `zones.zone_forwards`' for its place, made when it is first called (most zones are only
     screened: making every zone's forward, each with the element's nominal stiffness, was a
     sixth of building the candidates)."""
-    space = st.model.layout.dimension == 3
+    space = formulation(e.formulation, st.model.layout).zone_planes  # a zone per bending plane, named
     for start, end in zones.zone_places(st.model, e.id, about) if places is None else places:
         centre = round(0.5 * (start + end), 6)
 
