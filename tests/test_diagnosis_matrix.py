@@ -108,6 +108,20 @@ def test_null_data_quiet(column, seed):
     assert diag.extended_model is None
 
 
+def test_a_reversed_channel_is_left_out_and_the_answer_not_decisive(column):
+    """The mass case's data with the channel at the mass (floor 3, node 4) reversed in polarity:
+    the data checks name it, the diagnosis leaves it out, and no answer on faulty data is decisive."""
+    fr, path, model, dofs = column
+    k, m = truth(fr, mass_at=((4, "x"), 1500.0))
+    d = measured(fr, path, k, m, dofs, n_modes=N_MODES, seed=1)
+    shapes = d.shapes.copy()
+    shapes[dofs.index((4, "x"))] *= -1.0
+    diag = diagnose(model, ModalData(d.model, d.dofs, d.frequencies_hz, shapes, d.meta))
+    assert [c.kind for c in diag.data_checks] == ["channel_polarity"]
+    assert diag.left_out == {"channels": [[4, "x"]]}
+    assert not diag.answer.decisive and "fault" in diag.answer.not_decisive_because
+
+
 def test_row_numbered_dofs_and_a_mass_at_a_row(tmp_path, column):
     """A manifest that counts its DOFs (row numbers), data at row numbers: the same mass found,
     named by its row."""
