@@ -172,7 +172,7 @@ def test_cli_diagnose_on_a_matrix_manifest(column, tmp_path):
 
 
 def test_bad_inputs_one_line(column, tmp_path, capsys):
-    """Through the CLI (in process): a DOF the model lacks, the frames' nested evidence, a term name
+    """Through the CLI (in process): a DOF the model lacks, a noise given as a percentage, a term name
     the diagnosis keeps for its own terms: exit 2, one line on stderr; an unknown kind in the library."""
     from femu.cli import main
 
@@ -186,7 +186,7 @@ def test_bad_inputs_one_line(column, tmp_path, capsys):
     doc["stiffness"][0]["name"] = "+mass@3"
     (path.parent / "clash.json").write_text(json.dumps(doc))
     for args, needle in (([bad, "--model", path], "no DOF [99, 'x']"),
-                         ([data, "--model", path, "--evidence", "nested"], "Laplace evidence only"),
+                         ([data, "--model", path, "--freq-noise", "2"], "a fraction, not a percentage"),
                          ([data, "--model", path.parent / "clash.json"], "'+mass@3'")):
         assert main(["diagnose", *map(str, args)]) == 2
         out, err = capsys.readouterr()
@@ -194,3 +194,20 @@ def test_bad_inputs_one_line(column, tmp_path, capsys):
         assert out == "" and len(lines) == 1 and needle in lines[0], err
     with pytest.raises(ValueError, match="not a model given as matrices'"):
         diagnose(path, good, kinds=["stiffness_loss"])
+
+
+def test_nested_evidence_agrees_with_laplace(column, monkeypatch):
+    """`evidence="nested"` on the storey-loss case: the best class (only it, to keep the test short:
+    `nested.rescored` with n_nested=1) sampled by dynesty has the log evidence its Laplace value
+    gives, within 1 (two independent integrations of one likelihood)."""
+    from fe_problem.diagnosis import matrix, nested
+
+    fr, path, model, dofs = column
+    k, m = truth(fr, soft=(2, 0, 0.7))
+    data = measured(fr, path, k, m, dofs, n_modes=N_MODES, seed=1)
+    laplace = diagnose(model, data).evidence.classes[0]
+    monkeypatch.setattr(matrix, "rescored", lambda *a: nested.rescored(*a, n_nested=1))
+    best = diagnose(model, data, evidence="nested").evidence.classes[0]
+    assert best.label == laplace.label == "term_loss@term=storey2"
+    assert best.method == "nested" and laplace.method == "laplace"
+    assert abs(best.log_evidence - laplace.log_evidence) < 1.0, (best.log_evidence, laplace.log_evidence)

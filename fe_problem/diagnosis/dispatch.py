@@ -17,7 +17,7 @@ def diagnose(model, data: ModalData | str, freq_noise: float | None = None, shap
     """Diagnose what `model` (a FrameModel, a MatrixModel, a shipped name, a model file or a matrix
     manifest; None: the data's own model) misses in `data`: `core.diagnose` for a frame model
     (every argument as documented there), `matrix.diagnose_matrix` for a model given as matrices
-    (one local cause: `max_causes` does not apply; Laplace evidence only)."""
+    (one local cause: `max_causes` does not apply)."""
     data = load_modal_data(data)
     model = data.load_model() if model is None else load_any_model(model)
     if isinstance(model, MatrixModel):

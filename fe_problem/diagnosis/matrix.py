@@ -40,9 +40,10 @@ from .core import (ALPHA, DEFAULT_FREQ_NOISE, DEFAULT_SHAPE_NOISE, EVIDENCE_METH
                    data_checks)
 from .steps import AMBIGUITY_CHI2, MIN_MODES, Calibration, Screening, gain, select, to_fit
 from .datachecks import FAULTS, left_out, spurious_modes, without
-from .evidence import FACTOR_10, ScoredClass, label_log_prior, occam_log_factor, ranked
+from .evidence import FACTOR_10, ScoredClass, label_log_prior, occam_log_factor, ranked, sides_log_prior
 from .fit import chi2_batch, fit, profiled, promise
 from .matrix_kinds import matrix_candidates, varied_terms
+from .nested import require_dynesty, rescored
 from .matrix_setting import MatrixSetting
 from .record import Cause, Diagnosis, Found, Noise, Residuals
 from .residuals import Observations
@@ -56,13 +57,14 @@ def diagnose_matrix(model: MatrixModel, data: ModalData | str, freq_noise: float
                     shape_noise: float | None = None, kinds=None, n_fit: int | None = N_FIT, alpha: float = ALPHA,
                     evidence: str = "laplace", keep_faulty: bool = False) -> Diagnosis:
     """Diagnose what the matrix model `model` misses in `data` (see the module docstring; the
-    arguments as `core.diagnose`'s; kinds: of matrix_kinds.MATRIX_KINDS). evidence: ``laplace``
-    only (nested sampling is the frames')."""
-    if evidence != "laplace":
-        raise ValueError(f"evidence {evidence!r}: a model given as matrices is scored by Laplace evidence only "
-                         f"(one of {', '.join(EVIDENCE_METHODS)} for a frame model)")
+    arguments as `core.diagnose`'s; kinds: of matrix_kinds.MATRIX_KINDS; evidence ``nested``: the
+    best classes by Laplace scored again by dynesty's nested sampling, nested.py, as a frame's)."""
+    if evidence not in EVIDENCE_METHODS:
+        raise ValueError(f"evidence must be one of {', '.join(EVIDENCE_METHODS)}, got {evidence!r}")
+    if evidence == "nested":
+        require_dynesty()  # before the work: a missing dependency fails at once
     with dropped.recording() as failed:
-        diag = _diagnose(model, data, freq_noise, shape_noise, kinds, n_fit, alpha, keep_faulty)
+        diag = _diagnose(model, data, freq_noise, shape_noise, kinds, n_fit, alpha, keep_faulty, evidence)
     if not failed:
         return diag
     notes = tuple(f"{label} dropped: {why}; left out of the fits, the test and the evidence" for label, why in failed.items())
@@ -162,7 +164,7 @@ def fit_sparse_terms(cal: Calibration):
 
 
 # == the steps ===================================================================================
-def _diagnose(model, data, freq_noise, shape_noise, kinds, n_fit, alpha, keep_faulty) -> Diagnosis:
+def _diagnose(model, data, freq_noise, shape_noise, kinds, n_fit, alpha, keep_faulty, evidence="laplace") -> Diagnosis:
     data = load_modal_data(data)
     _check(model, data)
     noise = Noise(DEFAULT_FREQ_NOISE if freq_noise is None else check_noise(freq_noise, "freq_noise"),
@@ -188,7 +190,7 @@ def _diagnose(model, data, freq_noise, shape_noise, kinds, n_fit, alpha, keep_fa
     sel = select(cal, found, alpha)
     significant = sel.selection.p_adjusted < alpha
     sf, am = fit_sparse_terms(cal)
-    ev, by_label = _evidence(cal, found, sf, am)
+    ev, by_label = _evidence(cal, found, sf, am, evidence)
     v_none = verdict(obs, base, 1, alpha, what="the calibrated model (no candidate significant)")
     sparse_fit = None if sf is None else am.residuals(obs, _theta(am, sf)[None])[0]
     best = ev.best
@@ -286,8 +288,9 @@ def _theta(am: AllTerms, sf) -> np.ndarray:
     return theta
 
 
-def _evidence(cal: Calibration, found: Screening, sf, am):
-    """The evidence table (core.score_classes' rules on the matrix classes) and label -> candidate."""
+def _evidence(cal: Calibration, found: Screening, sf, am, evidence: str = "laplace"):
+    """The evidence table (core.score_classes' rules on the matrix classes) and label -> candidate;
+    evidence ``nested``: its best classes scored again by nested sampling (`nested.rescored`)."""
     obs, base = cal.obs, cal.base
     fits = [(found.candidates[i], f) for i, f in found.fitted.items() if not dropped.is_dropped(found.candidates[i].label)]
     reduced = [base.chi2 / obs.dof(1)] + [f.chi2 / obs.dof(2) for _, f in fits] + _richest_reduced(obs, sf)
@@ -311,7 +314,16 @@ def _evidence(cal: Calibration, found: Screening, sf, am):
         if k < N_HELD_OUT and (c.label in by_label or c.family == "none"):
             c = dataclasses.replace(c, held_out_error_pct=_held_out_error(cal, by_label.get(c.label)))
         out.append(c)
-    return dataclasses.replace(ev, classes=tuple(out)), by_label
+    ev = dataclasses.replace(ev, classes=tuple(out))
+    if evidence == "nested":
+        integrands = {c.label: (lambda a, c=c: chi2_batch(obs, c, np.asarray(a[:1]))[0].chi2, 0.0, c.upper,
+                                label_log_prior(cal.setting, c)) for c, _ in fits}
+        if sf is not None and len(sf.members) > 1:
+            integrands[sparse_label(sf)] = (sparse_class.chi2_function(cal.setting, obs, sf, am),
+                                            *sparse_class.sided(sf.theta),
+                                            -sf.support_log_penalty + sides_log_prior(len(sf.theta)))
+        ev = rescored(ev, integrands, base.chi2, d)
+    return ev, by_label
 
 
 def _cause(cal: Calibration, found: Screening, sel):
