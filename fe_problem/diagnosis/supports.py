@@ -134,10 +134,10 @@ def support_candidates(st: Setting, nodes=None) -> list[Candidate]:
         fixed = [d for d in lay.names if d in held and usable(d)]
         free = [d for d in lay.rotations if d not in held and usable(d)]
         groups = [((d,), "released") for d in fixed] + [((d,), "held") for d in free]
-        if len(lay.rotations) > 1:  # a space frame's rotations together
-            for dirs, mode in (([d for d in fixed if d in lay.rotations], "released"), (free, "held")):
-                if len(dirs) > 1:
-                    groups.append((tuple(dirs), mode))
+        # a layout's several rotations together (a space frame's; a planar one has one)
+        for dirs, mode in (([d for d in fixed if d in lay.rotations], "released"), (free, "held")):
+            if len(dirs) > 1:
+                groups.append((tuple(dirs), mode))
         out += [_candidate(st, sup.node, dirs, mode, baseline) for dirs, mode in groups]
     return out
 
