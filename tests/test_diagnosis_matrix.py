@@ -211,3 +211,37 @@ def test_nested_evidence_agrees_with_laplace(column, monkeypatch):
     assert best.label == laplace.label == "term_loss@term=storey2"
     assert best.method == "nested" and laplace.method == "laplace"
     assert abs(best.log_evidence - laplace.log_evidence) < 1.0, (best.log_evidence, laplace.log_evidence)
+
+
+def test_first_order_terms_against_finite_differences_of_solves(column):
+    """Each matrix kind's first-order term (kinds/: +-K_i, e_d e_d^T, k_ref e_d e_d^T) through the
+    frames' first-order screen (screening.py: phi^T (dK - lambda dM) phi, Nelson's shape change by
+    the bordered adjoint on the singular M) against central differences of the candidate's own exact
+    solves; and the screen's promised drops against `fit.screen`'s exact step (the same ranking)."""
+    from fe_problem.diagnosis.fit import screen
+    from fe_problem.diagnosis.matrix import calibrate_matrix, matrix_candidates
+    from fe_problem.diagnosis.screening import baseline, changes, screen_all
+
+    fr, path, model, dofs = column
+    k, m = truth(fr, mass_at=((4, "x"), 1500.0))
+    cal = calibrate_matrix(model, measured(fr, path, k, m, dofs, n_modes=N_MODES, seed=1), 0.002, 0.02)
+    st = cal.setting
+    cands = matrix_candidates(st)
+    base = baseline(st.screen_setting.system, st.coords, st.n_modes)
+    picked = [next(c for c in cands if c.kind == kind) for kind in ("term_loss", "term_gain", "dof_mass", "dof_spring")]
+    dlam, dshape = changes(base, [c.term() for c in picked])
+    for c, dl, ds in zip(picked, dlam, dshape):
+        h = 0.1 * c.step
+        hz, sh = c.forward(np.array([h, 2 * h]))  # one-sided: a >= 0; second order from the two steps
+        lam = (2 * np.pi * hz) ** 2
+        fd_lam = (4 * lam[0] - lam[1] - 3 * base.lam) / (2 * h)
+        fd_shape = (4 * sh[0] - sh[1] - 3 * base.phi_c) / (2 * h)
+        used = slice(0, N_MODES)  # the modes the data pair with (above them differences lose to rounding)
+        np.testing.assert_allclose(dl[used], fd_lam[used], rtol=1e-4, atol=1e-6 * np.abs(fd_lam[used]).max(),
+                                   err_msg=c.label)
+        np.testing.assert_allclose(ds[:, used], fd_shape[:, used], atol=1e-4 * np.abs(fd_shape[:, used]).max(),
+                                   err_msg=c.label)
+    first = screen_all(cal.obs, cal.base, model, st.coords, st.n_modes, cands, st.screen_setting)
+    exact = [screen(cal.obs, c, cal.base) for c in cands]
+    np.testing.assert_allclose([f[0] for f in first], [e[0] for e in exact], rtol=0.05, atol=0.05)
+    assert np.argsort([-f[0] for f in first])[:3].tolist() == np.argsort([-e[0] for e in exact])[:3].tolist()

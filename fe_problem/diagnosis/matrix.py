@@ -47,6 +47,7 @@ from .nested import require_dynesty, rescored
 from .matrix_setting import MatrixSetting
 from .record import Cause, Diagnosis, Found, Noise, Residuals
 from .residuals import Observations
+from .screening import screen_all
 from .verdict import interval_of, profile_interval, verdict
 
 #: The sparse class's kind (its label: every_term_sparse@terms=a+b).
@@ -96,10 +97,30 @@ def calibrate_matrix(model: MatrixModel, data: ModalData, freq_noise: float, sha
                        tuple(warnings))
 
 
+#: The first-order screen's shortlist looked at by exact solves (`fit.promise`): this many times
+#: the number fitted (`steps.LOOK_SHORTLIST`, the frames' rule for a first-order screen).
+LOOK_SHORTLIST = 3
+
+
 def screen_and_fit_matrix(cal: Calibration, kinds, n_fit: int | None) -> Screening:
-    """Every candidate screened (`fit.promise`), the most promising fitted (`core.to_fit`)."""
-    cands = matrix_candidates(cal.setting, kinds)
-    screened = [promise(cal.obs, c, cal.base) for c in cands]
+    """Every candidate screened to first order from one set of modes and its term (screening.py:
+    d lambda = phi^T (dK - lambda dM) phi, the shapes' change through one bordered adjoint
+    factorisation per paired mode, on the model's own sparse matrices, DOFs without mass
+    included), the `LOOK_SHORTLIST` x `n_fit` most promising (every one where there are fewer,
+    or with n_fit None) judged besides by an exact step and a look along their grid
+    (`fit.promise`: the larger of the two kept); the most promising fitted (`steps.to_fit`)."""
+    st = cal.setting
+    cands = matrix_candidates(st, kinds)
+    first = dropped.guarded("the first-order screen", lambda: screen_all(
+        cal.obs, cal.base, st.model, st.coords, st.n_modes, cands, st.screen_setting), None)
+    if first is None or not np.all(np.isfinite(first)):
+        first = [(0.0, 0.0)] * len(cands)
+    shortlist = sorted(range(len(cands)), key=lambda i: -first[i][0])
+    if n_fit is not None:
+        shortlist = shortlist[:LOOK_SHORTLIST * n_fit]
+    screened = list(first)
+    for i in shortlist:
+        screened[i] = max(first[i], promise(cal.obs, cands[i], cal.base), key=lambda x: x[0])
     screened = [(0.0, 0.0) if dropped.is_dropped(c.label) else x for c, x in zip(cands, screened)]
     order, chosen = to_fit(cands, screened, n_fit)
     fitted = {i: fit(cal.obs, cands[i], screened[i][1]) for i in order

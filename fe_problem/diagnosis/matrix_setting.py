@@ -18,6 +18,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 from dataclasses import dataclass
+from types import SimpleNamespace
 
 import numpy as np
 import scipy.sparse as sp
@@ -99,6 +100,16 @@ class MatrixSetting:
     def modes0(self) -> tuple[np.ndarray, np.ndarray]:
         """The calibrated model's modes, solved once: (1, k) Hz, (1, n_coord, k)."""
         return self.solve(self.x0[None, :])
+
+    @functools.cached_property
+    def screen_setting(self) -> SimpleNamespace:
+        """What the first-order screen (screening.screen_all) asks of a setting: the model's own
+        system at its initial values (no parameter: its k0, m0 are K and M, as a frame's
+        `Setting.system`), with the DOF map the screen's gathers use (every DOF free), and the
+        baselines it keeps."""
+        system = MatrixSystem(self.model, ())
+        system.dofmap = SimpleNamespace(n_total=self.model.n_dof, free=np.arange(self.model.n_dof))
+        return SimpleNamespace(system=system, baselines={})
 
     @functools.cached_property
     def mass_diagonal(self) -> np.ndarray:

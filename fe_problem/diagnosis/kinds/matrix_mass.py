@@ -14,6 +14,7 @@ import scipy.sparse as sp
 
 from ...matrix_model import MatrixModel, MatrixTerm
 from ..bounds import MASS_OF_TOTAL, MASS_PER_TRIBUTARY
+from ..local import Term
 from ..matrix_setting import MASS_PREFIX, MatrixSetting, dof_location, dof_text
 from ..setting import Candidate, shared_grid
 from .spec import KindSpec
@@ -57,7 +58,8 @@ def dof_mass(st: MatrixSetting) -> Iterator[Candidate]:
             return dataclasses.replace(st.model, mass=st.model.mass + (term,))
 
         yield Candidate("dof_mass", dof_location(label), UPPER_FRACTION * total, grid, forward, estimate, extend,
-                        step=1e-3 * total, meta={"row": int(row)})
+                        step=1e-3 * total, meta={"row": int(row)},
+                        term=lambda row=row: Term(np.array([row]), np.zeros((1, 1)), np.ones((1, 1))))
 
 
 def check(model, loc: dict, estimate: dict) -> str | None:

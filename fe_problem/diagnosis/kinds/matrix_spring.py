@@ -12,6 +12,7 @@ from typing import Iterator
 import numpy as np
 
 from ...matrix_model import MatrixTerm
+from ..local import Term
 from ..matrix_setting import SPRING_PREFIX, MatrixSetting, dof_location, dof_text
 from ..setting import Candidate
 from .boundary_stiffness import BOUNDARY_GRID
@@ -39,7 +40,8 @@ def dof_spring(st: MatrixSetting) -> Iterator[Candidate]:
             return dataclasses.replace(st.model, stiffness=st.model.stiffness + (term,))
 
         yield Candidate("dof_spring", dof_location(label), UPPER, BOUNDARY_GRID, forward, estimate, extend,
-                        step=1e-3, meta={"row": int(row)})
+                        step=1e-3, meta={"row": int(row)},
+                        term=lambda row=row: Term(np.array([row]), np.full((1, 1), k_ref), np.zeros((1, 1))))
 
 
 SPEC = KindSpec("dof_spring", "local", ("node", "direction"), dof_spring,

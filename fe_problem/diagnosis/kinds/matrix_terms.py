@@ -3,7 +3,8 @@ stiffness or mass term's multiplier times (1 - a), a in [0, 0.9], or times (1 + 
 substructure, a material group, a floor softer or stiffer, lighter or heavier than its model);
 the two sides of one class. A family's only term is left out (its change is the global
 stiffness-to-mass scale every model is allowed already), and so is a term at 0. Each is linear in
-one column of the diagnosis's system (matrix_setting.py): its first-order term is K_i (or M_i)."""
+one column of the diagnosis's system (matrix_setting.py): its first-order term is +-K_i (or M_i)
+times the multiplier (`term_of`), which the first-order screen takes (screening.py)."""
 
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ import numpy as np
 
 from ...matrix_model import MatrixModel, MatrixTerm
 from ..bounds import MAX_GAIN_RATIO, MAX_UNIFORM_LOSS
+from ..local import Term
 from ..matrix_setting import MatrixSetting
 from ..setting import Candidate
 from .spec import KindSpec
@@ -51,7 +53,17 @@ def term_change(st: MatrixSetting, side: str) -> Iterator[Candidate]:
             return st.model.with_initials({t.name: t.initial * (1.0 + sign * a)})
 
         yield Candidate(f"term_{side}", {"term": t.name}, upper, grid, forward, estimate, extend, step=0.01,
-                        meta={"family": t.family})
+                        meta={"family": t.family}, term=lambda t=t: term_of(t, sign * t.initial))
+
+
+def term_of(t: MatrixTerm, per_a: float) -> Term:
+    """The first-order term of a term's multiplier changed by `per_a` per unit a: d(K or M)/da =
+    per_a x its matrix, on the DOFs its matrix touches (a dense block: a substructure's)."""
+    coo = t.matrix.tocoo()
+    dofs = np.unique(np.concatenate([coo.row, coo.col]))
+    block = per_a * t.matrix[dofs][:, dofs].toarray()
+    zero = np.zeros_like(block)
+    return Term(dofs, block, zero) if t.family == "stiffness" else Term(dofs, zero, block)
 
 
 def term_loss(st: MatrixSetting) -> Iterator[Candidate]:
