@@ -5,12 +5,15 @@ stiffness, an added or spread mass, a soft support, a flexible joint, shear defo
 the causes the data prove beyond the stated noise and says whether the result fits. Example:
 
   femu diagnose crack.json --out diag/
+  femu diagnose measured.json --model bridge.json     # a model given as matrices (its manifest)
 
 Without options it prints a summary. --json prints the whole record as JSON, the only thing on
 stdout. --out DIR writes extended.model.json (the model with the causes found, when there is
 one), diagnosis.json, report.md and its figures (shapes.png, frequency_errors.png,
 correlation.png when shapes were measured, candidates.png), naming every file it wrote.
-Progress and warnings go to stderr. The method and its tests: docs/diagnosis.md.
+Progress and warnings go to stderr. The method and its tests: docs/diagnosis.md; a model given as
+matrices (a term softer or stiffer, a mass or a spring at a measured DOF, several terms at once):
+docs/matrix-model.md.
 """
 
 from __future__ import annotations
