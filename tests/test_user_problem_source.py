@@ -71,3 +71,10 @@ def test_a_moved_store_keeps_its_user_problem(tmp_path):
     lonely = alone / moved.relative_to(new / "store")
     with pytest.raises(ValueError, match=r"frame\.json: the model file of this study's problem is not there"):
         problem_from_source(source_from_dict(json.loads(lonely.read_text()), str(lonely)))
+    # the variant itself holds the source's absolute path (run records carry it): a moved store's
+    # variant is one line naming the source and where its files and hashes are recorded
+    from adapters.variants import make_problem
+
+    with pytest.raises(ValueError, match=r"its problem source .* is not there .*problem_source names the model"):
+        make_problem(variant)
+
