@@ -245,3 +245,16 @@ def test_first_order_terms_against_finite_differences_of_solves(column):
     exact = [screen(cal.obs, c, cal.base) for c in cands]
     np.testing.assert_allclose([f[0] for f in first], [e[0] for e in exact], rtol=0.05, atol=0.05)
     assert np.argsort([-f[0] for f in first])[:3].tolist() == np.argsort([-e[0] for e in exact])[:3].tolist()
+
+
+def test_a_term_too_large_for_a_first_order_block_is_screened_by_exact_steps(column, monkeypatch):
+    """A term touching more DOFs than `MAX_TERM_DOFS` has no first-order term (its dense block would
+    be too large): it is screened by exact steps, and the storey loss is found as before."""
+    from fe_problem.diagnosis.kinds import matrix_terms
+
+    fr, path, model, dofs = column
+    monkeypatch.setattr(matrix_terms, "MAX_TERM_DOFS", 2)
+    k, m = truth(fr, soft=(2, 0, 0.7))
+    diag = diagnose(model, measured(fr, path, k, m, dofs, n_modes=N_MODES, seed=1))
+    assert (diag.answer.kind, diag.answer.location, diag.answer.decisive) == ("term_loss", {"term": "storey2"}, True)
+    assert not diag.dropped

@@ -113,14 +113,16 @@ def screen_and_fit_matrix(cal: Calibration, kinds, n_fit: int | None) -> Screeni
     cands = matrix_candidates(st, kinds)
     first = dropped.guarded("the first-order screen", lambda: screen_all(
         cal.obs, cal.base, st.model, st.coords, st.n_modes, cands, st.screen_setting), None)
-    if first is None or not np.all(np.isfinite(first)):
-        first = [(0.0, 0.0)] * len(cands)
-    shortlist = sorted(range(len(cands)), key=lambda i: -first[i][0])
-    if n_fit is not None:
-        shortlist = shortlist[:LOOK_SHORTLIST * n_fit]
-    screened = list(first)
+    if first is None:  # its factorisation failed: every candidate by exact steps
+        first = [(float("nan"), float("nan"))] * len(cands)
+    exact = [i for i, f in enumerate(first) if not np.all(np.isfinite(f))]  # no term (a large one), or failed
+    ranked_first = sorted((i for i in range(len(cands)) if i not in set(exact)), key=lambda i: -first[i][0])
+    shortlist = ranked_first if n_fit is None else ranked_first[:LOOK_SHORTLIST * n_fit]
+    screened = [(0.0, 0.0) if i in set(exact) else first[i] for i in range(len(cands))]
     for i in shortlist:
         screened[i] = max(first[i], promise(cal.obs, cands[i], cal.base), key=lambda x: x[0])
+    for i in exact:
+        screened[i] = promise(cal.obs, cands[i], cal.base)
     screened = [(0.0, 0.0) if dropped.is_dropped(c.label) else x for c, x in zip(cands, screened)]
     order, chosen = to_fit(cands, screened, n_fit)
     fitted = {i: fit(cal.obs, cands[i], screened[i][1]) for i in order

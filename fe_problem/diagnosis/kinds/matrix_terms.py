@@ -22,6 +22,9 @@ from .stiffness_gain import GAIN_GRID
 from .stiffness_loss import LOSS_GRID
 
 LOSS_UPPER, GAIN_UPPER = 0.9, 3.0
+#: A term touching more DOFs than this has no first-order term (its dense block would take
+#: 8 x n^2 bytes: 18 MB at this size): it is screened by exact steps (matrix.py).
+MAX_TERM_DOFS = 1500
 
 
 def varied_terms(model: MatrixModel) -> list[MatrixTerm]:
@@ -52,8 +55,10 @@ def term_change(st: MatrixSetting, side: str) -> Iterator[Candidate]:
         def extend(a, t=t):
             return st.model.with_initials({t.name: t.initial * (1.0 + sign * a)})
 
+        touched = np.unique(t.matrix.tocoo().row).size
         yield Candidate(f"term_{side}", {"term": t.name}, upper, grid, forward, estimate, extend, step=0.01,
-                        meta={"family": t.family}, term=lambda t=t: term_of(t, sign * t.initial))
+                        meta={"family": t.family},
+                        term=(lambda t=t: term_of(t, sign * t.initial)) if touched <= MAX_TERM_DOFS else None)
 
 
 def term_of(t: MatrixTerm, per_a: float) -> Term:
