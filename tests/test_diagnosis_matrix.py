@@ -258,3 +258,16 @@ def test_a_term_too_large_for_a_first_order_block_is_screened_by_exact_steps(col
     diag = diagnose(model, measured(fr, path, k, m, dofs, n_modes=N_MODES, seed=1))
     assert (diag.answer.kind, diag.answer.location, diag.answer.decisive) == ("term_loss", {"term": "storey2"}, True)
     assert not diag.dropped
+
+
+def test_an_answer_that_misfits_is_not_decisive(tmp_path):
+    """A one-bay frame whose storey-2 left column alone is at 0.6 of its bending stiffness: a part of
+    that storey's matrix, which no class of a matrix model expresses. Whatever class is named, the
+    verdict says it does not fit within the noise and the answer is not decisive (`_misfit_note`)."""
+    fr = Frame(storeys=4, bays=1)
+    path = fr.write(tmp_path)
+    dofs = [(n, "x") for n in fr.free if n % 2 == 1] + [(10, "y")]
+    k, m = truth(fr, soft=(2, 0, 0.6))
+    diag = diagnose(path, measured(fr, path, k, m, dofs, n_modes=6, seed=1))
+    assert diag.adequate is False and diag.answer.family == "local" and not diag.answer.decisive
+    assert "does not fit within the noise" in diag.answer.not_decisive_because
