@@ -14,6 +14,7 @@ process (no randomness outside a fixed seed).
 from __future__ import annotations
 
 from functools import lru_cache
+from pathlib import Path
 
 from fe_problem import UpdatingProblem, load_model, synthetic_measurement
 
@@ -54,4 +55,8 @@ def user_variant_problem(variant: str) -> UpdatingProblem:
     from fe_problem.user_problem import problem_from_source, source_from_dict
 
     path = variant[len(USER_PREFIX):]
+    if not Path(path).is_file():  # the variant holds its source's absolute path: a store moved loses it
+        raise ValueError(f"{variant}: its problem source {path} is not there (written by `femu study --model` into "
+                         "its store's problems/; moved with the store?): each run record's problem_source names "
+                         "the model, data and parameter files with their SHA-256")
     return problem_from_source(source_from_dict(read_json_file(path), path))

@@ -11,7 +11,7 @@ and a changed file is noticed (`problem_from_source`).
 from __future__ import annotations
 
 import hashlib
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -109,7 +109,8 @@ def user_problem(model_path, data_path, parameters_path=None, hold_out: int = 0,
 
 @dataclass(frozen=True)
 class ProblemSource:
-    """Where a user's problem comes from: absolute paths (or shipped names) of the model, the
+    """Where a user's problem comes from: the paths (absolute; relative to the source file in a
+    store's copy, `relative_to`) or shipped names of the model, the
     data and the parameter file (None: the default parameters) and each file's SHA-256 (the
     model's through `model_hash`: a matrix manifest's with its matrix files)."""
 
@@ -131,6 +132,16 @@ class ProblemSource:
     def to_dict(self) -> dict:
         return dict(asdict(self), format=SOURCE_FORMAT)
 
+    def relative_to(self, folder) -> "ProblemSource":
+        """The source with each file's path relative to `folder` (the folder its source file is
+        written to, in a study's store), so that a store moved together with the user's files keeps
+        its problem; a shipped name is kept as it is. `source_from_dict` resolves them back."""
+        import os
+
+        def rel(p):
+            return p if p is None or not Path(p).is_absolute() else os.path.relpath(p, Path(folder).resolve())
+        return replace(self, model=rel(self.model), data=rel(self.data), parameters=rel(self.parameters))
+
     @property
     def name(self) -> str:
         """The problem's name: the model's and data's stems and a hash of the three files."""
@@ -144,7 +155,17 @@ def source_from_dict(d, where: str = "<memory>") -> ProblemSource:
     keys = ("format", "model", "data", "parameters", "model_sha256", "data_sha256", "parameters_sha256")
     if not isinstance(d, dict) or d.get("format") != SOURCE_FORMAT or set(d) != set(keys):
         raise ValueError(f"{where}: not a {SOURCE_FORMAT} problem source (fields {', '.join(keys)})")
-    return ProblemSource(**{k: d[k] for k in keys if k != "format"})
+    src = ProblemSource(**{k: d[k] for k in keys if k != "format"})
+    if where == "<memory>":
+        return src
+    folder = Path(where).resolve().parent
+
+    def resolved(p):  # a path relative to the source file's folder (`relative_to`); a shipped name kept
+        if p is None or Path(p).is_absolute():
+            return p
+        at = folder / p
+        return str(at.resolve()) if at.exists() or Path(p).suffix else p
+    return replace(src, model=resolved(src.model), data=resolved(src.data), parameters=resolved(src.parameters))
 
 
 def problem_from_source(src: ProblemSource):
@@ -153,6 +174,10 @@ def problem_from_source(src: ProblemSource):
         path, recorded = getattr(src, what), getattr(src, f"{what}_sha256")
         if path is None or recorded is None:
             continue
+        if not Path(path).is_file():
+            raise ValueError(f"{path}: the {what} file of this study's problem is not there (recorded with SHA-256 "
+                             f"{recorded[:12]}...; a problem source names its files relative to itself: move the "
+                             "store and the files together, or start a new store)")
         if (model_hash(path) if what == "model" else file_hash(path)) != recorded:
             raise ValueError(f"{path}: the {what} file has changed since the study recorded it (SHA-256 "
                              f"{recorded[:12]}...): its runs are of another problem; use a new store")

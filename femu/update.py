@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fe_problem.user_problem import file_hash, load_update_model, user_problem
+from fe_problem.user_problem import file_hash, load_update_model, model_hash, user_problem
 
 #: The format tag of update.json.
 UPDATE_FORMAT = "femu.update/1"
@@ -190,7 +190,7 @@ def update(model_path, data_path, out, parameters_path=None, optimizer: str = DE
                        "std": None if np.isnan(est.std[k]) else float(est.std[k])})
     record = {
         "format": UPDATE_FORMAT, "model": str(model_path), "data": str(data_path),
-        "model_sha256": file_hash(model_path), "data_sha256": file_hash(data_path),
+        "model_sha256": model_hash(model_path), "data_sha256": file_hash(data_path),
         "parameters_file": None if parameters_path is None else str(parameters_path),
         "parameters_note": note, "optimizer": optimizer, "budget": int(budget), "seed": int(seed),
         "options": options or {}, "status": run.status, "n_evals": int(run.n_evals),

@@ -600,14 +600,17 @@ def test_row_number_data_refused_as_uff(tmp_path):
         save_modal_data(data, tmp_path / "d.uff")
 
 
-def test_diagnose_refuses_a_matrix_model_in_one_line(frame3d_pair, tmp_path, capsys):
+def test_diagnose_of_a_matrix_model_names_a_dof_it_lacks_in_one_line(frame3d_pair, tmp_path, capsys):
+    """`femu diagnose` takes a matrix model (tests/test_diagnosis_matrix.py); data at a DOF its
+    manifest does not label: one line naming the data file, the field and the DOF, before the work."""
     from femu.cli import main
 
     _, _, _, path, data = frame3d_pair
-    save_modal_data(ModalData(str(path), data.dofs, data.frequencies_hz, data.shapes), tmp_path / "d.json")
+    dofs = ((999, "x"),) + tuple(data.dofs[1:])
+    save_modal_data(ModalData(str(path), dofs, data.frequencies_hz, data.shapes), tmp_path / "d.json")
     assert main(["diagnose", str(tmp_path / "d.json")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and f"{path}: the diagnosis needs a frame model" in err[0]
+    assert len(err) == 1 and "d.json" in err[0] and "no DOF [999, 'x']" in err[0], err
 
 
 def test_synthetic_measurement_of_a_matrix_model(planar_case):

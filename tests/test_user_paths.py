@@ -248,10 +248,16 @@ def test_oma_labels_that_are_not_the_matrix_models_dofs(building, tmp_path, caps
         assert "a.csv" in line and says in line, line
 
 
-def test_diagnose_refuses_the_matrix_models_data_in_one_line(building, capsys):
+def test_diagnose_takes_the_matrix_models_identified_data(building, capsys):
+    """`femu diagnose` on the identified modes of the building its matrix model makes 10 % too stiff
+    everywhere (tests/test_diagnosis_matrix.py tests the diagnosis of matrices): the global
+    stiffness scale takes it, no cause, and the record weighs by the identified deviations."""
     d, manifest, _, _ = building
-    line = _one_line_error(capsys, ["diagnose", str(d / "ident" / "modal-data.json")])
-    assert "the diagnosis needs a frame model" in line
+    assert main(["diagnose", str(d / "ident" / "modal-data.json"), "--json"]) == 0
+    record = json.loads(capsys.readouterr().out)
+    assert record["cause"]["kind"] == "none" and record["extended_model"] is None
+    assert record["residuals"]["global_scale"] == pytest.approx(1 / 1.1, rel=0.01)
+    assert record["noise"]["data_deviations"] == {"frequencies": 3, "shapes": 3, "modes": 3}
 
 
 def test_update_through_python_m_femu(building, tmp_path):

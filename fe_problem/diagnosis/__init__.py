@@ -2,7 +2,7 @@
 and the gain on held-out modes. See core.py for the method, record.py for the answer's record."""
 
 from .candidates import CANDIDATE_KINDS, KINDS, Candidate, Setting, all_candidates
-from .core import diagnose
+from .dispatch import diagnose
 from .record import Answer, CandidateFit, Cause, Diagnosis, Gain, PinnedParameter, Residuals, Selection
 
 __all__ = ["CANDIDATE_KINDS", "KINDS", "Answer", "Candidate", "CandidateFit", "Cause", "Diagnosis", "Gain",

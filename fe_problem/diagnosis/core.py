@@ -117,8 +117,9 @@ def _diagnose(model, data, freq_noise, shape_noise, kinds, n_fit, alpha, max_cau
     data = load_modal_data(data)
     model = data.load_model() if model is None else model
     if isinstance(model, MatrixModel):  # a data file may name a matrix manifest (docs/matrix-model.md)
-        raise ValueError(f"{model.source or model.name}: the diagnosis needs a frame model (its candidates are members, "
-                         "joints and supports); a model given as matrices is updated through UpdatingProblem")
+        raise ValueError(f"{model.source or model.name}: core.diagnose is a frame model's (its candidates are members, "
+                         "joints and supports); a model given as matrices is diagnosed by fe_problem.diagnose "
+                         "(diagnosis/dispatch.py -> matrix.py)")
     model = load_model(model)
     _check(model, data)
     noise = Noise(DEFAULT_FREQ_NOISE if freq_noise is None else check_noise(freq_noise, "freq_noise"),

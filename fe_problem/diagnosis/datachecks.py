@@ -73,8 +73,20 @@ class DataCheck:
 
 
 def _channel(dofs, c: int) -> str:
+    if not isinstance(dofs[c], (tuple, list)):  # a matrix model's DOF given by its row number
+        return f"DOF {dofs[c]}"
     node, d = dofs[c]
     return f"{node}{d}"
+
+
+def _key(ch):
+    """A channel as a set key: (node, direction), or a matrix model's row number as it is."""
+    return tuple(ch) if isinstance(ch, (tuple, list)) else ch
+
+
+def _listed(ch):
+    """A channel as JSON: [node, direction], or a matrix model's row number."""
+    return list(ch) if isinstance(ch, (tuple, list)) else ch
 
 
 def _shape_chi2(u_m: np.ndarray, sigma: np.ndarray, u_a: np.ndarray, hz_ratio_ok: np.ndarray):
@@ -225,7 +237,7 @@ def _channel_faults(u_m, u_a, ok, dofs, shape_noise) -> list[DataCheck]:
             text = (f"channels {names[0]} and {names[1]} look swapped: exchanging them raises the MAC in every mode "
                     f"where they differ ({', '.join(map(str, ev['modes']))}) and lowers the shapes' chi^2 from "
                     f"{chi0.sum():.4g} to {chi_h.sum():.4g}")
-        found.append(DataCheck(kind, {"channels": [list(dofs[c]) for c in chans]}, ev, text))
+        found.append(DataCheck(kind, {"channels": [_listed(dofs[c]) for c in chans]}, ev, text))
         u_m = trial_h  # the next fault is sought in the data corrected by this one
     return found
 
@@ -326,14 +338,14 @@ def left_out(checks) -> dict:
     channels, shapes, modes = [], set(), set()
     for c in checks:
         if c.kind in ("channel_polarity", "channel_swap"):
-            channels += [tuple(ch) for ch in c.where["channels"] if tuple(ch) not in channels]
+            channels += [_key(ch) for ch in c.where["channels"] if _key(ch) not in channels]
         elif c.kind == "mode_order":
             shapes |= set(c.where["modes"])
         elif c.kind == "duplicate_mode":
             modes.add(max(c.where["modes"]))
     out = {}
     if channels:
-        out["channels"] = [list(ch) for ch in channels]
+        out["channels"] = [_listed(ch) for ch in channels]
     if shapes - modes:
         out["shapes"] = sorted(shapes - modes)
     if modes:
@@ -353,8 +365,8 @@ def without(data, leave: dict):
     for m in leave.get("shapes", []):
         shapes[:, m - 1] = np.nan
         shape_std[:, m - 1] = np.nan
-    gone = {tuple(ch) for ch in leave.get("channels", [])}
-    rows = [i for i, d in enumerate(data.dofs) if tuple(d) not in gone]
+    gone = {_key(ch) for ch in leave.get("channels", [])}
+    rows = [i for i, d in enumerate(data.dofs) if _key(d) not in gone]
     keep = [k for k in range(data.n_modes) if k + 1 not in set(leave.get("modes", []))]
     return dataclasses.replace(data, dofs=tuple(data.dofs[i] for i in rows),
                                frequencies_hz=np.asarray(data.frequencies_hz)[keep], shapes=shapes[np.ix_(rows, keep)],

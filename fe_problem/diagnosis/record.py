@@ -394,11 +394,24 @@ class Diagnosis:
         return jsonable({"cause": self.cause, "alternatives": [a.alternative_dict() for a in self.alternatives],
                          "residuals": self.residuals, "gain": self.gain, "selection": self.selection,
                          "candidates": list(self.candidates), "warnings": list(self.warnings),
-                         "extended_model": None if self.extended_model is None
-                         else model_to_dict(self.extended_model),
+                         "extended_model": _model_dict(self.extended_model),
                          "causes": list(self.causes), "adequate": self.adequate,
                          "goodness_of_fit": self.verdict, "noise": self.noise,
                          "data_checks": [c.to_dict() for c in self.data_checks],
                          "evidence": None if self.evidence is None else self.evidence.to_dict(),
                          "answer": self.answer, "dropped": list(self.dropped),
                          "left_out": dict(self.left_out)})
+
+
+def _model_dict(model) -> dict | None:
+    """The extended model in the record: a frame model's file content; a matrix model's manifest
+    fields without its matrices (name, DOF count, each term's name, family and multiplier; the
+    files are written beside diagnosis.json by `femu diagnose --out`)."""
+    if model is None:
+        return None
+    if isinstance(model, FrameModel):
+        return model_to_dict(model)
+    return {"format": "femu.matrix-model/1", "name": model.name, "dofs": model.n_dof,
+            "description": model.description,
+            **{family: [{"name": t.name, "initial": t.initial} for t in getattr(model, family)]
+               for family in ("stiffness", "mass")}}

@@ -224,12 +224,15 @@ def applicable(st: Setting) -> bool:
             and solver_path(len(st.local.dofmap.free)) == "dense")
 
 
-def fit_sparse(st: Setting, obs: Observations, base_pairing: np.ndarray) -> SparseFit | None:
+def fit_sparse(st: Setting, obs: Observations, base_pairing: np.ndarray, am=None) -> SparseFit | None:
     """Localise the changed members (ARD on the linearised problem, iterated), refit them; None
-    when the model is not one this class handles or ARD keeps no member."""
-    if not applicable(st):
-        return None
-    am = _AllMembers(st)
+    when the model is not one this class handles or ARD keeps no member. am: the class's
+    parameters (default every member of a frame, `_AllMembers`; a matrix model's terms,
+    matrix.AllTerms: the same interface)."""
+    if am is None:
+        if not applicable(st):
+            return None
+        am = _AllMembers(st)
     n = len(am.ids)
     theta = np.zeros(n)
     every = np.arange(n)

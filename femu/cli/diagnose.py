@@ -5,12 +5,15 @@ stiffness, an added or spread mass, a soft support, a flexible joint, shear defo
 the causes the data prove beyond the stated noise and says whether the result fits. Example:
 
   femu diagnose crack.json --out diag/
+  femu diagnose measured.json --model bridge.json     # a model given as matrices (its manifest)
 
 Without options it prints a summary. --json prints the whole record as JSON, the only thing on
 stdout. --out DIR writes extended.model.json (the model with the causes found, when there is
 one), diagnosis.json, report.md and its figures (shapes.png, frequency_errors.png,
 correlation.png when shapes were measured, candidates.png), naming every file it wrote.
-Progress and warnings go to stderr. The method and its tests: docs/diagnosis.md.
+Progress and warnings go to stderr. The method and its tests: docs/diagnosis.md; a model given as
+matrices (a term softer or stiffer, a mass or a spring at a measured DOF, several terms at once):
+docs/matrix-model.md.
 """
 
 from __future__ import annotations
@@ -87,7 +90,8 @@ def _p_text(p) -> str:
 
 def add_arguments(d) -> None:
     d.add_argument("data", help="a modal-data file (JSON or UFF 55) or a shipped dataset (paper)")
-    d.add_argument("--model", default=None, help="model name or file (default: the data's model)")
+    d.add_argument("--model", default=None, help="model name, model file or matrix-model manifest "
+                                                  "(default: the data's model)")
     d.add_argument("--out", default=None, metavar="DIR",
                    help="directory for the extended model, diagnosis.json, report.md and its figures")
     d.add_argument("--json", action="store_true", help="print the diagnosis record as JSON on stdout")
@@ -110,7 +114,8 @@ def add_arguments(d) -> None:
 def run(args) -> int:
     """Entry point of `femu diagnose` (args: data, model, out, json, freq_noise, shape_noise, evidence,
     keep_faulty)."""
-    from fe_problem import diagnose, load_modal_data, load_model, save_model
+    from fe_problem import diagnose, load_any_model, load_modal_data, save_model
+    from fe_problem.matrix_model import MatrixModel, save_matrix_model
     from fe_problem.jsonutil import dumps
     from femu.reports.diagnosis import write_json, write_report
 
@@ -118,7 +123,7 @@ def run(args) -> int:
     freq_noise = None if freq_noise is None else _positive(freq_noise, "--freq-noise")
     shape_noise = None if shape_noise is None else _positive(shape_noise, "--shape-noise")
     data = load_modal_data(args.data)
-    model = data.load_model() if args.model is None else load_model(args.model)
+    model = data.load_model() if args.model is None else load_any_model(args.model)
     out = _check_out(args.out) if args.out is not None else None  # before the work: a bad --out fails at once
     if getattr(args, "evidence", "laplace") == "nested":
         from fe_problem.diagnosis.nested import require_dynesty
@@ -139,7 +144,10 @@ def run(args) -> int:
 
         make_out_dir(out)  # only now, so that bad data leave no empty directory behind
         extended_file = None
-        if diag.extended_model is not None:
+        if isinstance(diag.extended_model, MatrixModel):  # its manifest, every matrix file beside it
+            extended_file = "extended.model.json"
+            written.append(save_matrix_model(diag.extended_model, out / extended_file, copy_files=True))
+        elif diag.extended_model is not None:
             extended_file = "extended.model.json"
             written.append(save_model(diag.extended_model, out / extended_file))
         written.append(write_json(diag, out / "diagnosis.json"))

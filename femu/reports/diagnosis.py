@@ -372,7 +372,10 @@ def write_report(diag: Diagnosis, model: FrameModel, data: ModalData, out_dir: P
     extended_file: the extended model's file name in DIR, if one was written."""
     out_dir = Path(out_dir)
     figures, written = {}, []
-    for role, draw in (("shapes", lambda p: plot_shapes(diag, model, diag.extended_model, data, p)),
+    # a model given as matrices has no geometry to draw its shapes on
+    shapes = (lambda p: plot_shapes(diag, model, diag.extended_model, data, p)) if isinstance(model, FrameModel) \
+        else (lambda p: None)
+    for role, draw in (("shapes", shapes),
                        ("frequency_errors", lambda p: plot_frequency_errors(diag, p)),
                        ("correlation", lambda p: plot_correlation(diag, p)),
                        ("candidates", lambda p: plot_candidates(diag, p))):

@@ -177,7 +177,7 @@ def user_source(store: Store, model, data, parameters=None) -> str:
         raise ValueError(f"--store {store.path}: cannot create {folder} ({exc.strerror or exc})") from None
     path = folder / f"{safe_name(src.name.replace(':', '_'))}.json"
     if not path.exists():
-        write_text(path, dumps(src.to_dict()) + "\n")
+        write_text(path, dumps(src.relative_to(folder).to_dict()) + "\n")  # the files relative to it
     return USER_PREFIX + str(path.resolve())
 
 

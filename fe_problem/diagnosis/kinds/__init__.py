@@ -102,6 +102,14 @@ register(storeys_free.COLUMN_LINES)
 register(storeys_free.FLOORS)
 register(storeys_free.PAIR)
 register(every_member_sparse.SPEC)
+# a model given as matrices (matrix.py; not default: a frame's search never builds them)
+from . import matrix_mass, matrix_spring, matrix_terms  # noqa: E402
+
+register(matrix_terms.LOSS)
+register(matrix_terms.GAIN)
+register(matrix_mass.SPEC)
+register(matrix_spring.SPEC)
+register(matrix_terms.SPARSE)
 
 __all__ = ["FAMILIES", "KINDS", "CandidateKey", "KindSpec", "all_candidates", "default_kinds", "iter_candidates",
            "register", "spec_of", "unregister"]
