@@ -45,7 +45,10 @@ from typing import Callable
 
 import numpy as np
 
+from . import sparse_class
+from .answer import NONE_LABEL
 from .evidence import FACTOR_10
+from .fit import profiled
 from .residuals import Observations
 
 #: elpd_loo above the answer's by more than this (ln 10: a factor of 10 in predictive density,
@@ -84,8 +87,7 @@ def of_candidate(cand, f) -> ClassModel:
 def of_moduli(label: str, am, sf, obs: Observations) -> ClassModel:
     """A class of member moduli (`sparse_class._AllMembers` `am`, its `SparseFit` `sf`: the sparse
     class, a free group class), its members' changes free within [LOW, HIGH]."""
-    from .sparse_class import HIGH, LOW
-
+    low, high = sparse_class.LOW, sparse_class.HIGH
     support = np.array([am.names.index(e) for e in sf.members])
 
     def forward(t):
@@ -95,10 +97,8 @@ def of_moduli(label: str, am, sf, obs: Observations) -> ClassModel:
 
     theta = np.asarray(sf.theta, float)
     hz, sh = forward(theta[None])
-    from .fit import profiled
-
     pairing = profiled(obs, hz[0], sh[0]).pairing
-    return ClassModel(label, forward, theta, sf.s, np.full(len(theta), LOW), np.full(len(theta), HIGH), pairing)
+    return ClassModel(label, forward, theta, sf.s, np.full(len(theta), low), np.full(len(theta), high), pairing)
 
 
 def of_calibrated(label: str, hz0: np.ndarray, sh0: np.ndarray, base) -> ClassModel:
@@ -254,9 +254,6 @@ def class_models(cal, scored, labels) -> dict:
     """label -> `ClassModel` of the classes `labels` of the evidence table that have one: the
     calibrated model, every fitted one-parameter class (`Scored.fitted`), the sparse class, the free
     group classes (the local search's several causes have none: left out)."""
-    from . import sparse_class
-    from .answer import NONE_LABEL
-
     out = {}
     for label in labels:
         if label == NONE_LABEL:
