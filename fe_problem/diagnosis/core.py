@@ -52,7 +52,7 @@ from .groups import distributed_candidates
 from .modelform import model_form_candidates, screen_forms
 from .plausibility import few_dof_note
 from .fit import Fit, chi2_batch, class_promises, fit, profiled
-from . import answer, dropped, group_free, sparse_class
+from . import answer, dropped, group_free, predictive, sparse_class
 from .nested import require_dynesty, rescored
 from .record import Cause, Diagnosis, Noise
 from .verdict import verdict
@@ -154,6 +154,7 @@ def _diagnose(model, data, freq_noise, shape_noise, kinds, n_fit, alpha, max_cau
         ev = scored.evidence
         other = _beyond_the_test(cal, scored, v, sel, alpha, model)
         row, runner, decisive = answer.choose(ev, answer.search_key(None), other is not None, cal.obs)
+        row, runner, decisive, told, ev = _predicted_choice(cal, scored, row, runner, decisive, lambda c: False)
         gained, extended = gain(cal, None), None
         if other is None:
             if not v.adequate:
@@ -168,9 +169,10 @@ def _diagnose(model, data, freq_noise, shape_noise, kinds, n_fit, alpha, max_cau
             if few:
                 warnings.append(few)
         answered = answer.record(row, runner, decisive, cause)
-        thin = _fault_undecided(faulty) or answer.dof_note(row, cal.obs)
+        thin = _fault_undecided(faulty) or answer.dof_note(row, cal.obs) or _unless_decisive(told, decisive)
         answered = dataclasses.replace(answered, decisive=False, not_decisive_because=thin) if thin else answered
         undecided = thin or answer.undecided_note(answered)
+        warnings += [told] if told else []
         return Diagnosis(cause, alternatives, residuals_of(cal), gained, tuple(sel.rows.values()),
                          sel.selection, extended, tuple(warnings + _fault_notes(checks, leave, keep_faulty) + _evidence_notes(ev, None, row)
                                                         + ([f"answer not decisive: {undecided}"] if undecided else [])),
@@ -188,6 +190,11 @@ def _diagnose(model, data, freq_noise, shape_noise, kinds, n_fit, alpha, max_cau
     scored = score_classes(cal, found, rounds, evidence, forms)
     ev = scored.evidence
     row, runner, decisive = answer.choose(ev, answer.search_key(rounds), True, cal.obs)
+    key = answer.search_key(rounds)
+    row, runner, decisive, told, ev = _predicted_choice(
+        cal, scored, row, runner, decisive, lambda c: c.family in answer.NON_LOCAL or answer.answer_key(c) == key)
+    if told:
+        warnings.append(told)
     gained, n_params = rounds.gain, 1 + len(rounds.causes)
     if row.family in answer.NON_LOCAL:  # the best class by evidence is not the local search's
         other = answer.non_local(cal, row, scored.fitted, scored.sparse, sel.selection.p_adjusted, alpha, model,
@@ -208,7 +215,7 @@ def _diagnose(model, data, freq_noise, shape_noise, kinds, n_fit, alpha, max_cau
     if few:
         warnings.append(few)
     answered = answer.record(row, runner, decisive, cause)
-    thin = _fault_undecided(faulty) or answer.dof_note(row, cal.obs)
+    thin = _fault_undecided(faulty) or answer.dof_note(row, cal.obs) or _unless_decisive(told, decisive)
     answered = dataclasses.replace(answered, decisive=False, not_decisive_because=thin) if thin else answered
     undecided = thin or answer.undecided_note(answered)
     if undecided:
@@ -219,6 +226,25 @@ def _diagnose(model, data, freq_noise, shape_noise, kinds, n_fit, alpha, max_cau
     return Diagnosis(cause, alternatives, residuals_of(cal), gained, tuple(sel.rows.values()), sel.selection,
                      extended, tuple(warnings + _fault_notes(checks, leave, keep_faulty) + _evidence_notes(ev, rounds, row)), causes, v,
                      noise, checks, ev, answered, left_out=leave)
+
+
+def _predicted_choice(cal: "Calibration", scored: "Scored", row, runner, decisive: bool, may_answer):
+    """The answer's row, runner-up and decisiveness after the predictive rule (predictive.py: when no
+    class fits within the noise, a class not decisively apart in evidence that predicts the modes left
+    out better is the answer, and a different answer that predicts them better makes it not decisive),
+    the sentence saying so (None: nothing changed), and the evidence with the classes' predictions."""
+    preds = dropped.guarded("the leave-one-mode-out predictions", lambda: predictive.predictions(
+        cal, scored, None if row is None else row.label), {})
+    ev = scored.evidence
+    if not preds:
+        return row, runner, decisive, None, ev
+    row, runner, decisive, told = predictive.follow(ev, preds, row, runner, decisive, may_answer, answer.same_answer)
+    return row, runner, decisive, told, dataclasses.replace(ev, predictive=tuple(p.to_dict() for p in preds.values()))
+
+
+def _unless_decisive(told: str | None, decisive: bool) -> str | None:
+    """The predictive rule's sentence as the reason an answer is not decisive (None when it is)."""
+    return None if decisive or not told else told
 
 
 def _beyond_the_test(cal: "Calibration", scored: "Scored", v, sel: "Selected", alpha: float,

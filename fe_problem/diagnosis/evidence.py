@@ -81,20 +81,24 @@ class ScoredClass:
 class Evidence:
     """The ranked classes (best first), the method (``laplace``; ``nested``: the best classes by
     Laplace sampled with dynesty, nested.py, each row saying how it was scored), the dispersion
-    used, and the note when the next class is within a factor of 10 of the best."""
+    used, and the note when the next class is within a factor of 10 of the best; predictive: when
+    no class fits within the noise, the leave-one-mode-out predictions of the classes scored
+    (predictive.py, each `Prediction.to_dict()`), else empty (and not in the JSON)."""
 
     method: str
     dispersion: float
     classes: tuple[ScoredClass, ...]
     note: str | None = None
+    predictive: tuple = ()
 
     @property
     def best(self) -> ScoredClass | None:
         return self.classes[0] if self.classes else None
 
     def to_dict(self) -> dict:
-        return {"method": self.method, "dispersion": self.dispersion, "classes": [c.to_dict() for c in self.classes],
-                "note": self.note}
+        out = {"method": self.method, "dispersion": self.dispersion, "classes": [c.to_dict() for c in self.classes],
+               "note": self.note}
+        return out | ({"predictive": list(self.predictive)} if self.predictive else {})
 
 
 def ranked(classes: list[ScoredClass], method: str, dispersion: float) -> Evidence:
