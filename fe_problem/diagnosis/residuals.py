@@ -30,10 +30,11 @@ candidate was the one that turned the close pair the right way, whatever its phy
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
-from ..correlation import MAX_PAIR_FREQ, pair_modes, pow2_scaled
+from ..correlation import MAX_PAIR_FREQ, mac_scaled, pair_index, pow2_scaled
 from ..modal_data import ModalData
 
 #: Relative frequency gap (0.01: 1 %) below which model modes are mixed freely by an unmodelled
@@ -135,7 +136,31 @@ class Observations:
 
     def pair(self, model_hz: np.ndarray, model_shapes: np.ndarray) -> np.ndarray:
         """Model mode index for each measured mode (-1: none): `correlation.pair_modes`."""
-        return pair_modes(self.frequencies_hz, model_hz, self.shapes, model_shapes, self.has_shape).model_index
+        return self.pair_batch(model_hz[None], self.mac_batch(model_shapes[None]))[0]
+
+    @cached_property
+    def _scaled_shapes(self) -> tuple[np.ndarray, np.ndarray]:
+        """The measured shapes with a shape as `correlation.mac` scales them, and their squared
+        norms: computed once, not at every model's pairing."""
+        a = pow2_scaled(np.nan_to_num(self.shapes[:, self.has_shape]))
+        return a, np.sum(a * a, axis=-2)
+
+    def mac_batch(self, model_shapes: np.ndarray) -> np.ndarray | None:
+        """The MAC of each measured mode with each model mode for a batch of models (shapes at
+        the measured coordinates (b, n_coord, k)): (b, m, k), NaN in the rows without a measured
+        shape; None when no mode has one. What `pair_batch` pairs on (the shapes' part of
+        `correlation.pair_modes`, the same bits)."""
+        if not self.has_shape.any():
+            return None
+        mm = np.full((model_shapes.shape[0], self.n_modes, model_shapes.shape[2]), np.nan)
+        mm[:, self.has_shape] = mac_scaled(*self._scaled_shapes, model_shapes)
+        return mm
+
+    def pair_batch(self, model_hz: np.ndarray, mm: np.ndarray | None) -> np.ndarray:
+        """`pair` for a batch of models: frequencies (b, k) and their `mac_batch` -> (b, m).
+        The MACs do not depend on the frequencies: a fit pairing again at a new scale passes
+        the same `mm`."""
+        return pair_index(self.frequencies_hz, model_hz, mm, self.has_shape)
 
     def residuals(self, model_hz: np.ndarray, model_shapes: np.ndarray, pairing: np.ndarray | None = None):
         """Weighted residual vector for one model (its frequencies (k,) and shapes at the
