@@ -43,7 +43,9 @@ def mac_scaled(a: np.ndarray, na: np.ndarray, b: np.ndarray) -> np.ndarray:
     nb = np.sum(b * b, axis=-2)
     with np.errstate(invalid="ignore", divide="ignore"):
         out = cross**2 / (na[..., :, None] * nb[..., None, :])
-    return np.nan_to_num(out, nan=0.0)
+    # np.nan_to_num(out, nan=0.0) where needed (a zero or non-finite model shape): the check is
+    # cheaper than the call on the all-finite matrices of almost every model
+    return out if np.isfinite(out).all() else np.nan_to_num(out, nan=0.0)
 
 
 def comac(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -43,7 +43,7 @@ def _scale(obs: Observations, hz: np.ndarray, idx: np.ndarray) -> np.ndarray:
     bits as the row alone; a row with a failed solve's mode (no scale from it) or an unpaired
     mode sums its own paired modes."""
     b = hz.shape[0]
-    f_pair = np.take_along_axis(hz, np.clip(idx, 0, None), axis=1)
+    f_pair = hz[np.arange(b)[:, None], np.maximum(idx, 0)]
     ok = (idx >= 0) & np.isfinite(f_pair)
     s = np.ones(b)
     full = ok.all(axis=1)

@@ -139,6 +139,16 @@ class Observations:
         return self.pair_batch(model_hz[None], self.mac_batch(model_shapes[None]))[0]
 
     @cached_property
+    def _shape_sel(self) -> tuple[np.ndarray, np.ndarray]:
+        """The measured unit shapes with a shape (n_coord, n_sel) and their entries' std: what
+        `residuals_paired` compares every model with, selected once."""
+        sel = self.has_shape
+        u_m = self.shapes[:, sel]
+        sigma = (self.shape_noise * np.max(np.abs(u_m), axis=0) if self.shape_std is None
+                 else self.shape_std[:, sel])
+        return u_m, sigma
+
+    @cached_property
     def _scaled_shapes(self) -> tuple[np.ndarray, np.ndarray]:
         """The measured shapes with a shape as `correlation.mac` scales them, and their squared
         norms: computed once, not at every model's pairing."""
@@ -180,12 +190,13 @@ class Observations:
         idx = pairing
         # a model mode that is not finite (a failed solve, dropped.py) pairs with nothing: the
         # large fixed residual of a lost mode, so that no fit prefers a size its model cannot solve
-        f_raw = model_hz[:, np.clip(idx, 0, None)]                                  # (b, m)
+        at = np.maximum(idx, 0)
+        f_raw = model_hz[:, at]                                                     # (b, m)
         ok = (idx >= 0)[None, :] & np.isfinite(f_raw)
         sel = self.has_shape
         if sel.any():  # so does a model shape that is not finite or does not move the measured coordinates
-            u_a = model_shapes[:, :, np.clip(idx[sel], 0, None)]                 # (b, n_coord, n_sel)
-            norms = np.linalg.norm(u_a, axis=1)                                     # (b, n_sel)
+            u_a = model_shapes[:, :, at[sel]]                                       # (b, n_coord, n_sel)
+            norms = np.sqrt(np.add.reduce(u_a * u_a, axis=1))  # (b, n_sel): np.linalg.norm's own sum
             ok[:, sel] &= np.isfinite(norms) & (norms > 0)
         f = np.where(ok, f_raw, self.frequencies_hz * (1 + MAX_PAIR_FREQ))
         rel = self.freq_noise if self.freq_rel_std is None else self.freq_rel_std
@@ -194,11 +205,11 @@ class Observations:
             return r_f
         with np.errstate(divide="ignore", invalid="ignore"):
             u_a = u_a / norms[:, None, :]
-        u_m = self.shapes[:, sel]
+        u_m, sigma = self._shape_sel
         # close modes as `residuals` treats them: only the (model, mode) pairs that have a
         # neighbour within reach go through `close_mode_shape` (none on most models)
         cols = np.flatnonzero(sel)
-        j = np.clip(idx[cols], 0, None)
+        j = at[cols]
         hz_j = model_hz[:, j]                                                       # (b, n_sel)
         # a mode at 0 Hz (a negative eigenvalue clipped: a model softened past stability, as a
         # reduced screen's largest sizes may be) has no neighbour within reach: its gap is inf,
@@ -212,9 +223,7 @@ class Observations:
             if mixed is not None:
                 u_a[b, :, col] = mixed
         u_a = np.where(ok[:, sel][:, None, :], u_a, 0.0)
-        u_a = u_a * np.where(np.sum(u_a * u_m, axis=1, keepdims=True) < 0, -1.0, 1.0)
-        sigma = (self.shape_noise * np.max(np.abs(u_m), axis=0) if self.shape_std is None
-                 else self.shape_std[:, sel])
+        u_a = u_a * np.where(np.add.reduce(u_a * u_m, axis=1, keepdims=True) < 0, -1.0, 1.0)
         shape_r = (u_a - u_m) / sigma                                               # (b, n_coord, n_sel)
         # each model's block in `residuals`' order: mode by mode, the coordinates within (order F)
         return np.concatenate([r_f, shape_r.transpose(0, 2, 1).reshape(len(model_hz), -1)], axis=1)
