@@ -45,6 +45,9 @@ def _scale(obs: Observations, hz: np.ndarray, idx: np.ndarray) -> np.ndarray:
     b = hz.shape[0]
     f_pair = hz[np.arange(b)[:, None], np.maximum(idx, 0)]
     ok = (idx >= 0) & np.isfinite(f_pair)
+    if ok.all():  # the usual case: every row at once
+        q = f_pair / obs.frequencies_hz
+        return np.array([float((n / d) ** 2) for n, d in zip(q.sum(axis=1), (q * q).sum(axis=1))])
     s = np.ones(b)
     full = ok.all(axis=1)
     if full.any():
@@ -78,21 +81,20 @@ def profiled_batch(obs: Observations, hz: np.ndarray, shapes: np.ndarray, pairin
         s = _scale(obs, hz, idx)
     scaled = hz * np.sqrt(s)[:, None]
     out: list[Fit | None] = [None] * b
-    groups = [np.arange(b)] if pairing is not None else \
-        list(_same_rows(idx))
+    groups = [np.arange(b)] if pairing is not None or (idx == idx[0]).all() else _same_rows(idx)
     for rows in groups:
-        r = obs.residuals_paired(scaled[rows], shapes[rows], idx[rows[0]])
+        sub = slice(None) if len(groups) == 1 else rows  # the whole batch: no copy
+        r = obs.residuals_paired(scaled[sub], shapes[sub], idx[rows[0]])
         for i, ri in zip(rows, r):
             out[i] = Fit(0.0, float(s[i]), float(ri @ ri), idx[i] if pairing is None else pairing, ri)
     return out
 
 
-def _same_rows(idx: np.ndarray):
+def _same_rows(idx: np.ndarray) -> list[np.ndarray]:
     """Row indices of `idx` grouped by equal rows (in order of first appearance)."""
     _, first, inverse = np.unique(idx, axis=0, return_index=True, return_inverse=True)
     inverse = inverse.reshape(-1)
-    for g in np.argsort(first, kind="stable"):
-        yield np.flatnonzero(inverse == g)
+    return [np.flatnonzero(inverse == g) for g in np.argsort(first, kind="stable")]
 
 
 def profiled_paired(obs: Observations, hz: np.ndarray, shapes: np.ndarray, pairing: np.ndarray) -> np.ndarray:

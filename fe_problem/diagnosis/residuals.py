@@ -146,7 +146,7 @@ class Observations:
         u_m = self.shapes[:, sel]
         sigma = (self.shape_noise * np.max(np.abs(u_m), axis=0) if self.shape_std is None
                  else self.shape_std[:, sel])
-        return u_m, sigma
+        return u_m, np.broadcast_to(sigma, u_m.shape)
 
     @cached_property
     def _scaled_shapes(self) -> tuple[np.ndarray, np.ndarray]:
@@ -204,7 +204,7 @@ class Observations:
         if not sel.any():
             return r_f
         with np.errstate(divide="ignore", invalid="ignore"):
-            u_a = u_a / norms[:, None, :]
+            np.divide(u_a, norms[:, None, :], out=u_a)  # in place: u_a is the gather's own copy
         u_m, sigma = self._shape_sel
         # close modes as `residuals` treats them: only the (model, mode) pairs that have a
         # neighbour within reach go through `close_mode_shape` (none on most models)
@@ -222,8 +222,16 @@ class Observations:
             mixed = close_mode_shape(u_m[:, col], model_hz[b], model_shapes[b], j[col])
             if mixed is not None:
                 u_a[b, :, col] = mixed
-        u_a = np.where(ok[:, sel][:, None, :], u_a, 0.0)
-        u_a = u_a * np.where(np.add.reduce(u_a * u_m, axis=1, keepdims=True) < 0, -1.0, 1.0)
-        shape_r = (u_a - u_m) / sigma                                               # (b, n_coord, n_sel)
-        # each model's block in `residuals`' order: mode by mode, the coordinates within (order F)
-        return np.concatenate([r_f, shape_r.transpose(0, 2, 1).reshape(len(model_hz), -1)], axis=1)
+        ok_sel = ok[:, sel]
+        if not ok_sel.all():
+            u_a = np.where(ok_sel[:, None, :], u_a, 0.0)
+        u_a *= np.where(np.add.reduce(u_a * u_m, axis=1, keepdims=True) < 0, -1.0, 1.0)
+        # each model's block in `residuals`' order: mode by mode, the coordinates within (order F),
+        # written in place: (u_a - u_m) / sigma                                   # (b, n_sel, n_coord)
+        n_b, m = r_f.shape
+        out = np.empty((n_b, m + u_m.size))
+        out[:, :m] = r_f
+        shape_r = out[:, m:].reshape(n_b, u_m.shape[1], u_m.shape[0])  # a view of out's tail
+        np.subtract(u_a.transpose(0, 2, 1), u_m.T, out=shape_r)
+        np.divide(shape_r, sigma.T, out=shape_r)
+        return out
