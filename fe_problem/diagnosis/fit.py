@@ -60,7 +60,8 @@ def _scale(obs: Observations, hz: np.ndarray, idx: np.ndarray) -> np.ndarray:
     return s
 
 
-def profiled_batch(obs: Observations, hz: np.ndarray, shapes: np.ndarray, pairing: np.ndarray | None = None) -> list[Fit]:
+def profiled_batch(obs: Observations, hz: np.ndarray, shapes: np.ndarray,
+                   pairing: np.ndarray | None = None) -> list[Fit]:
     """`profiled` of each model of a batch (frequencies (b, k), shapes (b, n_coord, k)), the same
     bits as one at a time: the MACs computed once per model (they do not change with the scale)
     and the pairings of the whole batch at once; the residuals in one batch per distinct pairing."""
