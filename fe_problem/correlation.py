@@ -20,7 +20,8 @@ def pow2_scaled(a: np.ndarray, axis: int = -2) -> np.ndarray:
     NaN entries are ignored in the scale and kept; all-zero or all-NaN vectors are left as they are."""
     a = np.asarray(a, dtype=float)
     with np.errstate(invalid="ignore"):
-        big = np.nanmax(np.abs(a), axis=axis, keepdims=True, initial=0.0) if a.size else np.zeros(1)
+        # np.nanmax(np.abs(a), axis=axis, keepdims=True, initial=0.0), without its Python layer
+        big = np.fmax.reduce(np.abs(a), axis=axis, keepdims=True, initial=0.0) if a.size else np.zeros(1)
     _, exp = np.frexp(np.where(np.isfinite(big) & (big > 0), big, 1.0))
     return np.ldexp(a, -exp)
 
