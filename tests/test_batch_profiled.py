@@ -90,6 +90,7 @@ def test_a_batch_of_models_fits_as_each_model_alone(batch):
              for i in range(len(hz))]
     assert sum(not np.array_equal(f.pairing, p) for f, p in zip(fits, first)) >= 2
     assert np.isfinite([f.chi2 for f in fits]).all()
+    assert profiled_batch(obs, hz[:0], sh[:0]) == []
 
 
 def test_a_batch_with_the_pairing_held_fits_as_each_model_alone(batch):

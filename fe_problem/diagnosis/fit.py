@@ -66,6 +66,8 @@ def profiled_batch(obs: Observations, hz: np.ndarray, shapes: np.ndarray,
     bits as one at a time: the MACs computed once per model (they do not change with the scale)
     and the pairings of the whole batch at once; the residuals in one batch per distinct pairing."""
     b = hz.shape[0]
+    if b == 0:  # an empty batch (no sizes asked): no fits, as one at a time gives
+        return []
     if pairing is None:
         mm = obs.mac_batch(shapes)
         idx = obs.pair_batch(hz, mm)
