@@ -20,7 +20,8 @@ def pow2_scaled(a: np.ndarray, axis: int = -2) -> np.ndarray:
     NaN entries are ignored in the scale and kept; all-zero or all-NaN vectors are left as they are."""
     a = np.asarray(a, dtype=float)
     with np.errstate(invalid="ignore"):
-        big = np.nanmax(np.abs(a), axis=axis, keepdims=True, initial=0.0) if a.size else np.zeros(1)
+        # np.nanmax(np.abs(a), axis=axis, keepdims=True, initial=0.0), without its Python layer
+        big = np.fmax.reduce(np.abs(a), axis=axis, keepdims=True, initial=0.0) if a.size else np.zeros(1)
     _, exp = np.frexp(np.where(np.isfinite(big) & (big > 0), big, 1.0))
     return np.ldexp(a, -exp)
 
@@ -31,13 +32,21 @@ def mac(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     Broadcasts over leading batch dimensions: a (..., n, p), b (..., n, q) -> (..., p, q).
     """
     a = pow2_scaled(a)  # exact: the MAC is scale-free, and any finite scale stays finite
+    return mac_scaled(a, np.sum(a * a, axis=-2), b)
+
+
+def mac_scaled(a: np.ndarray, na: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """`mac` with `a` already through `pow2_scaled` and `na` its squared column norms
+    (np.sum(a * a, axis=-2)): the same bits, for measured shapes prepared once and correlated
+    with many models' (`residuals.Observations`)."""
     b = pow2_scaled(b)
     cross = np.swapaxes(a, -1, -2) @ b
-    na = np.sum(a * a, axis=-2)
     nb = np.sum(b * b, axis=-2)
     with np.errstate(invalid="ignore", divide="ignore"):
         out = cross**2 / (na[..., :, None] * nb[..., None, :])
-    return np.nan_to_num(out, nan=0.0)
+    # np.nan_to_num(out, nan=0.0) where needed (a zero or non-finite model shape): the check is
+    # cheaper than the call on the all-finite matrices of almost every model
+    return out if np.isfinite(out).all() else np.nan_to_num(out, nan=0.0)
 
 
 def comac(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -96,23 +105,36 @@ def pair_modes(measured_hz: np.ndarray, model_hz: np.ndarray, measured_shapes: n
     model_hz = np.asarray(model_hz, dtype=float)
     m = measured_hz.shape[0]
     has_shape = np.zeros(m, bool) if has_shape is None or measured_shapes is None else np.asarray(has_shape, bool)
-    dist = np.abs(model_hz[None, :] - measured_hz[:, None]) / measured_hz[:, None]
-    cost = dist.copy()
-    allowed = dist <= max_freq_ratio
-    mm = np.full(dist.shape, np.nan)
+    mm = np.full((m, model_hz.shape[0]), np.nan)
     if has_shape.any():
         mm[has_shape] = mac(np.nan_to_num(np.asarray(measured_shapes, dtype=float)[:, has_shape]), model_shapes)
-        cost[has_shape] = 1.0 - mm[has_shape] + 0.01 * dist[has_shape]
-        allowed[has_shape] = mm[has_shape] >= min_mac
-    rows, cols = linear_sum_assignment(np.where(allowed, cost, 1e6))
-    index = np.full(m, -1)
-    ok = allowed[rows, cols]
-    index[rows[ok]] = cols[ok]
+    index = pair_index(measured_hz, model_hz[None], mm[None], has_shape, min_mac, max_freq_ratio)[0]
     by = tuple("none" if index[i] < 0 else ("mac" if has_shape[i] else "frequency") for i in range(m))
     macs = np.full(m, np.nan)
     for i in np.flatnonzero(has_shape):
         macs[i] = mm[i, index[i]] if index[i] >= 0 else np.nanmax(mm[i])
     return Pairing(index, by, macs)
+
+
+def pair_index(measured_hz: np.ndarray, model_hz: np.ndarray, mm: np.ndarray, has_shape: np.ndarray,
+               min_mac: float = MIN_PAIR_MAC, max_freq_ratio: float = MAX_PAIR_FREQ) -> np.ndarray:
+    """`pair_modes`' model_index for a batch of models at once: model frequencies (b, k) and the
+    MAC of each measured mode with each model mode (b, m, k; read only in the rows of
+    `has_shape`), -> (b, m). The rule is `pair_modes`'; the costs are built for the whole batch
+    and one assignment is solved per model."""
+    dist = np.abs(model_hz[:, None, :] - measured_hz[None, :, None]) / measured_hz[None, :, None]
+    cost = dist.copy()
+    allowed = dist <= max_freq_ratio
+    if has_shape.any():
+        cost[:, has_shape] = 1.0 - mm[:, has_shape] + 0.01 * dist[:, has_shape]
+        allowed[:, has_shape] = mm[:, has_shape] >= min_mac
+    costs = np.where(allowed, cost, 1e6)
+    index = np.full(dist.shape[:2], -1)
+    for b in range(dist.shape[0]):
+        rows, cols = linear_sum_assignment(costs[b])
+        ok = allowed[b, rows, cols]
+        index[b, rows[ok]] = cols[ok]
+    return index
 
 
 def frequency_errors_pct(measured_hz: np.ndarray, model_hz: np.ndarray) -> np.ndarray:

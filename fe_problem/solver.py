@@ -78,7 +78,7 @@ def _rayleigh(phi: np.ndarray, k: np.ndarray, m: np.ndarray, vectors: bool, rows
 def take_rows(phi: np.ndarray, rows) -> np.ndarray:
     """Shapes (b, n_free, k) at free-DOF `rows`: (b, len(rows), k), zero where a row is -1."""
     rows = np.asarray(rows)
-    out = phi[:, np.clip(rows, 0, None), :]
+    out = phi[:, np.maximum(rows, 0), :]
     out[:, rows < 0, :] = 0.0
     return out
 

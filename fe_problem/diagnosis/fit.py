@@ -34,22 +34,70 @@ def profiled(obs: Observations, hz: np.ndarray, shapes: np.ndarray, pairing: np.
 
     Pairs afresh (unless `pairing` is given), finds s, and pairs once more with the scaled
     frequencies so that frequency-only modes pair with the calibrated model."""
-    idx = obs.pair(hz, shapes) if pairing is None else pairing
-    for _ in range(2):
-        ok = (idx >= 0) & np.isfinite(hz[np.clip(idx, 0, None)])  # a failed solve's mode: no scale from it
-        if not ok.any():
-            s = 1.0
-        else:
-            q = hz[idx[ok]] / obs.frequencies_hz[ok]
-            s = float((q.sum() / (q * q).sum()) ** 2)
-        if pairing is not None:
-            break
-        new = obs.pair(hz * np.sqrt(s), shapes)
-        if np.array_equal(new, idx):
-            break
-        idx = new
-    r, idx = obs.residuals(hz * np.sqrt(s), shapes, idx)
-    return Fit(0.0, s, float(r @ r), idx, r)
+    return profiled_batch(obs, hz[None], shapes[None], pairing)[0]
+
+
+def _scale(obs: Observations, hz: np.ndarray, idx: np.ndarray) -> np.ndarray:
+    """The best global scale s of each model (frequencies (b, k), pairing (b, m)): (b,). A row
+    whose paired modes are all finite takes its sums in one reduction over the batch, the same
+    bits as the row alone; a row with a failed solve's mode (no scale from it) or an unpaired
+    mode sums its own paired modes."""
+    b = hz.shape[0]
+    f_pair = hz[np.arange(b)[:, None], np.maximum(idx, 0)]
+    ok = (idx >= 0) & np.isfinite(f_pair)
+    if ok.all():  # the usual case: every row at once
+        q = f_pair / obs.frequencies_hz
+        return np.array([float((n / d) ** 2) for n, d in zip(q.sum(axis=1), (q * q).sum(axis=1))])
+    s = np.ones(b)
+    full = ok.all(axis=1)
+    if full.any():
+        q = f_pair[full] / obs.frequencies_hz
+        num, den = q.sum(axis=1), (q * q).sum(axis=1)
+        s[full] = [float((n / d) ** 2) for n, d in zip(num, den)]
+    for i in np.flatnonzero(~full & ok.any(axis=1)):
+        q = hz[i, idx[i, ok[i]]] / obs.frequencies_hz[ok[i]]
+        s[i] = float((q.sum() / (q * q).sum()) ** 2)
+    return s
+
+
+def profiled_batch(obs: Observations, hz: np.ndarray, shapes: np.ndarray,
+                   pairing: np.ndarray | None = None) -> list[Fit]:
+    """`profiled` of each model of a batch (frequencies (b, k), shapes (b, n_coord, k)), the same
+    bits as one at a time: the MACs computed once per model (they do not change with the scale)
+    and the pairings of the whole batch at once; the residuals in one batch per distinct pairing."""
+    b = hz.shape[0]
+    if b == 0:  # an empty batch (no sizes asked): no fits, as one at a time gives
+        return []
+    if pairing is None:
+        mm = obs.mac_batch(shapes)
+        idx = obs.pair_batch(hz, mm)
+        s = _scale(obs, hz, idx)
+        new = obs.pair_batch(hz * np.sqrt(s)[:, None], mm)
+        again = np.flatnonzero((new != idx).any(axis=1))
+        if again.size:
+            idx[again] = new[again]
+            s[again] = _scale(obs, hz[again], idx[again])
+            new = obs.pair_batch(hz[again] * np.sqrt(s[again])[:, None], mm[again] if mm is not None else None)
+            idx[again] = new
+    else:
+        idx = np.broadcast_to(np.asarray(pairing), (b, len(pairing)))
+        s = _scale(obs, hz, idx)
+    scaled = hz * np.sqrt(s)[:, None]
+    out: list[Fit | None] = [None] * b
+    groups = [np.arange(b)] if pairing is not None or (idx == idx[0]).all() else _same_rows(idx)
+    for rows in groups:
+        sub = slice(None) if len(groups) == 1 else rows  # the whole batch: no copy
+        r = obs.residuals_paired(scaled[sub], shapes[sub], idx[rows[0]])
+        for i, ri in zip(rows, r):
+            out[i] = Fit(0.0, float(s[i]), float(ri @ ri), idx[i] if pairing is None else pairing, ri)
+    return out
+
+
+def _same_rows(idx: np.ndarray) -> list[np.ndarray]:
+    """Row indices of `idx` grouped by equal rows (in order of first appearance)."""
+    _, first, inverse = np.unique(idx, axis=0, return_index=True, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    return [np.flatnonzero(inverse == g) for g in np.argsort(first, kind="stable")]
 
 
 def profiled_paired(obs: Observations, hz: np.ndarray, shapes: np.ndarray, pairing: np.ndarray) -> np.ndarray:
@@ -74,11 +122,8 @@ def chi2_batch(obs: Observations, cand: Candidate, a: np.ndarray, pairing=None, 
         if forward is None or not dropped.is_numerical(exc):
             raise
         hz, shapes = cand.forward(a)
-    out = []
-    for i in range(a.shape[0]):
-        f = profiled(obs, hz[i], shapes[i], pairing)
-        out.append(Fit(float(a[i]), f.s, f.chi2, f.pairing, f.residuals))
-    return out
+    return [Fit(float(ai), f.s, f.chi2, f.pairing, f.residuals)
+            for ai, f in zip(a, profiled_batch(obs, hz, shapes, pairing))]
 
 
 def screen(obs: Observations, cand: Candidate, base: Fit) -> tuple[float, float]:

@@ -30,10 +30,11 @@ candidate was the one that turned the close pair the right way, whatever its phy
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
-from ..correlation import MAX_PAIR_FREQ, pair_modes, pow2_scaled
+from ..correlation import MAX_PAIR_FREQ, mac_scaled, pair_index, pow2_scaled
 from ..modal_data import ModalData
 
 #: Relative frequency gap (0.01: 1 %) below which model modes are mixed freely by an unmodelled
@@ -135,7 +136,41 @@ class Observations:
 
     def pair(self, model_hz: np.ndarray, model_shapes: np.ndarray) -> np.ndarray:
         """Model mode index for each measured mode (-1: none): `correlation.pair_modes`."""
-        return pair_modes(self.frequencies_hz, model_hz, self.shapes, model_shapes, self.has_shape).model_index
+        return self.pair_batch(model_hz[None], self.mac_batch(model_shapes[None]))[0]
+
+    @cached_property
+    def _shape_sel(self) -> tuple[np.ndarray, np.ndarray]:
+        """The measured unit shapes with a shape (n_coord, n_sel) and their entries' std: what
+        `residuals_paired` compares every model with, selected once."""
+        sel = self.has_shape
+        u_m = self.shapes[:, sel]
+        sigma = (self.shape_noise * np.max(np.abs(u_m), axis=0) if self.shape_std is None
+                 else self.shape_std[:, sel])
+        return u_m, np.broadcast_to(sigma, u_m.shape)
+
+    @cached_property
+    def _scaled_shapes(self) -> tuple[np.ndarray, np.ndarray]:
+        """The measured shapes with a shape as `correlation.mac` scales them, and their squared
+        norms: computed once, not at every model's pairing."""
+        a = pow2_scaled(np.nan_to_num(self.shapes[:, self.has_shape]))
+        return a, np.sum(a * a, axis=-2)
+
+    def mac_batch(self, model_shapes: np.ndarray) -> np.ndarray | None:
+        """The MAC of each measured mode with each model mode for a batch of models (shapes at
+        the measured coordinates (b, n_coord, k)): (b, m, k), NaN in the rows without a measured
+        shape; None when no mode has one. What `pair_batch` pairs on (the shapes' part of
+        `correlation.pair_modes`, the same bits)."""
+        if not self.has_shape.any():
+            return None
+        mm = np.full((model_shapes.shape[0], self.n_modes, model_shapes.shape[2]), np.nan)
+        mm[:, self.has_shape] = mac_scaled(*self._scaled_shapes, model_shapes)
+        return mm
+
+    def pair_batch(self, model_hz: np.ndarray, mm: np.ndarray | None) -> np.ndarray:
+        """`pair` for a batch of models: frequencies (b, k) and their `mac_batch` -> (b, m).
+        The MACs do not depend on the frequencies: a fit pairing again at a new scale passes
+        the same `mm`."""
+        return pair_index(self.frequencies_hz, model_hz, mm, self.has_shape)
 
     def residuals(self, model_hz: np.ndarray, model_shapes: np.ndarray, pairing: np.ndarray | None = None):
         """Weighted residual vector for one model (its frequencies (k,) and shapes at the
@@ -155,12 +190,13 @@ class Observations:
         idx = pairing
         # a model mode that is not finite (a failed solve, dropped.py) pairs with nothing: the
         # large fixed residual of a lost mode, so that no fit prefers a size its model cannot solve
-        f_raw = model_hz[:, np.clip(idx, 0, None)]                                  # (b, m)
+        at = np.maximum(idx, 0)
+        f_raw = model_hz[:, at]                                                     # (b, m)
         ok = (idx >= 0)[None, :] & np.isfinite(f_raw)
         sel = self.has_shape
         if sel.any():  # so does a model shape that is not finite or does not move the measured coordinates
-            u_a = model_shapes[:, :, np.clip(idx[sel], 0, None)]                 # (b, n_coord, n_sel)
-            norms = np.linalg.norm(u_a, axis=1)                                     # (b, n_sel)
+            u_a = model_shapes[:, :, at[sel]]                                       # (b, n_coord, n_sel)
+            norms = np.sqrt(np.add.reduce(u_a * u_a, axis=1))  # (b, n_sel): np.linalg.norm's own sum
             ok[:, sel] &= np.isfinite(norms) & (norms > 0)
         f = np.where(ok, f_raw, self.frequencies_hz * (1 + MAX_PAIR_FREQ))
         rel = self.freq_noise if self.freq_rel_std is None else self.freq_rel_std
@@ -168,12 +204,12 @@ class Observations:
         if not sel.any():
             return r_f
         with np.errstate(divide="ignore", invalid="ignore"):
-            u_a = u_a / norms[:, None, :]
-        u_m = self.shapes[:, sel]
+            np.divide(u_a, norms[:, None, :], out=u_a)  # in place: u_a is the gather's own copy
+        u_m, sigma = self._shape_sel
         # close modes as `residuals` treats them: only the (model, mode) pairs that have a
         # neighbour within reach go through `close_mode_shape` (none on most models)
         cols = np.flatnonzero(sel)
-        j = np.clip(idx[cols], 0, None)
+        j = at[cols]
         hz_j = model_hz[:, j]                                                       # (b, n_sel)
         # a mode at 0 Hz (a negative eigenvalue clipped: a model softened past stability, as a
         # reduced screen's largest sizes may be) has no neighbour within reach: its gap is inf,
@@ -186,10 +222,16 @@ class Observations:
             mixed = close_mode_shape(u_m[:, col], model_hz[b], model_shapes[b], j[col])
             if mixed is not None:
                 u_a[b, :, col] = mixed
-        u_a = np.where(ok[:, sel][:, None, :], u_a, 0.0)
-        u_a = u_a * np.where(np.sum(u_a * u_m, axis=1, keepdims=True) < 0, -1.0, 1.0)
-        sigma = (self.shape_noise * np.max(np.abs(u_m), axis=0) if self.shape_std is None
-                 else self.shape_std[:, sel])
-        shape_r = (u_a - u_m) / sigma                                               # (b, n_coord, n_sel)
-        # each model's block in `residuals`' order: mode by mode, the coordinates within (order F)
-        return np.concatenate([r_f, shape_r.transpose(0, 2, 1).reshape(len(model_hz), -1)], axis=1)
+        ok_sel = ok[:, sel]
+        if not ok_sel.all():
+            u_a = np.where(ok_sel[:, None, :], u_a, 0.0)
+        u_a *= np.where(np.add.reduce(u_a * u_m, axis=1, keepdims=True) < 0, -1.0, 1.0)
+        # each model's block in `residuals`' order: mode by mode, the coordinates within (order F),
+        # written in place: (u_a - u_m) / sigma                                   # (b, n_sel, n_coord)
+        n_b, m = r_f.shape
+        out = np.empty((n_b, m + u_m.size))
+        out[:, :m] = r_f
+        shape_r = out[:, m:].reshape(n_b, u_m.shape[1], u_m.shape[0])  # a view of out's tail
+        np.subtract(u_a.transpose(0, 2, 1), u_m.T, out=shape_r)
+        np.divide(shape_r, sigma.T, out=shape_r)
+        return out
