@@ -246,3 +246,83 @@ def test_suite_optima_why_the_192_minimum_is_not_0():
         == f"{min(smaller):.3f}-{max(smaller):.3f}"
     freq = min(min(v["ends"]) for k, v in certs.items() if k.startswith("hframe-freq-noisy/"))
     assert _number(r"as `hframe-freq-noisy` does \(8 residuals, J reaches ([\d.e-]+)\)", page, where) == _g(freq, 1, "e")
+
+
+def _printed(said: str, value: float) -> bool:
+    """`value` rounds to `said` at its printed precision (half a unit of its last digit: 7e-14 for
+    7.1e-14, 2.1e-13 for 2.14e-13)."""
+    m = re.fullmatch(r"(\d+)(?:\.(\d+))?(?:e([-+]?\d+))?", said.replace(",", ""))
+    assert m, said
+    unit = 10.0 ** (int(m[3] or 0) - len(m[2] or ""))
+    return abs(float(said.replace(",", "")) - value) <= 0.5 * unit * (1 + 1e-9)
+
+
+def test_suite_optima_certificate_ranges_are_the_stored_ones():
+    # docs/suite-optima.md's ranges over the stored certificates (benchmarks/suite_fopt.py's output,
+    # fe_problem/suite_fopt.json, which tests/test_certify.py checks against the problems): noise,
+    # precision, spread of the starts, projected gradient, Jacobian check, time, per size
+    import fe_problem.suite as fs
+
+    certs = fs.certificates()
+    page = " ".join((ROOT / "docs" / "suite-optima.md").read_text().split())
+
+    def group(fam, *sizes):
+        out = [c for k, c in certs.items() if k.split("/")[0] == fam and int(k.split("/")[1]) in sizes]
+        assert len(out) == 5 * len(sizes)
+        return out
+
+    def spread(c):  # the ends within the 1e-8 window of the lowest
+        low = min(c["ends"])
+        return max(e for e in c["ends"] if e - low <= 1e-8 * low) - low
+
+    def rng(pattern, values, text=page):
+        m = re.search(pattern, text)
+        assert m, f"docs/suite-optima.md: no match for {pattern!r}"
+        lo, hi = m.groups()
+        assert _printed(lo, min(values)) and _printed(hi, max(values)), (pattern, lo, hi, min(values), max(values))
+
+    e = r"([\d.]+(?:e-\d+)?)"
+    shape = {n: group("hframe-shape-noisy", n) for n in (12, 24, 48, 96, 192)}
+    # J's evaluation noise (now the largest over the BLAS kernels) per size
+    noise = page[page.index("That noise is the rounding"):page.index("a run may see J that much below")]
+    for n in (12, 24, 48, 96):
+        rng(rf"{e} to {e} at {n}\b", [c["noise"] for c in shape[n]], noise)
+    # the precisions after suite_fopt.py --noise, their largest relative, the kernels
+    now = page[page.index("Measured on an AVX-512 CPU"):page.index("`projected_gradient` is first-order")]
+    for n in (12, 24, 48, 96, 192):
+        rng(rf"{e} to {e} at {n}\b", [c["precision"] for c in shape[n]], now)
+    every = [c for n in shape for c in shape[n]]
+    m = re.search(rf"\(at most {e} relative\)", page)
+    assert m and _printed(m[1], max(c["precision"] / c["f_opt"] for c in every))
+    assert all(c["kernels"] == ["Haswell", "Sandybridge", "SkylakeX"] for c in every)
+    assert "with Sandybridge, Haswell and SkylakeX" in page
+    # "J reaches 1e-28" on the frequency-only instances, "all 0, precision 3e-28 to 1e-20"
+    freq = group("hframe-freq-noisy", 12, 24, 48, 96, 192)
+    assert all(c["f_opt"] == 0.0 for c in freq)
+    m = re.search(rf"J reaches {e}\)", page)
+    assert m and _printed(m[1], min(min(c["ends"]) for c in freq))
+    rng(rf"all 0, precision {e} to {e};", [c["precision"] for c in freq])
+    # 12, 24 and 48: 15 instances, 6 starts each, f_opt below J(truth), spread, gradient, Jacobian check, minutes
+    small = shape[12] + shape[24] + shape[48]
+    assert len(small) == 15 and all(c["starts"] == 6 for c in small) and "(15 instances, 6 starts each" in page
+    rng(r"f_opt (\d+)-(\d+) % below J\(truth\)", [100 * (1 - c["f_opt"] / c["j_truth"]) for c in small])
+    rng(rf"spread of the starts {e} to {e}, a relative", [spread(c) for c in small])
+    rng(rf"a relative {e} to {e}, projected gradient", [spread(c) / c["f_opt"] for c in small])
+    m = re.search(rf"projected gradient at most {e}, Jacobian check at most {e}; (\d+) to (\d+) minutes each", page)
+    assert m and _printed(m[1], max(c["projected_gradient"] for c in small))
+    assert _printed(m[2], max(c["jacobian_check"] for c in small))
+    assert _printed(m[3], min(c["seconds"] for c in small) / 60) and _printed(m[4], max(c["seconds"] for c in small) / 60)
+    # 96: 4 starts, minutes, the spread and its relative, the ends outside the window, the gradient
+    big = shape[96]
+    assert all(c["starts"] == 4 and c["starts_from"] == ["x0", "truth", "perturbed", "random"] for c in big)
+    rng(r"\(4 starts each: x0, the truth, a perturbed truth, a random point; (\d+) to (\d+) minutes each\)",
+        [c["seconds"] / 60 for c in big])
+    rng(rf"the spread is {e} to {e} \(a", [spread(c) for c in big])
+    rng(rf"\(a relative {e} to {e}; one start each", [spread(c) / c["f_opt"] for c in big])
+    outside = {k: max(c["ends"]) - min(c["ends"]) for k, c in certs.items()
+               if k.startswith("hframe-shape-noisy/96/") and max(c["ends"]) - min(c["ends"]) > 1e-8 * min(c["ends"])}
+    assert sorted(outside) == [f"hframe-shape-noisy/96/{k}" for k in (2, 3, 4)]
+    assert all(sum(e - min(certs[k]["ends"]) > 1e-8 * min(certs[k]["ends"]) for e in certs[k]["ends"]) == 1 for k in outside)
+    rng(rf"one start each of 96/2, 96/3 and 96/4 ended {e} to {e} above", list(outside.values()))
+    m = re.search(rf"not counted\); projected gradient up to {e}\.", page)
+    assert m and _printed(m[1], max(c["projected_gradient"] for c in big))
