@@ -338,6 +338,12 @@ def test_two_separated_members_are_the_sparse_answer():
     a = diag.answer
     assert (a.kind, a.location) == (SPARSE, {"members": [2, 9]}), (a.label, a.decisive)
     assert not a.decisive and a.runner_up["label"] == "stiffness_loss@element=2"
+    # docs/diagnosis-forms.md: "now the class is the answer, X above member 2 alone"
+    order = sorted(diag.evidence.classes, key=lambda c: -c.log_evidence)
+    assert order[1].label == "stiffness_loss@element=2"
+    page = " ".join((Path(__file__).resolve().parents[1] / "docs" / "diagnosis-forms.md").read_text().split())
+    said = re.search(r"now the class is the answer, ([\d.]+) above member 2 alone", page)
+    assert said and said[1] == f"{order[0].log_evidence - order[1].log_evidence:.1f}", said
     assert any(w.startswith("answer not decisive: cannot tell apart " + a.label) for w in diag.warnings)
     ratios = dict(zip(a.estimate["members"], a.estimate["modulus_ratio"]))
     assert ratios[2] == pytest.approx(0.814, abs=0.04) and ratios[9] == pytest.approx(0.775, abs=0.06)
