@@ -326,3 +326,25 @@ def test_suite_optima_certificate_ranges_are_the_stored_ones():
     rng(rf"one start each of 96/2, 96/3 and 96/4 ended {e} to {e} above", list(outside.values()))
     m = re.search(rf"not counted\); projected gradient up to {e}\.", page)
     assert m and _printed(m[1], max(c["projected_gradient"] for c in big))
+
+
+def test_the_long_run_check_compares_the_studies_prose_with_reproduce_json():
+    # benchmarks/check_published.py's `reproduce-json` job: docs/benchmark-studies.md's medians of J,
+    # the best known J and the paper's errors against `femu reproduce --json` (here a result made of
+    # the page's own numbers: no difference; one median moved by more than its last digit: reported)
+    import importlib.util
+    import json
+
+    spec = importlib.util.spec_from_file_location("check_published", ROOT / "benchmarks" / "check_published.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    text = (ROOT / mod.STUDIES_PAGE).read_text()
+    flat = " ".join(text.split())
+    paper = json.loads((ROOT / "fe_problem" / "shipped" / "paper.modal.json").read_text())
+    res = {"solvers": {name: {"best_f": float(re.search(rx, flat)[1])} for rx, name in mod.MEDIAN_J},
+           "paper": {"mean_abs_error_pct_from_table": {"PSO": float(_number(r"Table 1 implies ([\d.]+) %", flat, "page"))},
+                     "mean_error_pct_text": paper["meta"]["table1"]["mean_error_pct_text"]}}
+    assert len(res["solvers"]) == 7 and mod.studies_prose(res, text) == []
+    res["solvers"]["cma-es"]["best_f"] *= 1.01
+    assert [b.split(":")[1] for b in mod.studies_prose(res, text)] == [" median J of cma-es"]
+    assert mod.printed("5.414e-6", 5.41449e-6) and not mod.printed("5.414e-6", 5.4146e-6)
