@@ -11,6 +11,9 @@ The jobs (benchmarks/published.toml lists every figure, with `kind = "script"` f
 - `reproduce`: `femu reproduce --markdown` (5 seeds x 1000 evaluations, 12 optimizers; a few
   minutes): the table of README.md and docs/benchmark-studies.md, and the best mean error both
   pages quote ("gets below about X %").
+- `reproduce-json`: `femu reproduce --json` on the same store (no new run after `reproduce`): the
+  median best J per optimizer, the best known J and the paper's errors docs/benchmark-studies.md
+  quotes below its table.
 - `adapter-references`: `python benchmarks/adapter_references.py --budget 1000 --seeds 5` (each
   built-in against its library's own driver; tens of minutes, mlp-surrogate and nevergrad most of
   it): the table of docs/suite-adapters.md.
@@ -49,6 +52,8 @@ JOBS = {
     "diagnosis-more": [PY, "tests/diagnosis_cases.py", "2026", "--only", "more", "--markdown"],
     "diagnosis-real": [PY, "tests/diagnosis_cases.py", "5", "--only", "real", "--markdown"],
     "reproduce": [PY, "-m", "femu", "reproduce", "--markdown", "--out", "{dir}/reproduce"],
+    # the same runs (the store resumes: after `reproduce`, no new run) as JSON: the medians of J
+    "reproduce-json": [PY, "-m", "femu", "reproduce", "--json", "--out", "{dir}/reproduce"],
     "suite": None,  # three commands: see _suite
     "adapter-references": [PY, "benchmarks/adapter_references.py", "--budget", "1000", "--seeds", "5"],
 }
@@ -68,6 +73,48 @@ TABLES = (
 #: pages that quote the reproduce table's best mean error
 BEST_ERROR = (("README.md", r"gets below about ([\d.]+) %"), ("docs/benchmark-studies.md", r"gets below about ([\d.]+) %"))
 SUITE_PAGE = "docs/benchmark-tables.md"
+#: docs/benchmark-studies.md's prose on `femu reproduce --json`: (the words before a median best J,
+#: the optimizer whose median it is); the paper's Table 1 and text errors; the best known J
+STUDIES_PAGE = "docs/benchmark-studies.md"
+MEDIAN_J = ((r"in the terminal\): scipy-sa ([\d.e-]+),", "scipy-sa"),
+            (r"the paper's settings before, until commit \w+ of [\d-]+\) ([\d.e-]+) and", "mlp-surrogate"),
+            (r"the sensitivity method ([\d.e-]+) reach it", "sensitivity"),
+            (r"NGOpt \(([\d.e-]+)\)", "nevergrad-ngopt"),
+            (r"pyswarms-pso \(([\d.e-]+)\)", "pyswarms-pso"),
+            (r"CMA-ES ends at ([\d.e-]+);", "cma-es"),
+            (r"\(DEAP, its operators, ([\d.e-]+)\)", "deap-ga"))
+
+
+def printed(said: str, value: float) -> bool:
+    """`value` rounds to `said` at said's printed precision (half a unit of its last digit)."""
+    m = re.fullmatch(r"(\d+)(?:\.(\d+))?(?:e([-+]?\d+))?", said)
+    if not m:
+        return False
+    return abs(float(said) - value) <= 0.5 * 10.0 ** (int(m[3] or 0) - len(m[2] or "")) * (1 + 1e-9)
+
+
+def studies_prose(res: dict, text: str) -> list[str]:
+    """Where docs/benchmark-studies.md's prose differs from `femu reproduce --json`'s result `res`."""
+    from fe_problem.suite import PAPER_F_OPT
+
+    text, bad = " ".join(text.split()), []
+    for rx, name in MEDIAN_J:
+        said = re.search(rx, text)
+        got = res["solvers"].get(name, {}).get("best_f")
+        if not said or got is None or not printed(said[1], got):
+            bad.append(f"{STUDIES_PAGE}: median J of {name}: the page says {said[1] if said else 'nothing'}, "
+                       f"the run {got}")
+    said = re.search(r"against the best known J = ([\d.e-]+),", text)
+    if not said or not printed(said[1], PAPER_F_OPT):
+        bad.append(f"{STUDIES_PAGE}: best known J {said[1] if said else 'missing'}, PAPER_F_OPT {PAPER_F_OPT}")
+    table = res["paper"]["mean_abs_error_pct_from_table"]
+    said = re.search(r"The paper's Table 1 implies ([\d.]+) % for its PSO", text)
+    if not said or said[1] != f"{table['PSO']:.2f}":
+        bad.append(f"{STUDIES_PAGE}: the paper's Table 1 PSO error {said[1] if said else 'missing'}, recomputed {table['PSO']:.2f}")
+    for k, v in res["paper"]["mean_error_pct_text"].items():
+        if f"{v} % ({k})" not in text:
+            bad.append(f"{STUDIES_PAGE}: the paper's text error {v} % ({k}) is not quoted")
+    return bad
 
 
 def tables(text: str) -> list[list[str]]:
@@ -194,6 +241,10 @@ def main(argv=None) -> int:
                 problems += 1
             else:
                 print(f"{page}: the best mean error {said[1]} % is the table's")
+    if "reproduce-json" in made:
+        bad = studies_prose(json.loads(made["reproduce-json"]), (ROOT / STUDIES_PAGE).read_text())
+        print("\n".join(bad) or f"{STUDIES_PAGE}: the medians of J and the paper's errors are the run's")
+        problems += len(bad)
     if "suite" in made:
         said = _suite_lines((ROOT / SUITE_PAGE).read_text())
         fresh = _suite_lines(made["suite"])

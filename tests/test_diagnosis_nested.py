@@ -109,6 +109,15 @@ def test_a_free_group_class_is_sampled_and_agrees_with_laplace():
     lap = laplace[row.label].log_evidence
     assert abs(row.log_evidence - integral) < 3 * row.log_evidence_error
     assert abs(lap - integral) < 0.5  # near-Gaussian: Laplace is accurate on this class
+    # docs/diagnosis-forms.md: "326.16 +- 0.23 against 325.80 (D = 1": this row, dynesty's error, Laplace's
+    import re
+    from pathlib import Path
+
+    page = " ".join((Path(__file__).resolve().parents[1] / "docs" / "diagnosis-forms.md").read_text().split())
+    said = re.search(r"two adjacent members free on the H-frame \(9, 10 at 0.85/0.75, seed 1\): .{0,60}?"
+                     r"([\d.]+) \+- ([\d.]+) against ([\d.]+) \(D = (\d+);", page)
+    assert said, "docs/diagnosis-forms.md: the nested row of the pair not found"
+    assert said.groups() == (f"{row.log_evidence:.2f}", f"{row.log_evidence_error:.2f}", f"{lap:.2f}", f"{d:g}")
 
 
 def test_cli_nested_gives_the_table_with_errors(tmp_path):

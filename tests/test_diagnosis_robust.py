@@ -187,6 +187,27 @@ def test_with_more_noise_than_stated_the_chosen_class_predicts_the_held_out_mode
     others = [c.held_out_error_pct for label, c in rows.items() if label != d.answer.label]
     assert len(others) >= 3
     assert chosen.held_out_error_pct <= min(others) + 100 * 0.002 * times
+    # docs/diagnosis-real-data.md's figures of these four draws, to their printed precision
+    import re
+
+    page = " ".join((Path(__file__).resolve().parents[1] / "docs" / "diagnosis-real-data.md").read_text().split())
+    assert "storeys' moduli are 0.7, 0.8 and 0.9 of nominal (the fourth nominal)" in page
+    lo, hi = re.search(r"Nothing fits within the stated noise \(D ([\d.]+) to ([\d.]+)\)", page).groups()
+    D = d.evidence.dispersion
+    assert float(lo) - 0.05 <= D <= float(hi) + 0.05
+    assert f"{D:.1f}" == {(3, 1): lo, (10, 1): hi}.get((times, seed), f"{D:.1f}")
+    trend = "stiffness_trend@trend=linear_height+"
+    if times < 10:  # "At 3 and 5 times the answer is the stiffness trend with height (held-out error a-b %)"
+        lo, hi = re.search(r"At 3 and 5 times the answer is the stiffness trend with height \(held-out error "
+                           r"([\d.]+)-([\d.]+) %\)", page).groups()
+        err = chosen.held_out_error_pct
+        assert d.answer.label == trend and float(lo) - 0.005 <= err <= float(hi) + 0.005
+        assert f"{err:.2f}" == {(5, 0): lo, (3, 2): hi}.get((times, seed), f"{err:.2f}")
+    else:  # "at 10 times (seed 1) a stiffer top beam, which predicts best there (a % against the trend's b %)"
+        said = re.search(r"at 10 times \(seed 1\) a stiffer top beam, which predicts best there \(([\d.]+) % "
+                         r"against the trend's ([\d.]+) %\)", page)
+        assert d.answer.kind == "stiffness_gain" and said.groups() == (
+            f"{chosen.held_out_error_pct:.2f}", f"{rows[trend].held_out_error_pct:.1f}")
 
 
 def test_python_m_femu_diagnose_json_on_few_modes_at_few_floors(tmp_path):

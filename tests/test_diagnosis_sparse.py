@@ -92,6 +92,15 @@ def test_separated_member_changes_are_localised(factors, seed):
     for e, f in factors.items():
         # a modulus ratio for a change of bending alone: near, not equal
         assert ratios[e] == pytest.approx(f, abs=0.06), (e, ratios[e])
+    if sorted(factors) == [3, 7, 11]:  # docs/diagnosis-forms.md quotes this case's ratios
+        import re
+        from pathlib import Path
+
+        page = " ".join((Path(__file__).resolve().parents[1] / "docs" / "diagnosis-forms.md").read_text().split())
+        said = re.search(r"ratios within ([\d.]+) of the inertia factors .{0,60}e\.g\. members 3, 7, 11 at "
+                         r"([\d.]+), ([\d.]+), ([\d.]+) for ([\d.]+), ([\d.]+), ([\d.]+);", page)
+        assert said and said[1] == "0.06", "docs/diagnosis-forms.md: the sparse class's example"
+        assert list(said.groups()[1:]) == [f"{ratios[e]:.3f}" for e in (3, 7, 11)] + [f"{factors[e]:.2f}" for e in (3, 7, 11)]
     assert np.all(sf.theta_std > 0) and np.all(sf.theta_std < 0.1)
     assert sf.chi2 < 0.2 * cal.base.chi2
     d = max(1.0, sf.chi2 / cal.obs.dof(1 + len(sf.members)))

@@ -24,6 +24,8 @@ fits every candidate that pairs that mode at some size of its grid, `fit.brings`
 
 import dataclasses
 import json
+import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -260,6 +262,27 @@ GRADIENTS = [((9, 10), (0.85, 0.75), 1), ((9, 10), (0.85, 0.75), 2), ((9, 10), (
              ((1, 2), (0.85, 0.75), 2), ((1, 2), (0.85, 0.75), 3), ((2, 3), (0.8, 0.9), 3)]
 
 
+def _evidence_page_row(members, factors, seed) -> tuple[str, str]:
+    """docs/diagnosis-evidence.md's row of this case in its before/after table: (before, after) cells."""
+    page = (Path(__file__).resolve().parents[1] / "docs" / "diagnosis-evidence.md").read_text()
+    case = f"({members[0]}, {members[1]}) {factors[0]:g}/{factors[1]:g}, seed {seed}"
+    rows = [ln for ln in page.splitlines() if ln.startswith(f"| {case} |")]
+    assert len(rows) == 1, f"docs/diagnosis-evidence.md: {len(rows)} rows for {case!r}"
+    return tuple(c.strip() for c in rows[0].strip("|").split("|")[1:])
+
+
+def _said(label: str, members) -> str:
+    """An evidence row's label as the page's table writes it."""
+    if label.startswith("adjacent_members_free@members="):
+        return "pair"
+    m = re.fullmatch(r"stiffness_loss@element=(\d+)(\(zone [\d.]+\))?", label)
+    if m:
+        return f"{'zone' if m[2] else 'loss'} in element {m[1]}"
+    m = re.fullmatch(r"node_position@node=(\d+)\(([-+][xyz])\)", label)
+    assert m, label
+    return f"node {m[1]} {m[2]}"
+
+
 @pytest.mark.parametrize("members, factors, seed", GRADIENTS)
 def test_a_two_member_gradient_is_named_or_not_decisive(members, factors, seed):
     """Two consecutive elements of one H-frame column at different moduli: the answer names both
@@ -277,6 +300,19 @@ def test_a_two_member_gradient_is_named_or_not_decisive(members, factors, seed):
     named = answer_row is not None and members_changed(answer_row) == both
     flagged = not a.decisive and any(members_changed(c) == both for c in diag.evidence.classes)
     assert named or flagged, (a.label, a.decisive, a.runner_up and a.runner_up["label"])
+    # docs/diagnosis-evidence.md's "after" column: the answer, decisive or not, the margin to the next
+    # row (and, when the pair is not second, how far below it is); "the same": the "before" answer
+    order = sorted(diag.evidence.classes, key=lambda c: -c.log_evidence)
+    before, after = _evidence_page_row(members, factors, seed)
+    m = re.fullmatch(r"(.+), (no|yes), ([\d.]+)(?: \(the pair ([\d.]+) below\))?", after)
+    assert m, f"docs/diagnosis-evidence.md: after cell {after!r}"
+    said = before.split(",")[0] if m[1] == "the same" else m[1]
+    assert (said, m[2] == "yes", m[3]) == (_said(order[0].label, members), a.decisive,
+                                           f"{order[0].log_evidence - order[1].log_evidence:.2f}")
+    pair = next(c for c in order if c.label.startswith("adjacent_members_free@"))
+    assert (m[4] is None) == (pair in order[:2]), after
+    if m[4] is not None:
+        assert m[4] == f"{order[0].log_evidence - pair.log_evidence:.2f}"
     if named and a.family != "several":  # a class of moduli as the answer: its ratios near the truth
         est = answer_row.estimate
         ratios = dict(zip(est["members"], est["modulus_ratio"]))  # against the rest of the frame
@@ -302,6 +338,12 @@ def test_two_separated_members_are_the_sparse_answer():
     a = diag.answer
     assert (a.kind, a.location) == (SPARSE, {"members": [2, 9]}), (a.label, a.decisive)
     assert not a.decisive and a.runner_up["label"] == "stiffness_loss@element=2"
+    # docs/diagnosis-forms.md: "now the class is the answer, X above member 2 alone"
+    order = sorted(diag.evidence.classes, key=lambda c: -c.log_evidence)
+    assert order[1].label == "stiffness_loss@element=2"
+    page = " ".join((Path(__file__).resolve().parents[1] / "docs" / "diagnosis-forms.md").read_text().split())
+    said = re.search(r"now the class is the answer, ([\d.]+) above member 2 alone", page)
+    assert said and said[1] == f"{order[0].log_evidence - order[1].log_evidence:.1f}", said
     assert any(w.startswith("answer not decisive: cannot tell apart " + a.label) for w in diag.warnings)
     ratios = dict(zip(a.estimate["members"], a.estimate["modulus_ratio"]))
     assert ratios[2] == pytest.approx(0.814, abs=0.04) and ratios[9] == pytest.approx(0.775, abs=0.06)

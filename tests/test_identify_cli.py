@@ -59,6 +59,19 @@ def test_crack_modes_recovered_and_diagnosed(crack, capsys):
     err_pct, mac = compare(data, crack["truth"], 8)
     assert np.all(np.abs(err_pct) < 0.2), err_pct
     assert np.all(mac >= 0.99), mac
+    # docs/identify.md: "the 8 frequencies within 0.2 % (measured: at most X %), MAC >= 0.99 (measured: >= Y)"
+    import math
+    import re
+
+    page = " ".join((Path(__file__).resolve().parents[1] / "docs" / "identify.md").read_text().split())
+    said = re.search(r"the 8 frequencies within ([\d.]+) % \(measured: at most ([\d.]+) %\), MAC >= ([\d.]+) "
+                     r"\(measured: >= ([\d.]+)\)", page)
+    assert said and (said[1], said[3]) == ("0.2", "0.99"), "docs/identify.md: the crack test's bounds"
+    worst, low = float(np.abs(err_pct).max()), float(mac.min())
+    digits = len(said[2].split(".")[1])
+    assert said[2] == f"{math.ceil(worst * 10**digits) / 10**digits:.{digits}f}", worst  # "at most": rounded up
+    digits = len(said[4].split(".")[1])
+    assert said[4] == f"{math.floor(low * 10**digits) / 10**digits:.{digits}f}", low  # ">=": rounded down
     zeta = np.array(data.meta["damping_ratio"])
     assert np.all((zeta > 0.009) & (zeta < 0.021)), zeta
     unc = data.meta["uncertainty"]
@@ -100,6 +113,12 @@ def test_closely_spaced_modes(tmp_path, capsys):
     model_file = fp.save_model(model, tmp_path / "massed.model.json")
     truth = fp.modal_analysis(model, 6).frequencies_hz
     assert (truth[5] - truth[4]) / truth[4] < 0.04
+    # docs/identify.md: "two closely spaced modes (3.7 % apart at 2 % damping: ...)"
+    import re
+
+    page = " ".join((Path(__file__).resolve().parents[1] / "docs" / "identify.md").read_text().split())
+    said = re.search(r"two closely spaced modes \(([\d.]+) % apart at (\d+) % damping", page)
+    assert said and said[1] == f"{100 * (truth[5] - truth[4]) / truth[4]:.1f}" and said[2] == "2", said
     # the FRF file names its model by a path relative to itself, as the data format does
     fp.synthetic_frf(model, band_hz=(5, 700), damping=0.02, noise=NOISE, seed=4, model_name=model_file.name,
                      path=tmp_path / "close.uff")

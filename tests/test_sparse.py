@@ -271,6 +271,26 @@ def test_a_long_thin_free_free_beam_keeps_its_three_rigid_modes_and_no_dense_mat
     beta_l = np.array([4.730040745, 7.853204624, 10.99560784, 14.13716549])  # free-free beam
     exact = beta_l**2 / (2 * np.pi * L**2) * np.sqrt(7e10 * 1e-9 / (2700 * 1e-4))
     np.testing.assert_allclose(res.frequencies_hz, exact, rtol=1e-5)
+    # docs/scale-method.md: the first elastic frequency off the closed form "now X and Y" with
+    # CHOLMOD and SuperLU (the Rayleigh quotients), to the page's printed precision
+    import re
+    from pathlib import Path
+
+    import fe_problem.sparse as fs
+    from fe_problem.terms import Terms
+
+    page = " ".join((Path(__file__).resolve().parents[1] / "docs" / "scale-method.md").read_text().split())
+    said = re.search(r"the quotient to its square: now ([\d.]+e-\d+) and ([\d.]+e-\d+), what", page)
+    assert said, "docs/scale-method.md: the thin beam's errors not found"
+    system = fp.AffineModel(m, (), solver="sparse", workers=1)
+    k, mm = Terms(m, system.parameters).free_arrays()
+    for fac, printed in zip(fs.FACTORIZATIONS, said.groups()):
+        if fac == "cholmod" and fs._cholmod is None:
+            continue  # the 'cholmod' extra absent: SuperLU's figure alone
+        s = fs.SparseModalSolver(k, mm, system.n_free, system.x0, "thin", workers=1, factorization=fac,
+                                 min_zero=system.n_rigid)
+        first = np.sqrt(s._modes(system.x0, 4, False, None, False)[0][0]) / (2 * np.pi)
+        assert f"{abs(first / exact[0] - 1):.0e}".replace("e-0", "e-") == printed, (fac, first / exact[0] - 1)
 
 
 def test_least_squares_with_hundreds_of_parameters_on_a_1000_dof_frame():
