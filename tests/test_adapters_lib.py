@@ -79,19 +79,27 @@ def test_runs_silently_and_leave_logging_and_cwd_alone(name, capfd, tmp_path, mo
     assert list(tmp_path.iterdir()) == []  # no report.log, no outcmaes/
 
 
+#: The budget at which every library must improve on random search: 300, where the worst of
+#: them (deap-ga-stock, seed 0) ends at 0.47 of random search's best J and the others at 0.16-0.37
+#: (the same property as at 1,000 evaluations, where it was tested before at four times the CPU:
+#: optuna-tpe's own cost grows with its history).
+IMPROVE_BUDGET = 300
+
+
 @pytest.fixture(scope="module")
-def random_search_1000():
-    """The best J of random search (1,000 evaluations, seed 0) every library must beat: one run
-    (a seed fixes it: test_seed_fixes_the_run_...), not one per library."""
-    return adapters.run("random-search", make_problem("paper"), 1000, seed=0).best_f
+def random_search_baseline():
+    """The best J of random search (IMPROVE_BUDGET evaluations, seed 0) every library must beat at
+    the same budget: one run (a seed fixes it: test_seed_fixes_the_run_...), not one per library."""
+    return adapters.run("random-search", make_problem("paper"), IMPROVE_BUDGET, seed=0).best_f
 
 
 @pytest.mark.parametrize("name", LIBRARY)
-def test_improves_on_the_initial_model_and_on_random_search(name, random_search_1000):
+def test_improves_on_the_initial_model_and_on_random_search(name, random_search_baseline):
     p = make_problem("paper")
-    r = adapters.run(name, p, 1000, seed=0)
+    r = adapters.run(name, p, IMPROVE_BUDGET, seed=0)
+    assert r.n_evals == IMPROVE_BUDGET
     assert r.best_f < p.evaluate(p.x0)[0]
-    assert r.best_f < random_search_1000
+    assert r.best_f < random_search_baseline
 
 
 @pytest.mark.parametrize("name, options, longest_run", [
@@ -109,15 +117,17 @@ def test_restarts_spend_the_budget_when_the_library_stops(name, options, longest
 
 
 def test_ngopt_with_its_threaded_cma_is_fixed_by_the_seed(spawned):
-    # at 12 parameters and 1,000 evaluations NGOpt picks a MetaModel over CmaFmin2, whose pycma
-    # runs in a thread of nevergrad's, unseeded: before the adapter seeded it and ordered the
-    # threads' draws, two runs with one seed differed
+    # at 12 parameters and more than 600 evaluations NGOpt picks a MetaModel over CmaFmin2, whose
+    # pycma runs in a thread of nevergrad's, unseeded: before the adapter seeded it and ordered
+    # the threads' draws, two runs with one seed differed. 650 evaluations (1,000 before: the
+    # same choice, asserted here, at two thirds of the CPU; at 600 and below NGOpt picks NGOpt16)
     import nevergrad as ng
 
-    chosen = ng.optimizers.NGOpt(parametrization=ng.p.Array(shape=(12,), lower=0.0, upper=1.0), budget=1000)
+    budget = 650
+    chosen = ng.optimizers.NGOpt(parametrization=ng.p.Array(shape=(12,), lower=0.0, upper=1.0), budget=budget)
     assert "CmaFmin2" in str(chosen._select_optimizer_cls())
-    worker = spawned.submit(record_in_worker, "nevergrad-ngopt", 3, 1000)
-    first = record("nevergrad-ngopt", 3, 1000)
-    assert first[:2] == ("ok", 1000)
-    assert record("nevergrad-ngopt", 3, 1000) == first
+    worker = spawned.submit(record_in_worker, "nevergrad-ngopt", 3, budget)
+    first = record("nevergrad-ngopt", 3, budget)
+    assert first[:2] == ("ok", budget)
+    assert record("nevergrad-ngopt", 3, budget) == first
     assert worker.result(timeout=300)[0] == first

@@ -247,7 +247,23 @@ def opensees_modes_fresh(frame: Frame, timoshenko: bool, n_modes: int = N_MODES,
     calls it (the frame3d with a corner-column zone after a modal analysis of the H-frame in the
     same process, or a 12-entry dict made first; tests/test_space_zones.py,
     test_truth_does_not_depend_on_what_ran_before). The signs once changed the noise drawn on
-    those modes (test_frame3d.measured now fixes them)."""
+    those modes (test_frame3d.measured now fixes them).
+
+    Being the same in any process, the modes of one structure are solved once per test process
+    (`_FRESH`, keyed by the pickled arguments; a copy returned): test_frame3d and
+    test_space_zones read the same truths in several tests."""
+    key = pickle.dumps((frame, timoshenko, n_modes, sorted(options.items())))
+    if key not in _FRESH:
+        _FRESH[key] = _opensees_modes_in_a_new_process(frame, timoshenko, n_modes, **options)
+    f, shapes = _FRESH[key]
+    return f.copy(), shapes.copy()
+
+
+#: opensees_modes_fresh's results in this process, by its pickled arguments
+_FRESH: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+
+
+def _opensees_modes_in_a_new_process(frame: Frame, timoshenko: bool, n_modes: int, **options):
     code = ("import pickle, sys\n"
             "import numpy as np\n"
             "from test_beam3d import opensees_modes\n"

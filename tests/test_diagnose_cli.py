@@ -6,6 +6,8 @@ The hidden-effect accuracy of the diagnosis itself is tests/test_diagnosis.py's;
 case only needs an answer the data leave no doubt about.
 """
 
+import contextlib
+import io
 import json
 import subprocess
 import sys
@@ -47,6 +49,41 @@ def files(tmp_path_factory):
     crack_bad_mode = fp.ModalData("hframe", crack.dofs, crack.frequencies_hz, shapes, crack.meta)
     return {"dir": d, "mass": fp.save_modal_data(mass, d / "mass.json"),
             "crack_bad_mode": fp.save_modal_data(crack_bad_mode, d / "crack_bad_mode.json")}
+
+
+def femu_keeping_the_diagnosis(*argv):
+    """`femu *argv` as a user runs it, the Diagnosis it computed kept (`fp.diagnose` wrapped, called
+    once): (exit code, stdout, stderr, diagnosis)."""
+    computed, diagnose = [], fp.diagnose
+
+    def diagnose_and_keep(*args, **kwargs):
+        computed.append(diagnose(*args, **kwargs))
+        return computed[-1]
+
+    out, err = io.StringIO(), io.StringIO()
+    with pytest.MonkeyPatch.context() as mp, contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        mp.setattr(fp, "diagnose", diagnose_and_keep)
+        code = main(list(map(str, argv)))
+    assert len(computed) == 1
+    return code, out.getvalue(), err.getvalue(), computed[0]
+
+
+@pytest.fixture(scope="module")
+def runs(files, tmp_path_factory):
+    """`runs(name)`: the one `femu diagnose` run of each data file of `files`, as (its --out directory,
+    exit code, stdout, stderr, diagnosis): the mass with --json, the crack with its bad mode as text.
+    The tests of the output and the tests of the record and its figures read the same run (each an
+    H-frame diagnosis, computed once for the module)."""
+    argv = {"mass": ["--json", "--out"], "crack_bad_mode": ["--out"]}
+    done = {}
+
+    def run(name):
+        if name not in done:
+            out_dir = tmp_path_factory.mktemp(name) / "out"
+            done[name] = (out_dir, *femu_keeping_the_diagnosis("diagnose", files[name], *argv[name], out_dir))
+        return done[name]
+
+    return run
 
 
 # == the JSON record's keys, pinned as they were before the record became dataclasses ==========
@@ -110,9 +147,8 @@ def assert_record_keys(record: dict, cause: str, gain: str) -> None:
     assert answer["runner_up"] is None or list(answer["runner_up"]) == ["label", "family", "estimate", "log_evidence"]
 
 
-def test_json_names_the_added_mass_and_out_writes_a_usable_extended_model(files, capsys, tmp_path):
-    out_dir = tmp_path / "report"
-    code, out, err = femu(capsys, "diagnose", files["mass"], "--json", "--out", out_dir)
+def test_json_names_the_added_mass_and_out_writes_a_usable_extended_model(files, runs):
+    out_dir, code, out, err, _ = runs("mass")
     assert code == 0, err
     record = json.loads(out)  # stdout is exactly one JSON object
     assert_record_keys(record, "identified", "extended")
@@ -150,8 +186,8 @@ def test_json_names_the_added_mass_and_out_writes_a_usable_extended_model(files,
     assert problem.evaluate(problem.x0).shape == (1,)
 
 
-def test_summary_shows_the_cause_and_leaves_out_a_mode_that_pairs_with_nothing(files, capsys, tmp_path):
-    code, out, err = femu(capsys, "diagnose", files["crack_bad_mode"], "--out", tmp_path)
+def test_summary_shows_the_cause_and_leaves_out_a_mode_that_pairs_with_nothing(runs):
+    tmp_path, code, out, err, _ = runs("crack_bad_mode")
     assert code == 0, err
     assert err == ""  # nothing on stderr when all is well and stderr is not a terminal
     lines = out.splitlines()
@@ -174,11 +210,20 @@ def test_summary_shows_the_cause_and_leaves_out_a_mode_that_pairs_with_nothing(f
     assert (tmp_path / "shapes.png").read_bytes()[:8] == PNG_MAGIC
 
 
-def test_paper_data_get_an_honest_answer_with_the_verdict(capsys):
+def test_paper_data_get_an_honest_answer_with_the_verdict(capsys, monkeypatch):
     """Five frequencies, no shapes: with the 118 candidates no single effect is significant
     after the correction (it was 'cannot tell apart' among 68), and the calibrated model
-    misses the frequencies far beyond 0.2 % noise: the answer says both."""
+    misses the frequencies far beyond 0.2 % noise: the answer says both. The summary is checked on
+    the very diagnosis the CLI computed (kept as `fp.diagnose` returns it: one run, not two)."""
+    computed, diagnose = [], fp.diagnose
+
+    def diagnose_and_keep(*args, **kwargs):
+        computed.append(diagnose(*args, **kwargs))
+        return computed[-1]
+
+    monkeypatch.setattr(fp, "diagnose", diagnose_and_keep)
     code, out, err = femu(capsys, "diagnose", "paper", "--json")
+    assert len(computed) == 1
     assert code == 0, err
     record = json.loads(out)
     assert_record_keys(record, "none", "none")
@@ -188,7 +233,7 @@ def test_paper_data_get_an_honest_answer_with_the_verdict(capsys):
     assert record["adequate"] is False and record["goodness_of_fit"]["p_value"] < 1e-100
     assert record["goodness_of_fit"]["implied_freq_noise"] > 5 * record["noise"]["freq_noise"]
     assert record["residuals"]["mac_matrix"] is None  # the paper gives frequencies only
-    summary = summary_text(fp.diagnose(None, "paper"), "paper", "hframe")  # the record the CLI printed
+    summary = summary_text(computed[0], "paper", "hframe")  # the record the CLI printed, as its text
     assert "CAUSE: none: " in summary and "VERDICT: NOT ADEQUATE: the calibrated model" in summary
     assert "COMAC: - (no measured shapes)" in summary
 
@@ -278,8 +323,8 @@ def test_out_that_is_a_file(files, capsys, tmp_path):
 
 
 # == the typed record, the one correlation, the figures ==========================================
-def test_record_attributes_are_what_the_json_says(files):
-    diag = fp.diagnose("hframe", files["mass"])
+def test_record_attributes_are_what_the_json_says(runs):
+    diag = runs("mass")[-1]  # the record `femu diagnose --json` printed
     record = json.loads(json.dumps(diag.to_dict(), allow_nan=False))
     assert_record_keys(record, "identified", "extended")
     assert isinstance(diag.cause, fp.diagnosis.Cause) and (diag.cause.kind, diag.cause.location) == ("added_mass",
@@ -316,13 +361,13 @@ def test_correlate_pairs_and_scores_one_model_against_data():
     assert rep.mean_abs_error_pct == pytest.approx(0.0, abs=1e-9)
 
 
-def test_shape_figure_draws_every_measured_mode_on_a_numbered_frame(files, tmp_path, monkeypatch):
+def test_shape_figure_draws_every_measured_mode_on_a_numbered_frame(files, runs, tmp_path, monkeypatch):
     import femu.reports.diagnosis as report
 
+    diag = runs("crack_bad_mode")[-1]  # the diagnosis of these data `femu diagnose` computed
     drawn = []
     monkeypatch.setattr(report, "save_figure", lambda fig, path: drawn.append(fig))
     data = fp.load_modal_data(files["crack_bad_mode"])
-    diag = fp.diagnose("hframe", data)
     report.plot_shapes(diag, HFRAME, diag.extended_model, data, tmp_path / "shapes.png")
     panels = [ax for ax in drawn[0].axes if ax.get_visible()]
     assert len(panels) == data.n_modes == 8  # mode 3 pairs with nothing and is drawn all the same

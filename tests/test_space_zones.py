@@ -18,7 +18,9 @@ frequencies do not change under the turn; the shapes are turned back).
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+import io
 import json
 import os
 import pathlib
@@ -160,6 +162,33 @@ def opensees_zone_data(element_id: int, start: float, end: float, ratio: float, 
                     meta={"source": "OpenSeesPy", "freq_noise": freq_noise, "shape_noise": shape_noise})
 
 
+def _diagnose_json(data: fp.ModalData, path: pathlib.Path) -> dict:
+    """`femu diagnose FILE --json` on `data` written to `path`, as a user runs it: its record."""
+    fp.save_modal_data(data, path)
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        assert main(["diagnose", str(path), "--json"]) == 0
+    return json.loads(out.getvalue())
+
+
+@pytest.fixture(scope="module")
+def corner_record(tmp_path_factory):
+    """`corner_record(about)`: the `femu diagnose --json` record of the corner column's zone about
+    `about` (`opensees_zone_data(1, 0.2, 0.3, 0.1, about)`), each diagnosed once for the module: the
+    test of its answer and (rz) the test of its last digits read the same record (a space-frame
+    diagnosis is the costly part of both)."""
+    directory = tmp_path_factory.mktemp("corner")
+    records = {}
+
+    def record(about: str) -> dict:
+        if about not in records:
+            records[about] = _diagnose_json(opensees_zone_data(1, 0.2, 0.3, 0.1, about),
+                                            directory / f"corner-{about}.modal.json")
+        return records[about]
+
+    return record
+
+
 def _truth_in_a_process(out, before: str) -> tuple[np.ndarray, np.ndarray]:
     """The corner-column rz truth (`opensees_zone_data`) made in a new Python process that first
     runs `before` (Python source)."""
@@ -187,7 +216,7 @@ def test_truth_does_not_depend_on_what_ran_before(tmp_path):
     assert np.array_equal(alone[0], after[0]) and np.array_equal(alone[1], after[1])
 
 
-def test_changes_in_the_last_digits_of_the_data_change_no_diagnosis():
+def test_changes_in_the_last_digits_of_the_data_change_no_diagnosis(corner_record, tmp_path):
     """The corner-column rz data, and the same with every frequency and shape entry changed by
     1e-13 of itself in two seeded patterns of signs: the same cause, answer and pinned moduli.
     (Its truth made after a modal analysis of the H-frame once answered "undetermined": its
@@ -197,26 +226,27 @@ def test_changes_in_the_last_digits_of_the_data_change_no_diagnosis():
     sparse path's pinned fit is the MAP with each modulus' box as a prior (issue 19), which pins
     none here (its most moved moduli: beam 17 at z = 0.13, the cracked column 1 at 0.21); the
     unregularised fit it replaced pinned 15, 17, 18 and 58. Its own stability under changes of
-    its Jacobian: tests/test_pinned_fit.py."""
-    import dataclasses
-
-    from fe_problem.diagnosis import diagnose
-
+    its Jacobian: tests/test_pinned_fit.py. Each through `femu diagnose --json` (the data files
+    keep every digit: checked), the unchanged data's record shared with the test of its answer."""
     data = opensees_zone_data(1, 0.2, 0.3, 0.1, "rz")
 
-    def key(d):
-        r = diagnose(None, d)
-        return (r.cause.kind, r.cause.label, r.cause.indistinguishable, r.answer.label, r.answer.kind,
-                r.answer.decisive, [(p.parameter, p.bound) for p in r.residuals.pinned_parameters])
+    def key(r):
+        cause, answer = r["cause"], r["answer"]
+        return (cause["kind"], cause["label"], cause.get("indistinguishable", []), answer["label"], answer["kind"],
+                answer["decisive"], [(p["parameter"], p["bound"]) for p in r["residuals"]["pinned_parameters"]])
 
-    first = key(data)
+    first = key(corner_record("rz"))
     assert first[0] == "stiffness_loss", first
     for seed in (1, 2):
         rng = np.random.default_rng(seed)
         f = data.frequencies_hz * (1.0 + 1e-13 * rng.choice([-1.0, 1.0], data.frequencies_hz.shape))
         shapes = data.shapes * (1.0 + 1e-13 * rng.choice([-1.0, 1.0], data.shapes.shape))
         assert not np.array_equal(f, data.frequencies_hz) and not np.array_equal(shapes, data.shapes)
-        assert key(dataclasses.replace(data, frequencies_hz=f, shapes=shapes)) == first, seed
+        path = tmp_path / f"digits-{seed}.modal.json"
+        record = _diagnose_json(dataclasses.replace(data, frequencies_hz=f, shapes=shapes), path)
+        written = fp.load_modal_data(path)
+        assert np.array_equal(written.frequencies_hz, f) and np.array_equal(written.shapes, shapes)
+        assert key(record) == first, seed
 
 
 def test_the_batched_screen_is_the_one_by_one_screen_beside_close_modes():
@@ -254,7 +284,7 @@ def test_diagnose_keeps_a_zone_in_its_bending_plane_and_frame_line(tmp_path, cap
 
 
 @pytest.mark.parametrize("about, line", [("ry", {1, 2, 3}), ("rz", {1, 4, 7})], ids=["ry", "rz"])
-def test_diagnose_finds_a_corner_columns_zone_in_its_plane_and_frame_line(about, line, tmp_path, capsys):
+def test_diagnose_finds_a_corner_columns_zone_in_its_plane_and_frame_line(about, line, corner_record):
     """A corner column of the shipped space frame (element 1, at x = y = 0) with a weak zone from
     0.2 to 0.3 of its length keeping 10 % of its bending stiffness about local y (sway in x) or
     local z (sway in y), built by OpenSees (the column split in three), 12 modes at x, y, rx, ry
@@ -264,7 +294,7 @@ def test_diagnose_finds_a_corner_columns_zone_in_its_plane_and_frame_line(about,
     are mirror images in a doubly symmetric frame, so the answer may be another of them only as
     not decisive. Before `core.look_at_clipped` the true zone (fitted chi^2 422, the best of all)
     screened 15th to first order and was not fitted: `femu diagnose` named a joint of element 2."""
-    record = _diagnose_cli(tmp_path, capsys, opensees_zone_data(1, 0.2, 0.3, 0.1, about))
+    record = corner_record(about)
     cause, answer = record["cause"], record["answer"]
     assert cause["kind"] == "stiffness_loss" and answer["kind"] == "stiffness_loss", (cause, answer)
     tied = cause.get("indistinguishable") or [cause["label"]]
