@@ -145,7 +145,7 @@ def test_every_kind_the_diagnosis_builds_is_registered_with_its_place():
         assert CandidateKey.parse(c.label) == c.key
     for kind in (sparse_class.KIND, group_free.KIND, group_free.PAIR_KIND, *group_free.PARTITIONS):
         assert kinds.spec_of(kind) is not None, kind
-    assert set(kinds.default_kinds()) == set(candidates.KINDS)
+    assert set(kinds.default_kinds()) == set(candidates.DEFAULT_KINDS)
 
 
 # == structure: no import cycle, no branch on the dimension ================================
@@ -237,3 +237,103 @@ def test_no_diagnosis_file_branches_on_the_dimension():
                     and node.args[0].attr in ("hinges", "translations", "rotations") and id(node) in compared):
                 found.append(f"{name}:{node.lineno}")
     assert not found, found
+
+
+# == every kind is reached through the registry ==============================================
+
+@pytest.fixture(scope="module")
+def hframe_crack():
+    """The H-frame with element 3's modulus at 0.8 of its model, four modes measured at its
+    measured DOFs with little noise."""
+    model = fp.load_model("hframe")
+    truth = model.with_element_moduli({3: 0.8 * model.element_modulus_pa(3)})
+    data = fp.synthetic_measurement(truth, 5, dofs=model.measured_dofs, freq_noise=0.002, shape_noise=0.02,
+                                    seed=1, model_name=model.name)
+    return model, data
+
+
+def test_unregistering_a_kind_removes_its_candidates_from_a_diagnosis(hframe_crack, monkeypatch):
+    """A local kind (added_mass), a model-form kind (node_position) and a distributed class
+    kind (stiffness_trend) unregistered: the diagnosis screens no candidate of them and scores no
+    class of them, while the kinds still registered are there (the registry is how every kind is
+    reached, not a builder named in core)."""
+    model, data = hframe_crack
+    st = Setting(model, tuple(data.dofs), 6)
+    before = ({c.kind for c in kinds.all_candidates(st)}
+              | {c.kind for c in kinds.class_candidates(st, "model_form")}
+              | {c.kind for c in kinds.class_candidates(st, "distributed")})
+    gone = {"added_mass", "node_position", "stiffness_trend"}
+    assert gone <= before  # each builds candidates on this frame while registered
+    for kind in gone:
+        monkeypatch.delitem(kinds.KINDS, kind)
+    assert not gone & {c.kind for c in model_form_candidates(st) + kinds.class_candidates(st, "distributed")}
+    d = fp.diagnose(model, data)
+    screened = {c.kind for c in d.candidates}
+    assert not gone & screened
+    assert {"stiffness_loss", "joint_flexibility"} <= screened
+    assert not any(c.label.split("@")[0] in gone for c in d.evidence.classes)
+    assert d.cause.location == {"element": 3}
+
+
+TOY_CLASS = '''
+"""A toy distributed class kind: every member of the frame's first two elements' section... here:
+every vertical member's modulus times (1 - a), one parameter (the test's one-file class kind)."""
+import numpy as np
+
+from fe_problem.diagnosis.kinds import KindSpec
+from fe_problem.diagnosis.setting import Candidate, solve_model
+
+
+def _vertical(model):
+    out = []
+    for e in model.elements:
+        a, b = model.node(e.node_i), model.node(e.node_j)
+        if abs(a.x - b.x) < 1e-9:
+            out.append(e.id)
+    return out
+
+
+def generate(st):
+    model = st.model
+    ids = _vertical(model)
+    e0 = {e: model.element_modulus_pa(e) for e in ids}
+
+    def build(a):
+        return model.with_element_moduli({e: v * (1.0 - a) for e, v in e0.items()})
+
+    def forward(a):
+        out = [solve_model(build(float(v)), st) for v in np.atleast_1d(a)]
+        return np.concatenate([o[0] for o in out]), np.concatenate([o[1] for o in out])
+
+    yield Candidate("toy_columns_loss", {"group": "columns"}, 0.9, 0.9 * np.linspace(0.0, 1.0, 19), forward,
+                    lambda a, s: {"size": a, "modulus_ratio": 1.0 - a}, build, step=0.01)
+
+
+SPEC = KindSpec("toy_columns_loss", "distributed", ("group",), generate, doc="every column softer")
+'''
+
+
+def test_a_class_kind_in_one_file_is_generated_and_scored(tmp_path, monkeypatch):
+    """A distributed class kind written as one module and registered by one line is built by the
+    diagnosis (`kinds.class_candidates`), fitted and scored in its evidence table; on data whose
+    truth is that class (every column at 0.85 of its modulus, set in the elements directly) its
+    estimate is the truth's ratio and it is the best-scored class."""
+    (tmp_path / "toy_columns_kind.py").write_text(TOY_CLASS)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    module = importlib.import_module("toy_columns_kind")
+    kinds.register(module.SPEC)  # the one registry line
+    try:
+        model = fp.load_model("hframe")
+        columns = [e.id for e in model.elements if abs(model.node(e.node_i).x - model.node(e.node_j).x) < 1e-9]
+        assert 2 <= len(columns) < len(model.elements)
+        truth = model.with_element_moduli({e: 0.85 * model.element_modulus_pa(e) for e in columns})
+        data = fp.synthetic_measurement(truth, 5, dofs=model.measured_dofs, freq_noise=0.001, shape_noise=0.01,
+                                        seed=2, model_name=model.name)
+        d = fp.diagnose(model, data)
+        row = next(c for c in d.evidence.classes if c.label == "toy_columns_loss@group=columns")
+        assert row.family == "distributed"
+        assert row.estimate["modulus_ratio"] == pytest.approx(0.85, abs=0.02)
+        assert d.evidence.classes[0].label == row.label, [c.label for c in d.evidence.classes[:3]]
+    finally:
+        kinds.unregister(module.SPEC.name)
+        sys.modules.pop("toy_columns_kind", None)

@@ -48,11 +48,11 @@ from .candidates import Candidate
 from . import plausibility
 from .datachecks import FAULTS, DataCheck, check_data, left_out, spurious_modes, without
 from .evidence import FACTOR_10, Evidence, ScoredClass, label_log_prior, occam_log_factor, ranked, sides_log_prior
-from .groups import distributed_candidates
 from .modelform import model_form_candidates, screen_forms
 from .plausibility import few_dof_note
 from .fit import Fit, chi2_batch, class_promises, fit, profiled
 from . import answer, dropped, group_free, predictive, sparse_class
+from .kinds import class_candidates
 from .nested import require_dynesty, rescored
 from .record import Cause, Diagnosis, Noise
 from .verdict import verdict
@@ -325,7 +325,7 @@ def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str 
     ``nested``: the best classes by Laplace scored again by nested sampling (nested.py; the
     local search's own row keeps its Laplace value)."""
     obs, base = cal.obs, cal.base
-    distributed = distributed_candidates(cal.setting)
+    distributed = class_candidates(cal.setting, "distributed")  # the registry's distributed kinds
     promise = class_promises(obs, distributed, base, N_DISTRIBUTED_FIT)
     top = sorted(range(len(distributed)), key=lambda i: -promise[i][0])[:N_DISTRIBUTED_FIT]
     fits = [(found.candidates[i], f, "local") for i, f in found.fitted.items()]

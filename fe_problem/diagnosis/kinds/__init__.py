@@ -4,6 +4,7 @@ A new kind: a module of this package (or anywhere) defining ``SPEC = KindSpec(..
 generator, place, family, sides, variants and bounds (spec.py), and one ``register(module.SPEC)``
 line below (or a call of `register` from the code that brings it). `all_candidates` builds the
 candidates of the registered kinds whose spec says `default`, in registration order;
+`class_candidates` those of a class family (model-form, distributed) scored beside them;
 `spec_of` answers for a key, a candidate or a kind's name.
 """
 
@@ -66,6 +67,22 @@ def all_candidates(st, kinds=None) -> list:
         return list(iter_candidates(st, kinds))
 
 
+def class_candidates(st, family: str, elements=None, nodes=None) -> list:
+    """The candidates of every registered kind of `family` that is not a default one and has a
+    generator, in registration order: the classes scored beside the local search (the model-form
+    kinds, the distributed one-parameter classes). With `elements` or `nodes` (ids), each kind's
+    candidates at those places only (its spec's `at`; a kind without one has none there)."""
+    out: list = []
+    for spec in list(KINDS.values()):
+        if spec.family != family or spec.default or spec.generate is None:
+            continue
+        if elements is None and nodes is None:
+            out += list(spec.generate(st))
+        elif spec.at is not None:
+            out += list(spec.at(st, list(elements or ()), list(nodes or ())))
+    return out
+
+
 @contextlib.contextmanager
 def _collector_paused():
     """The cyclic garbage collector off inside, as it was after (nothing is freed any later than
@@ -111,5 +128,5 @@ register(matrix_mass.SPEC)
 register(matrix_spring.SPEC)
 register(matrix_terms.SPARSE)
 
-__all__ = ["FAMILIES", "KINDS", "CandidateKey", "KindSpec", "all_candidates", "default_kinds", "iter_candidates",
+__all__ = ["FAMILIES", "KINDS", "CandidateKey", "KindSpec", "all_candidates", "class_candidates", "default_kinds", "iter_candidates",
            "register", "spec_of", "unregister"]

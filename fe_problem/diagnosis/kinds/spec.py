@@ -32,8 +32,10 @@ class KindSpec:
 
     name: the kind (a candidate's `kind`, the label's head); family: its class family (`FAMILIES`);
     place: the keys of its location, in order (() for a kind with no place);
-    generate: Setting -> its candidates (None: built by its family's module as a class over many
-    members, e.g. groups.py, sparse_class.py, and named here for its labels, sides and bounds);
+    generate: Setting -> its candidates, the one entry the diagnosis builds them by (a default kind's
+    through `kinds.all_candidates`, a model-form or distributed class's through
+    `kinds.class_candidates`); None: a class fitted as a whole over many members (group_free.py,
+    sparse_class.py: see docs/diagnosis-classes.md), named here for its labels, sides and bounds;
     default: whether `all_candidates` builds it when no kinds are named (the local search's set);
     sides: a name shared by the kinds whose candidates at one place are the two sides of one class
     (a loss and a gain); a kind with sides is charged for 2 variants;
@@ -44,7 +46,9 @@ class KindSpec:
     None (`plausibility.check`); None: no bound;
     term: the `local.LocalMatrices` method giving its first-order term (None: a global effect or
     one solved per size);
-    doc: one line for the docs' table of kinds.
+    doc: one line for the docs' table of kinds;
+    at: (Setting, elements, nodes) -> its candidates at those places only (ids; a model-form kind's
+    look at the causes' places, `kinds.class_candidates`); None: it has none there.
     """
 
     name: str
@@ -58,6 +62,7 @@ class KindSpec:
     check: Callable[..., str | None] | None = None
     term: str | None = None
     doc: str = ""
+    at: Callable[..., list] | None = None
 
     def __post_init__(self) -> None:
         if self.family not in FAMILIES:
