@@ -16,7 +16,9 @@ from fe_problem.diagnosis import candidates, evidence, group_free, kinds, plausi
 from fe_problem.diagnosis.groups import distributed_candidates
 from fe_problem.diagnosis.kinds import CandidateKey, KindSpec
 from fe_problem.diagnosis.modelform import model_form_candidates
+from fe_problem.diagnosis.core import score_classes
 from fe_problem.diagnosis.setting import Setting
+from fe_problem.diagnosis.steps import calibrate, screen_and_fit
 from fe_problem.model import add_mass
 from fe_problem.model.generate import regular_frame
 
@@ -254,8 +256,8 @@ def hframe_crack():
 
 def test_unregistering_a_kind_removes_its_candidates_from_a_diagnosis(hframe_crack, monkeypatch):
     """A local kind (added_mass), a model-form kind (node_position) and a distributed class
-    kind (stiffness_trend) unregistered: the diagnosis screens no candidate of them and scores no
-    class of them, while the kinds still registered are there (the registry is how every kind is
+    kind (stiffness_trend) unregistered: the diagnosis's screen (`screen_and_fit`) has no candidate
+    of them and its evidence table (`score_classes`) no class of them, while the kinds still registered are there (the registry is how every kind is
     reached, not a builder named in core)."""
     model, data = hframe_crack
     st = Setting(model, tuple(data.dofs), 6)
@@ -267,12 +269,14 @@ def test_unregistering_a_kind_removes_its_candidates_from_a_diagnosis(hframe_cra
     for kind in gone:
         monkeypatch.delitem(kinds.KINDS, kind)
     assert not gone & {c.kind for c in model_form_candidates(st) + kinds.class_candidates(st, "distributed")}
-    d = fp.diagnose(model, data)
-    screened = {c.kind for c in d.candidates}
+    cal = calibrate(model, data, 0.002, 0.02)
+    found = screen_and_fit(cal, None, 4)  # the diagnosis's screen (core.screen_and_fit)
+    screened = {c.kind for c in found.candidates}
     assert not gone & screened
     assert {"stiffness_loss", "joint_flexibility"} <= screened
-    assert not any(c.label.split("@")[0] in gone for c in d.evidence.classes)
-    assert d.cause.location == {"element": 3}
+    scored = score_classes(cal, found, None)
+    assert not any(c.label.split("@")[0] in gone for c in scored.evidence.classes)
+    assert any(c.family == "distributed" for c in scored.evidence.classes)  # the groups still are
 
 
 TOY_CLASS = '''
@@ -315,7 +319,7 @@ SPEC = KindSpec("toy_columns_loss", "distributed", ("group",), generate, doc="ev
 
 def test_a_class_kind_in_one_file_is_generated_and_scored(tmp_path, monkeypatch):
     """A distributed class kind written as one module and registered by one line is built by the
-    diagnosis (`kinds.class_candidates`), fitted and scored in its evidence table; on data whose
+    diagnosis (`kinds.class_candidates`), fitted and scored in its evidence table (`score_classes`); on data whose
     truth is that class (every column at 0.85 of its modulus, set in the elements directly) its
     estimate is the truth's ratio and it is the best-scored class."""
     (tmp_path / "toy_columns_kind.py").write_text(TOY_CLASS)
@@ -329,11 +333,14 @@ def test_a_class_kind_in_one_file_is_generated_and_scored(tmp_path, monkeypatch)
         truth = model.with_element_moduli({e: 0.85 * model.element_modulus_pa(e) for e in columns})
         data = fp.synthetic_measurement(truth, 5, dofs=model.measured_dofs, freq_noise=0.001, shape_noise=0.01,
                                         seed=2, model_name=model.name)
-        d = fp.diagnose(model, data)
-        row = next(c for c in d.evidence.classes if c.label == "toy_columns_loss@group=columns")
+        cal = calibrate(model, data, 0.001, 0.01)
+        assert "toy_columns_loss" in {c.kind for c in kinds.class_candidates(cal.setting, "distributed")}
+        scored = score_classes(cal, screen_and_fit(cal, ["stiffness_loss"], 2), None)
+        classes = scored.evidence.classes
+        row = next(c for c in classes if c.label == "toy_columns_loss@group=columns")
         assert row.family == "distributed"
         assert row.estimate["modulus_ratio"] == pytest.approx(0.85, abs=0.02)
-        assert d.evidence.classes[0].label == row.label, [c.label for c in d.evidence.classes[:3]]
+        assert classes[0].label == row.label, [c.label for c in classes[:3]]
     finally:
         kinds.unregister(module.SPEC.name)
         sys.modules.pop("toy_columns_kind", None)
