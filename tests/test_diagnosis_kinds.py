@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import fe_problem as fp
-from fe_problem.diagnosis import candidates, evidence, group_free, kinds, plausibility, sparse_class
+from fe_problem.diagnosis import candidates, group_free, kinds, plausibility, sparse_class
 from fe_problem.diagnosis.groups import distributed_candidates
 from fe_problem.diagnosis.kinds import CandidateKey, KindSpec
 from fe_problem.diagnosis.modelform import model_form_candidates
@@ -108,7 +108,7 @@ def toy_kind(tmp_path, monkeypatch):
 
 def test_a_new_kind_is_one_module_and_one_registry_line(toy_kind):
     """A kind written as one module and registered by one line is built by `all_candidates`,
-    labelled by its key, charged by its spec (`evidence.label_variants`), bounded by its spec
+    labelled by its key, charged by its spec (`kinds.label_variants`), bounded by its spec
     (`plausibility.check`), and its candidates' modes are those of the model it names
     (`fp.modal_analysis` of the model with the mass added, solved on its own)."""
     model = fp.load_model("hframe")
@@ -118,7 +118,7 @@ def test_a_new_kind_is_one_module_and_one_registry_line(toy_kind):
     assert [c.label for c in cands] == [f"toy_point_mass@node={n}" for n in model.node_ids[:3]]
     assert all(kinds.spec_of(c.key) is toy_kind for c in cands)
     assert "toy_point_mass" not in kinds.default_kinds()  # not `default`: only when asked for
-    assert evidence.label_variants(st, cands[0]) == 3
+    assert kinds.label_variants(st, cands[0]) == 3
     assert plausibility.check(model, "toy_point_mass", {"node": 1}, {"mass_kg": 30.0}) == "too heavy"
     assert plausibility.check(model, "toy_point_mass", {"node": 1}, {"mass_kg": 5.0}) is None
     hz, _ = cands[1].forward(np.array([0.0, 10.0]))
@@ -257,8 +257,8 @@ def hframe_crack():
 def test_unregistering_a_kind_removes_its_candidates_from_a_diagnosis(hframe_crack, monkeypatch):
     """A local kind (added_mass), a model-form kind (node_position) and a distributed class
     kind (stiffness_trend) unregistered: the diagnosis's screen (`screen_and_fit`) has no candidate
-    of them and its evidence table (`score_classes`) no class of them, while the kinds still registered are there (the registry is how every kind is
-    reached, not a builder named in core)."""
+    of them and its evidence table (`score_classes`) no class of them, while the kinds still
+    registered are there (the registry is how every kind is reached, not a builder named in core)."""
     model, data = hframe_crack
     st = Setting(model, tuple(data.dofs), 6)
     before = ({c.kind for c in kinds.all_candidates(st)}
@@ -344,3 +344,34 @@ def test_a_class_kind_in_one_file_is_generated_and_scored(tmp_path, monkeypatch)
     finally:
         kinds.unregister(module.SPEC.name)
         sys.modules.pop("toy_columns_kind", None)
+
+
+def test_a_kinds_first_order_term_is_its_specs_of_the_key():
+    """Where a spec's `term` is a callable (Setting, key), every candidate of its kind carries that
+    term of its own key, bit for bit (DOFs, dK/da, dM/da), on a planar and on a space frame: the
+    term is declared once, by the kind. The local search's uniform changes, masses and springs have
+    one; a weak zone's key gives none (its ends are the generator's)."""
+    from fe_problem.model.generate import regular_frame_3d
+    planar = regular_frame(2, 2, base="pinned")
+    space = regular_frame_3d(1, 1, 1)
+    callable_kinds = {k for k, s in kinds.KINDS.items() if callable(s.term)}
+    assert {"stiffness_loss", "stiffness_gain", "added_mass", "distributed_mass",
+            "boundary_stiffness"} <= callable_kinds
+    checked = set()
+    for model in (planar, space):
+        coords = tuple((n, d) for n in model.node_ids[-4:] for d in ("x", "y"))
+        st = Setting(model, coords, 4)
+        for c in kinds.all_candidates(st):
+            spec = kinds.spec_of(c.key)
+            if not callable(spec.term):
+                continue
+            want = spec.term(st, c.key)
+            if want is None:
+                assert c.key.profile.startswith("zone"), c.label
+                continue
+            got = c.term()
+            assert np.array_equal(got.dofs, want.dofs) and np.array_equal(got.dk, want.dk), c.label
+            assert np.array_equal(got.dm, want.dm), c.label
+            checked.add((model.layout.planar, c.kind))
+    assert {(p, k) for p in (True, False) for k in ("stiffness_loss", "stiffness_gain", "added_mass",
+                                                   "distributed_mass", "boundary_stiffness")} <= checked

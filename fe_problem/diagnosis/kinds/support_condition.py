@@ -36,4 +36,5 @@ def check(model, loc: dict, estimate: dict) -> str | None:
 
 
 SPEC = KindSpec("support_condition", "model_form", ("node", "direction"), generate, variants=variants, check=check,
-                term="reaction (supports.reaction_term)", doc="a support released onto a spring, or a free rotation held", at=at)
+                term="reaction (supports.reaction_term)", at=at,
+                doc="a support released onto a spring, or a free rotation held")
