@@ -255,8 +255,9 @@ def hframe_crack():
 
 
 def test_unregistering_a_kind_removes_its_candidates_from_a_diagnosis(hframe_crack, monkeypatch):
-    """A local kind (added_mass), a model-form kind (node_position) and a distributed class
-    kind (stiffness_trend) unregistered: the diagnosis's screen (`screen_and_fit`) has no candidate
+    """A local kind (added_mass), a model-form kind (node_position), a distributed class kind
+    (stiffness_trend) and two classes fitted as a whole (every_member_sparse, adjacent_members_free:
+    both in this frame's evidence table when registered) unregistered: the diagnosis's screen (`screen_and_fit`) has no candidate
     of them and its evidence table (`score_classes`) no class of them, while the kinds still
     registered are there (the registry is how every kind is reached, not a builder named in core)."""
     model, data = hframe_crack
@@ -266,7 +267,9 @@ def test_unregistering_a_kind_removes_its_candidates_from_a_diagnosis(hframe_cra
               | {c.kind for c in kinds.class_candidates(st, "distributed")})
     gone = {"added_mass", "node_position", "stiffness_trend"}
     assert gone <= before  # each builds candidates on this frame while registered
-    for kind in gone:
+    fitted_whole = {"every_member_sparse", "adjacent_members_free"}  # scored on this frame while registered
+    assert all(kinds.KINDS[k].fit is not None for k in fitted_whole)
+    for kind in gone | fitted_whole:
         monkeypatch.delitem(kinds.KINDS, kind)
     assert not gone & {c.kind for c in model_form_candidates(st) + kinds.class_candidates(st, "distributed")}
     cal = calibrate(model, data, 0.002, 0.02)
@@ -275,7 +278,8 @@ def test_unregistering_a_kind_removes_its_candidates_from_a_diagnosis(hframe_cra
     assert not gone & screened
     assert {"stiffness_loss", "joint_flexibility"} <= screened
     scored = score_classes(cal, found, None)
-    assert not any(c.label.split("@")[0] in gone for c in scored.evidence.classes)
+    assert not any(c.label.split("@")[0] in gone | fitted_whole for c in scored.evidence.classes)
+    assert scored.sparse is None
     assert any(c.family == "distributed" for c in scored.evidence.classes)  # the groups still are
 
 
