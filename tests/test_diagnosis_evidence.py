@@ -189,7 +189,7 @@ def _released_frame3d():
 
 @pytest.mark.parametrize("name", ["hframe", "frame3d released"])
 def test_each_row_is_charged_for_the_variants_really_built_at_its_place(name):
-    """`evidence.label_variants` of every candidate the diagnosis builds (local, model-form,
+    """`kinds.label_variants` of every candidate the diagnosis builds (local, model-form,
     distributed) equals the number of candidates of its class built at its place, counted from
     the lists themselves: a loss and a gain one class, a weak zone's centres one class, a node
     move's directions, a spring's, a joint's rotations, a trend's sign. On the space frame with
@@ -197,7 +197,7 @@ def test_each_row_is_charged_for_the_variants_really_built_at_its_place(name):
     from collections import defaultdict
 
     from fe_problem.diagnosis.candidates import all_candidates
-    from fe_problem.diagnosis.evidence import label_variants
+    from fe_problem.diagnosis.kinds import label_variants
     from fe_problem.diagnosis.modelform import model_form_candidates
 
     model = fp.load_model("hframe") if name == "hframe" else _released_frame3d()

@@ -49,9 +49,12 @@ from .setting import (Candidate, Setting, _Remembered, lazy_system, reduced_line
                       shared_grid, solve, solve_model)
 from ..model import release_element_end  # noqa: F401 (named here for the code that took it from here)
 
-#: The kinds `all_candidates` builds when none are named (the registry's `default` kinds).
-KINDS = default_kinds()
+#: The kinds `all_candidates` builds when none are named (the registry's `default` kinds, as
+#: registered when this module was imported; `kinds.default_kinds()` answers for the registry now).
+#: Not named KINDS: that is the registry itself (`kinds.KINDS`, kind -> KindSpec).
+DEFAULT_KINDS = default_kinds()
 
-#: kind -> function(Setting) yielding Candidates, of the kinds in `KINDS` (a view of the registry,
-#: kinds/__init__.py: a kind is added there).
-CANDIDATE_KINDS: dict[str, Callable[[Setting], Iterator[Candidate]]] = {k: _REGISTRY[k].generate for k in KINDS}
+#: kind -> function(Setting) yielding Candidates, of the kinds in `DEFAULT_KINDS` (a view of the
+#: registry, kinds/__init__.py: a kind is added there).
+CANDIDATE_KINDS: dict[str, Callable[[Setting], Iterator[Candidate]]] = {k: _REGISTRY[k].generate
+                                                                         for k in DEFAULT_KINDS}

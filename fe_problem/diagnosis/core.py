@@ -47,12 +47,12 @@ from ..model import FrameModel, load_model
 from .candidates import Candidate
 from . import plausibility
 from .datachecks import FAULTS, DataCheck, check_data, left_out, spurious_modes, without
-from .evidence import FACTOR_10, Evidence, ScoredClass, label_log_prior, occam_log_factor, ranked, sides_log_prior
-from .groups import distributed_candidates
+from .evidence import FACTOR_10, Evidence, ScoredClass, occam_log_factor, ranked, sides_log_prior
 from .modelform import model_form_candidates, screen_forms
 from .plausibility import few_dof_note
 from .fit import Fit, chi2_batch, class_promises, fit, profiled
 from . import answer, dropped, group_free, predictive, sparse_class
+from .kinds import class_candidates, class_fits, label_log_prior
 from .nested import require_dynesty, rescored
 from .record import Cause, Diagnosis, Noise
 from .verdict import verdict
@@ -325,7 +325,7 @@ def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str 
     ``nested``: the best classes by Laplace scored again by nested sampling (nested.py; the
     local search's own row keeps its Laplace value)."""
     obs, base = cal.obs, cal.base
-    distributed = distributed_candidates(cal.setting)
+    distributed = class_candidates(cal.setting, "distributed")  # the registry's distributed kinds
     promise = class_promises(obs, distributed, base, N_DISTRIBUTED_FIT)
     top = sorted(range(len(distributed)), key=lambda i: -promise[i][0])[:N_DISTRIBUTED_FIT]
     fits = [(found.candidates[i], f, "local") for i, f in found.fitted.items()]
@@ -337,12 +337,13 @@ def score_classes(cal: "Calibration", found: "Screening", rounds, evidence: str 
     several = rounds is not None and (len(rounds.sized) > 1 or answer.search_key(rounds)[1] not in {
         c.key.place.label() for c, f, family in fits if family == "local" and f.chi2 < base.chi2 - 1e-9})
     fits = [x for x in fits if not dropped.is_dropped(x[0].label)]  # a failed solve: no class (dropped.py)
-    sparse = dropped.guarded("every member (sparse)", lambda: sparse_class.fit_sparse(cal.setting, obs, base.pairing),
-                             None)  # "every member", sparse (None: n/a)
-    partitions = dropped.guarded("the free group classes", lambda: group_free.fit_partitions(
-        cal.setting, obs, base.pairing), [])  # every storey / line / floor free
-    pair = dropped.guarded("two adjacent members free", lambda: group_free.fit_pair(
-        cal.setting, obs, base.pairing, pair_seeds(fits, sparse, rounds)), None)
+    # the classes fitted as a whole, each through the registry (`kinds.class_fits`, `KindSpec.fit`)
+    sparse = dropped.guarded("every member (sparse)", lambda: next(iter(class_fits(
+        cal.setting, obs, base.pairing, "sparse")), None), None)  # "every member", sparse (None: n/a)
+    partitions = dropped.guarded("the free group classes", lambda: class_fits(
+        cal.setting, obs, base.pairing, "distributed"), [])  # every storey / line / floor free
+    pair = dropped.guarded("two adjacent members free", lambda: next(iter(class_fits(
+        cal.setting, obs, base.pairing, "distributed", pair_seeds(fits, sparse, rounds))), None), None)
     # the dispersion: the smallest reduced chi^2 of the classes (at least 1), the richest class's
     # included (quasi-likelihood practice: the scale from the maximal model) when it leaves at least
     # MIN_DOF residual dof, so that its misfit estimates the noise (`_richest_reduced`). Taken from

@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.stats import norm
 
-from .kinds import CandidateKey, spec_of
+from .key import CandidateKey
 
 #: The next class within this log-evidence difference: within a factor of 10 of the best.
 FACTOR_10 = float(np.log(10.0))
@@ -110,30 +110,6 @@ def ranked(classes: list[ScoredClass], method: str, dispersion: float) -> Eviden
                 f"(log evidence {order[1].log_evidence:.3g} against {order[0].log_evidence:.3g}, difference "
                 f"< {FACTOR_10:.1f}): the data do not prefer the best strongly")
     return Evidence(method, dispersion, tuple(order), note)
-
-
-def label_variants(st, cand) -> int:
-    """How many labelled variants the class of `cand` is built with at its place: the class is its
-    kind (a loss and a gain of the same place one class: the kinds that share `KindSpec.sides`) at
-    its place (the element, node, joint end, group or trend shape that names it); every other label
-    it fits is a variant, counted by its kind's spec (`KindSpec.n_variants`, kinds/): a weak zone's
-    centre (the centres `zones.zone_places` builds, in every bending plane), a uniform stiffness
-    change's side (2), a member depth's (thinner or deeper: 2), a trend's or a group change's sign
-    (2), a node move's direction and sign (4: +x, -x, +y, -y), a spring to ground's direction (the
-    node's translations not held), a support condition's (the candidates
-    `supports.support_candidates` builds at its node), a space frame joint's rotation (the
-    rotations its candidates are built about at that end: up to 3). A kind not registered: 1.
-    st: the `Setting` the candidates were made for."""
-    spec = spec_of(cand.kind)
-    return 1 if spec is None else spec.n_variants(st, cand)
-
-
-def label_log_prior(st, cand) -> float:
-    """log of the prior weight of one labelled row of its class: -log `label_variants`, the class's
-    prior (the weight of no effect) spread evenly over the variants it is built with. A row's
-    evidence is its own term times that weight, a lower bound of its class's (the sum over its
-    variants)."""
-    return -float(np.log(label_variants(st, cand)))
 
 
 def sides_log_prior(k: int) -> float:

@@ -47,20 +47,18 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import sparse_class
-from .kinds.storeys_free import COLUMN_LINES as _COLUMN_LINES, FLOORS as _FLOORS, PAIR as _PAIR
-from .kinds.storeys_free import STOREYS as _STOREYS
 from .setting import Setting
 from .evidence import ScoredClass, sides_log_prior
 from .groups import _direction, classified
 from .residuals import Observations
 
 #: The every-storey class's label's kind, and the family of every class here in the evidence table.
-KIND, FAMILY = _STOREYS.name, _STOREYS.family
+KIND, FAMILY = "every_storey_free", "distributed"
 #: The classes of a partition of one kind of member: kind -> (group-name prefix, estimate's unit).
-PARTITIONS = {_STOREYS.name: ("storey", "storey"), _COLUMN_LINES.name: ("column_line_x", "column_line"),
-              _FLOORS.name: ("floor_y", "floor")}
+PARTITIONS = {KIND: ("storey", "storey"), "every_column_line_free": ("column_line_x", "column_line"),
+              "every_floor_free": ("floor_y", "floor")}
 #: The two-adjacent-members class's kind.
-PAIR_KIND = _PAIR.name
+PAIR_KIND = "adjacent_members_free"
 #: Groups a partition must have for its class to apply (see the module docstring).
 MIN_GROUPS = MIN_STOREYS = 3
 #: Two members are of one chain when their directions are within this of each other (cosine).

@@ -120,16 +120,21 @@ def trends(model: FrameModel) -> dict[str, np.ndarray]:
     return out
 
 
-def distributed_candidates(st: Setting) -> list[Candidate]:
+def distributed_candidates(st: Setting, kinds=None) -> list[Candidate]:
     """Every group (loss and gain) and trend class as a one-parameter candidate (planar models:
-    the groups are read from x and y)."""
+    the groups are read from x and y); `kinds`: those of these kinds only (each kind's generator,
+    kinds/group_stiffness.py, kinds/stiffness_trend.py: the diagnosis builds them through the
+    registry, `kinds.class_candidates`). Every class of one setting shares one system with every
+    element's modulus a parameter (`Setting.memo`)."""
     model = st.model
     if not model.layout.planar:
         return []
     ids = list(model.element_ids)
     e0 = np.array([model.element_modulus_pa(e) for e in ids])
-    system = lazy_system(lambda: AffineModel(model, tuple(
-        Parameter("modulus", (e,), 1e-3 * v, 1e3 * v, v, name=f"E{e}") for e, v in zip(ids, e0))))
+    system = st.memo.get(_SYSTEM)
+    if system is None:
+        system = st.memo[_SYSTEM] = lazy_system(lambda: AffineModel(model, tuple(
+            Parameter("modulus", (e,), 1e-3 * v, 1e3 * v, v, name=f"E{e}") for e, v in zip(ids, e0))))
     weights: list[tuple[str, dict, np.ndarray]] = []
     for name, members in member_groups(model).items():
         mask = np.isin(ids, members).astype(float)
@@ -137,7 +142,12 @@ def distributed_candidates(st: Setting) -> list[Candidate]:
         weights.append(("group_stiffness_gain", {"group": name}, mask))
     for name, w in trends(model).items():
         weights.append(("stiffness_trend", {"trend": name}, w))
-    return [_candidate(st, system, ids, e0, kind, where, w) for kind, where, w in weights]
+    return [_candidate(st, system, ids, e0, kind, where, w) for kind, where, w in weights
+            if kinds is None or kind in kinds]
+
+
+#: `Setting.memo`'s entry of the distributed classes' shared system (every element's modulus).
+_SYSTEM = "groups.moduli_system"
 
 
 def _candidate(st, system, ids, e0, kind, where, w) -> Candidate:

@@ -40,8 +40,9 @@ from .core import (ALPHA, DEFAULT_FREQ_NOISE, DEFAULT_SHAPE_NOISE, EVIDENCE_METH
                    data_checks)
 from .steps import AMBIGUITY_CHI2, MIN_MODES, Calibration, Screening, gain, select, to_fit
 from .datachecks import FAULTS, left_out, spurious_modes, without
-from .evidence import FACTOR_10, ScoredClass, label_log_prior, occam_log_factor, ranked, sides_log_prior
+from .evidence import FACTOR_10, ScoredClass, occam_log_factor, ranked, sides_log_prior
 from .fit import chi2_batch, fit, profiled, promise
+from .kinds import label_log_prior
 from .matrix_kinds import matrix_candidates, varied_terms
 from .nested import require_dynesty, rescored
 from .matrix_setting import MatrixSetting

@@ -24,32 +24,31 @@ is screened by one step and only the most promising are fitted, coarsely.
 from __future__ import annotations
 
 from .fit import look_along
-from .kinds import member_depth as _depth, node_position as _position
+from .kinds import class_candidates
 from .kinds.member_depth import GRID, member_depth, models_forward as _forward  # noqa: F401 (named here)
 from .kinds.node_position import MAX_MOVE, moved_node  # noqa: F401 (named here)
 from .screening import screen_steps
 from .setting import Candidate, Setting
-from .supports import support_candidates
 
 
 def model_form_candidates(st: Setting, places: list[dict] | None = None) -> list[Candidate]:
     """The model-form candidates at the elements and nodes of `places` (the causes' locations);
-    None: at every element and node. A member's depth and a node's position (kinds/member_depth.py,
+    None: at every element and node. Every registered model-form kind's, in registration order
+    (`kinds.class_candidates`): a member's depth and a node's position (kinds/member_depth.py,
     kinds/node_position.py: planar models only, moves in x and y, a rectangular depth in the frame's
-    plane); the support conditions (supports.py) on any model, last."""
+    plane), the support conditions (kinds/support_condition.py, supports.py) on any model, last."""
     model = st.model
-    elements, nodes = [], []
     if places is None:
-        elements, nodes = list(model.element_ids), list(model.node_ids)
-    for loc in places or ():
+        return class_candidates(st, "model_form")
+    elements, nodes = [], []
+    for loc in places:
         if loc and loc.get("node") in model.node_ids:  # a joint's element is its node's
             nodes.append(loc["node"])
         elif loc and loc.get("element") in model.element_ids:
             e = model.element(loc["element"])
             elements.append(e.id)
             nodes += [e.node_i, e.node_j]
-    return (_depth.candidates(st, elements) + _position.candidates(st, nodes)
-            + support_candidates(st, None if places is None else set(nodes)))
+    return class_candidates(st, "model_form", elements, nodes)
 
 
 def screen_forms(obs, base, setting: Setting, forms: list[Candidate]) -> list[tuple[float, float]]:

@@ -52,7 +52,6 @@ from scipy.stats import norm
 from ..assembly import AffineModel, solver_path
 from ..correlation import correlate
 from ..parameters import Parameter
-from .kinds.every_member_sparse import SPEC as _SPEC
 from .setting import Setting, solve
 from .evidence import ScoredClass, sides_log_prior
 from .fit import profiled
@@ -69,7 +68,7 @@ STEP = 1e-4
 #: Refits of `refit` with the pairing its fit gives, at most.
 REPAIRS = 3
 #: The class's label's kind, and its family in the evidence table.
-KIND, FAMILY = _SPEC.name, _SPEC.family
+KIND, FAMILY = "every_member_sparse", "sparse"
 
 
 @dataclass(frozen=True, eq=False)

@@ -11,7 +11,7 @@ from ...model import add_mass
 from ...parameters import Parameter
 from ..bounds import MASS_OF_TOTAL, MASS_PER_TRIBUTARY, tributary_mass_kg
 from ..setting import Candidate, Setting, lazy_system, reduced_linear, shared_grid, solve
-from .spec import KindSpec
+from .spec import CandidateKey, KindSpec
 
 _MASS_STEPS = np.geomspace(1e-3, 0.5, 15)          # added mass / the model's mass
 
@@ -36,10 +36,16 @@ def added_mass(st: Setting) -> Iterator[Candidate]:
         def extend(a, node=node):
             return add_mass(st.model, node, a)
 
+        key = CandidateKey.of("added_mass", {"node": node})
         yield Candidate("added_mass", {"node": node}, 0.5 * total,
                         grid, forward, estimate, extend, step=0.005 * total,
-                        term=lambda node=node: st.local.node_mass(node),
-                        reduced=reduced_linear(st, lambda node=node: st.local.node_mass(node)))
+                        term=lambda key=key: term(st, key),
+                        reduced=reduced_linear(st, lambda key=key: term(st, key)))
+
+
+def term(st: Setting, key: CandidateKey):
+    """dM/da of a kg at the key's node (`LocalMatrices.node_mass`)."""
+    return st.local.node_mass(key.get("node"))
 
 
 def check(model, loc: dict, estimate: dict) -> str | None:
@@ -56,5 +62,5 @@ def check(model, loc: dict, estimate: dict) -> str | None:
     return None
 
 
-SPEC = KindSpec("added_mass", "local", ("node",), added_mass, default=True, check=check, term="node_mass",
+SPEC = KindSpec("added_mass", "local", ("node",), added_mass, default=True, check=check, term=term,
                 doc="a lumped mass at a node")

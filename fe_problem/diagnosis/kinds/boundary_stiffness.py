@@ -13,17 +13,28 @@ from ...model import Spring
 from ...parameters import Parameter
 from ..bounds import MAX_SPRING_PER_MEMBER, axial_stiffness_n_per_m
 from ..setting import Candidate, Setting, lazy_system, reduced_linear, shared_grid, solve
-from .spec import KindSpec
+from .spec import CandidateKey, KindSpec
 
 BOUNDARY_GRID = shared_grid(np.concatenate([[0.0], np.geomspace(1e-4, 100.0, 16)]))
 
 
 def _reference_stiffness(st: Setting) -> float:
     """total mass * (2 pi f_1)^2 (N/m) of the user's model: a spring this stiff moves the first mode
-    by about its size."""
-    f1 = float(solve(st.system if st.reference is None else AffineModel(st.nominal), np.zeros((1, 0)),
-                     st.coords, 1)[0][0, 0])
-    return st.nominal.total_mass_kg() * (2.0 * np.pi * f1) ** 2
+    by about its size. Solved once per setting (`Setting.memo`)."""
+    if _K_REF not in st.memo:
+        f1 = float(solve(st.system if st.reference is None else AffineModel(st.nominal), np.zeros((1, 0)),
+                         st.coords, 1)[0][0, 0])
+        st.memo[_K_REF] = st.nominal.total_mass_kg() * (2.0 * np.pi * f1) ** 2
+    return st.memo[_K_REF]
+
+
+#: `Setting.memo`'s entry of the reference stiffness.
+_K_REF = "boundary_stiffness.k_ref"
+
+
+def term(st: Setting, key: CandidateKey):
+    """dK/da of the key's spring to ground: k_ref in its node's direction (`LocalMatrices.ground_spring`)."""
+    return st.local.ground_spring(key.get("node"), key.get("direction"), _reference_stiffness(st))
 
 
 def boundary_stiffness(st: Setting) -> Iterator[Candidate]:
@@ -63,12 +74,11 @@ def boundary_stiffness(st: Setting) -> Iterator[Candidate]:
             def extend(a, node=node, direction=direction):
                 return st.model.replace(springs=st.model.springs + (Spring(sid, (node, direction), None, k_ref * a),))
 
+            key = CandidateKey.of("boundary_stiffness", {"node": node, "direction": direction})
             yield Candidate("boundary_stiffness", {"node": node, "direction": direction}, 100.0,
                             BOUNDARY_GRID, forward, estimate, extend,
-                            step=1e-3, term=lambda node=node, direction=direction:
-                            st.local.ground_spring(node, direction, k_ref),
-                            reduced=reduced_linear(st, lambda node=node, direction=direction:
-                                                   st.local.ground_spring(node, direction, k_ref)))
+                            step=1e-3, term=lambda key=key: term(st, key),
+                            reduced=reduced_linear(st, lambda key=key: term(st, key)))
 
 
 def variants(st: Setting, cand: Candidate) -> int:
@@ -91,4 +101,4 @@ def check(model, loc: dict, estimate: dict) -> str | None:
 
 
 SPEC = KindSpec("boundary_stiffness", "local", ("node", "direction"), boundary_stiffness, default=True,
-                variants=variants, check=check, term="ground_spring", doc="a spring to ground at a node")
+                variants=variants, check=check, term=term, doc="a spring to ground at a node")

@@ -12,7 +12,7 @@ from ...assembly import AffineModel
 from ...parameters import Parameter
 from ..bounds import MASS_OF_TOTAL, MASS_PER_TRIBUTARY, element_mass_kg
 from ..setting import Candidate, Setting, lazy_system, reduced_linear, solve
-from .spec import KindSpec
+from .spec import CandidateKey, KindSpec
 
 _DISTRIBUTED_STEPS = np.geomspace(1e-3, 1.0, 14)   # distributed mass / the element's upper
 
@@ -41,10 +41,17 @@ def distributed_mass(st: Setting) -> Iterator[Candidate]:
                                     elements=tuple(dataclasses.replace(x, material=name) if x.id == e.id else x
                                                    for x in st.model.elements))
 
+        key = CandidateKey.of("distributed_mass", {"element": e.id})
         yield Candidate("distributed_mass", {"element": e.id}, upper,
                         np.concatenate([[0.0], upper * _DISTRIBUTED_STEPS]), forward, estimate, extend,
-                        step=0.01 * upper, term=lambda e=e, rho0=rho0: st.local.density_change(e.id, rho0),
-                        reduced=reduced_linear(st, lambda e=e, rho0=rho0: st.local.density_change(e.id, rho0)))
+                        step=0.01 * upper, term=lambda key=key: term(st, key),
+                        reduced=reduced_linear(st, lambda key=key: term(st, key)))
+
+
+def term(st: Setting, key: CandidateKey):
+    """dM/da of the key's element: its mass at its nominal density (`LocalMatrices.density_change`)."""
+    e = st.model.element(key.get("element"))
+    return st.local.density_change(e.id, st.model.materials[e.material].density_kg_m3)
 
 
 def check(model, loc: dict, estimate: dict) -> str | None:
@@ -62,4 +69,4 @@ def check(model, loc: dict, estimate: dict) -> str | None:
 
 
 SPEC = KindSpec("distributed_mass", "local", ("element",), distributed_mass, default=True, check=check,
-                term="density_change", doc="mass spread along a member")
+                term=term, doc="mass spread along a member")

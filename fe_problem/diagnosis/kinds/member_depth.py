@@ -68,5 +68,10 @@ def _two(st, cand) -> int:
     return 2
 
 
+def at(st: Setting, elements, nodes) -> list[Candidate]:
+    """At `elements` only (a cause's places)."""
+    return candidates(st, elements)
+
+
 SPEC = KindSpec("member_depth", "model_form", ("element",), generate, variants=_two, term="depth",
-                doc="a member's section thinner or deeper (planar)")
+                doc="a member's section thinner or deeper (planar)", at=at)

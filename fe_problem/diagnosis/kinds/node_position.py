@@ -61,5 +61,10 @@ def variants(st: Setting, cand: Candidate) -> int:
     return 2 * len(st.model.layout.translations)
 
 
+def at(st: Setting, elements, nodes) -> list[Candidate]:
+    """At `nodes` only (a cause's places)."""
+    return candidates(st, nodes)
+
+
 SPEC = KindSpec("node_position", "model_form", ("node",), generate, variants=variants, term="node_move",
-                doc="a node moved in the frame's plane (planar)")
+                doc="a node moved in the frame's plane (planar)", at=at)

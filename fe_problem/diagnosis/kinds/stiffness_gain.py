@@ -12,7 +12,7 @@ from ...assembly import AffineModel
 from ...parameters import Parameter
 from ..bounds import MAX_GAIN_RATIO
 from ..setting import Candidate, Setting, lazy_system, reduced_linear, shared_grid, solve
-from .spec import KindSpec
+from .spec import CandidateKey, KindSpec
 
 GAIN_GRID = shared_grid([0.0, 0.01, 0.02, 0.05, 0.1, 0.2, 0.35, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0])
 
@@ -30,11 +30,18 @@ def stiffness_gain(st: Setting) -> Iterator[Candidate]:
         def estimate(a, s, e0=e0):
             return {"stiffness_gain_pct": 100.0 * a, "modulus_ratio": 1.0 + a, "modulus_pa": s * e0 * (1.0 + a)}
 
+        key = CandidateKey.of("stiffness_gain", {"element": e.id})
         yield Candidate("stiffness_gain", {"element": e.id}, 3.0,
                         GAIN_GRID, forward, estimate,
                         lambda a, e=e, e0=e0: st.model.with_element_moduli({e.id: e0 * (1 + a)}),
-                        step=0.01, term=lambda e=e, e0=e0: st.local.stiffness(e.id, e0),
-                        reduced=reduced_linear(st, lambda e=e, e0=e0: st.local.stiffness(e.id, e0)))
+                        step=0.01, term=lambda key=key: term(st, key),
+                        reduced=reduced_linear(st, lambda key=key: term(st, key)))
+
+
+def term(st: Setting, key: CandidateKey):
+    """dK/da of the key's element: its stiffness at its nominal modulus (`LocalMatrices.stiffness`)."""
+    e = key.get("element")
+    return st.local.stiffness(e, st.model.element_modulus_pa(e))
 
 
 def check(model, loc: dict, estimate: dict) -> str | None:
@@ -45,4 +52,4 @@ def check(model, loc: dict, estimate: dict) -> str | None:
 
 
 SPEC = KindSpec("stiffness_gain", "local", ("element",), stiffness_gain, default=True, sides="stiffness", side=1,
-                check=check, term="stiffness", doc="a member's modulus times (1 + a)")
+                check=check, term=term, doc="a member's modulus times (1 + a)")

@@ -15,7 +15,7 @@ from ...parameters import Parameter
 from .. import zones
 from ..bounds import MAX_UNIFORM_LOSS, MAX_ZONE_LOSS
 from ..setting import Candidate, Setting, _Once, lazy_system, reduced_linear, shared_grid, solve
-from .spec import KindSpec
+from .spec import CandidateKey, KindSpec
 
 LOSS_GRID = shared_grid([0.0, 0.005, 0.01, 0.02, 0.04, 0.07, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9])
 
@@ -38,11 +38,12 @@ def stiffness_loss(st: Setting) -> Iterator[Candidate]:
             return {"stiffness_loss_pct": 100.0 * a, "modulus_ratio": 1.0 - a, "profile": "uniform",
                     "modulus_pa": s * e0 * (1.0 - a)}
 
+        key = CandidateKey.of("stiffness_loss", {"element": e.id})
         yield Candidate("stiffness_loss", {"element": e.id}, 0.9, LOSS_GRID, forward, estimate,
                         lambda a, e=e, e0=e0: st.model.with_element_moduli({e.id: e0 * (1.0 - a)}),
                         step=0.01, meta={"profile": "uniform"},
-                        term=lambda e=e, e0=e0: st.local.stiffness(e.id, -e0, "uniform"),
-                        reduced=reduced_linear(st, lambda e=e, e0=e0: st.local.stiffness(e.id, -e0, "uniform")))
+                        term=lambda key=key: term(st, key),
+                        reduced=reduced_linear(st, lambda key=key: term(st, key)))
         # a weak zone is built by the beam's flexibility formulation (zones.py), in each bending plane
         if (not formulation(e.formulation, st.model.layout).supports_weak_zone
                 or e.crack_position is not None or e.weak_zone is not None):
@@ -115,6 +116,17 @@ def _zone_candidates(st: Setting, e, e0: float, shared: dict, places=None, about
                         reduced=reduced)
 
 
+def term(st: Setting, key: CandidateKey):
+    """dK/da of the key's uniform loss: minus its element's stiffness at its nominal modulus
+    (`LocalMatrices.stiffness`). A weak zone's key gives no term here: its ends along the element
+    are the generator's (zones.zone_places), which the key's centre, rounded in its profile, does
+    not give back to the last bit; its candidates carry `LocalMatrices.zone` of their own ends."""
+    if key.profile != "uniform":
+        return None
+    e = key.get("element")
+    return st.local.stiffness(e, -st.model.element_modulus_pa(e), "uniform")
+
+
 def variants(st: Setting, cand: Candidate) -> int:
     """A weak zone's row: the centres `zones.zone_places` builds, in every bending plane; a uniform
     loss's: its two sides (a loss or a gain)."""
@@ -138,5 +150,5 @@ def check(model, loc: dict, estimate: dict) -> str | None:
 
 
 SPEC = KindSpec("stiffness_loss", "local", ("element",), stiffness_loss, default=True, sides="stiffness", side=-1,
-                variants=variants, check=check, term="stiffness / zone",
+                variants=variants, check=check, term=term,
                 doc="a member's modulus times (1 - a), uniform or in a weak zone (a crack)")

@@ -1,6 +1,7 @@
 """``support_condition`` of a support, per direction of the layout: a held direction released onto a
 spring (a fixed base really pinned), a free rotation held by one (a pinned base really fixed);
-supports.py builds them, on planar and space models. A model-form class (modelform.py)."""
+supports.py builds them (`support_candidates`: its physics, the reaction term and the spring
+scale, stay there), reached through this spec, on planar and space models. A model-form class (modelform.py)."""
 
 from __future__ import annotations
 
@@ -12,6 +13,11 @@ from .spec import KindSpec
 def generate(st: Setting) -> list[Candidate]:
     """At every support."""
     return support_candidates(st)
+
+
+def at(st: Setting, elements, nodes) -> list[Candidate]:
+    """At the supports of `nodes` only (a cause's places)."""
+    return support_candidates(st, set(nodes))
 
 
 def variants(st: Setting, cand: Candidate) -> int:
@@ -30,4 +36,5 @@ def check(model, loc: dict, estimate: dict) -> str | None:
 
 
 SPEC = KindSpec("support_condition", "model_form", ("node", "direction"), generate, variants=variants, check=check,
-                term="reaction (supports.reaction_term)", doc="a support released onto a spring, or a free rotation held")
+                term="reaction (supports.reaction_term)", at=at,
+                doc="a support released onto a spring, or a free rotation held")
