@@ -62,3 +62,19 @@ def pytest_collection_modifyitems(config, items):
 
     costs = json.loads(COSTS_FILE.read_text()) if COSTS_FILE.exists() else {}
     items.sort(key=lambda item: -costs.get(group_of(item.nodeid), 0.0))  # stable: a unit's tests keep their order
+
+
+@pytest.fixture
+def ctrl_c_is_pythons():
+    """The precondition of the tests that press Ctrl-C in this process, whatever ran before in it
+    (an xdist worker runs many modules; a library may have put its own SIGINT handler in at C
+    level, where `signal.getsignal` does not see it, or blocked SIGINT in this thread): SIGINT has
+    Python's default handler, installed again, and is not blocked. Both are restored after."""
+    import signal
+
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    blocked = signal.pthread_sigmask(signal.SIG_UNBLOCK, [signal.SIGINT])
+    yield
+    signal.signal(signal.SIGINT, previous)
+    if signal.SIGINT in blocked:
+        signal.pthread_sigmask(signal.SIG_BLOCK, [signal.SIGINT])

@@ -65,7 +65,7 @@ def test_a_plugin_past_its_open_file_limit_fails_named(runs):
     assert "Too many open files" in r.error and "no open-file limit" not in r.error, r.error
 
 
-def test_a_spare_dropped_while_a_ctrl_c_lands_is_ended_and_the_interrupt_raised_after(monkeypatch):
+def test_a_spare_dropped_while_a_ctrl_c_lands_is_ended_and_the_interrupt_raised_after(monkeypatch, ctrl_c_is_pythons):
     from adapters import sandbox
 
     sandbox.drop_spare()

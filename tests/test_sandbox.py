@@ -300,7 +300,7 @@ def test_a_spare_worker_killed_after_it_was_taken_is_replaced_and_the_run_loses_
     assert os.sched_getaffinity(0) == cores
 
 
-def test_a_ctrl_c_while_a_run_ends_its_worker_stops_the_caller_and_leaves_no_worker_stopped(monkeypatch):
+def test_a_ctrl_c_while_a_run_ends_its_worker_stops_the_caller_and_leaves_no_worker_stopped(monkeypatch, ctrl_c_is_pythons):
     """A Ctrl-C that lands between the worker's stop and its kill (`_Worker.end`) is raised once
     the worker is killed: the caller gets its KeyboardInterrupt, and no worker is left stopped
     for good (it used to be, with the SIGKILL never sent). The patched stop presses Ctrl-C each
