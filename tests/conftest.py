@@ -68,8 +68,9 @@ def pytest_collection_modifyitems(config, items):
 def ctrl_c_is_pythons():
     """The precondition of the tests that press Ctrl-C in this process, whatever ran before in it
     (an xdist worker runs many modules; a library may have put its own SIGINT handler in at C
-    level, where `signal.getsignal` does not see it, or blocked SIGINT in this thread): SIGINT has
-    Python's default handler, installed again, and is not blocked. Both are restored after."""
+    level, where `signal.getsignal` does not see it, or blocked SIGINT in this thread, which a
+    child process inherits across exec): SIGINT has Python's default handler, installed again, and
+    is not blocked. Both are restored after."""
     import signal
 
     previous = signal.signal(signal.SIGINT, signal.default_int_handler)

@@ -60,7 +60,7 @@ def test_in_process_a_plugins_interrupt_and_exit_are_failed_runs_and_the_study_g
     assert (runs["random-search"].status, runs["random-search"].n_evals) == ("ok", 100)
 
 
-def test_in_process_a_real_ctrl_c_stops_the_study_and_keeps_what_is_finished(tmp_path):
+def test_in_process_a_real_ctrl_c_stops_the_study_and_keeps_what_is_finished(tmp_path, ctrl_c_is_pythons):
     store = tmp_path / "s"
     p = _femu(*_study_args(f"random-search,{plugin(SleepsLong)}", store, "0"))
     claim = store / "runs" / f"{run_key('paper', plugin(SleepsLong), 100, 0)}.claim"
